@@ -11,7 +11,10 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box: the identity of [`Aabb::union`].
-    pub const EMPTY: Aabb = Aabb { min: DVec3::splat(f64::INFINITY), max: DVec3::splat(f64::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: DVec3::splat(f64::INFINITY),
+        max: DVec3::splat(f64::NEG_INFINITY),
+    };
 
     /// The box of a single point.
     pub fn point(p: DVec3) -> Aabb {
@@ -20,17 +23,26 @@ impl Aabb {
 
     /// The smallest box containing both.
     pub fn union(&self, o: &Aabb) -> Aabb {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// The smallest box containing this one and `p`.
     pub fn union_point(&self, p: DVec3) -> Aabb {
-        Aabb { min: self.min.min(p), max: self.max.max(p) }
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
 
     /// This box grown by `r` on every side.
     pub fn grow(&self, r: f64) -> Aabb {
-        Aabb { min: self.min - DVec3::splat(r), max: self.max + DVec3::splat(r) }
+        Aabb {
+            min: self.min - DVec3::splat(r),
+            max: self.max + DVec3::splat(r),
+        }
     }
 
     /// Grows the box by a few units in the last place of its largest coordinate, so that a
@@ -87,14 +99,37 @@ mod tests {
 
     #[test]
     fn slab_test() {
-        let b = Aabb { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) };
+        let b = Aabb {
+            min: DVec3::splat(-1.0),
+            max: DVec3::splat(1.0),
+        };
         let inv = |d: DVec3| DVec3::ONE / d;
-        assert!(b.hit(DVec3::new(0.0, 0.0, -5.0), inv(DVec3::Z), 0.0, f64::INFINITY));
-        assert!(!b.hit(DVec3::new(0.0, 0.0, -5.0), inv(-DVec3::Z), 0.0, f64::INFINITY));
+        assert!(b.hit(
+            DVec3::new(0.0, 0.0, -5.0),
+            inv(DVec3::Z),
+            0.0,
+            f64::INFINITY
+        ));
+        assert!(!b.hit(
+            DVec3::new(0.0, 0.0, -5.0),
+            inv(-DVec3::Z),
+            0.0,
+            f64::INFINITY
+        ));
         assert!(!b.hit(DVec3::new(0.0, 0.0, -5.0), inv(DVec3::Z), 0.0, 3.0));
         // Axis-parallel ray outside the slab of another axis.
-        assert!(!b.hit(DVec3::new(2.0, 0.0, -5.0), inv(DVec3::Z), 0.0, f64::INFINITY));
+        assert!(!b.hit(
+            DVec3::new(2.0, 0.0, -5.0),
+            inv(DVec3::Z),
+            0.0,
+            f64::INFINITY
+        ));
         // Axis-parallel ray exactly on a face (0 * inf = NaN case) still counts as a hit.
-        assert!(b.hit(DVec3::new(1.0, 0.0, -5.0), inv(DVec3::Z), 0.0, f64::INFINITY));
+        assert!(b.hit(
+            DVec3::new(1.0, 0.0, -5.0),
+            inv(DVec3::Z),
+            0.0,
+            f64::INFINITY
+        ));
     }
 }

@@ -1,1 +1,352 @@
-//! (in progress)
+//! The commands of the `raytrace` binary, as library functions: `main.rs` only parses the
+//! command line into these options and reports the result.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::error::Error;
+use crate::frames;
+use crate::output::{self, FrameInfo};
+use crate::render::{FrameRequest, render_frame};
+use crate::scene::Scene;
+use crate::world::StaticGeometry;
+
+/// Largest image side accepted from the command line (as from scene files).
+pub const MAX_SIDE: u32 = 65536;
+
+/// Options of `raytrace render`.
+#[derive(Clone, Debug, Default)]
+pub struct RenderOptions {
+    pub scene: PathBuf,
+    /// A frame spec (`12`, `1-48`, `1-48:4`, `1,5,10-20`); `None` or empty: every frame.
+    pub frames: Option<String>,
+    pub output: Option<String>,
+    pub samples: Option<u32>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub seed: Option<u64>,
+    /// Worker threads; `None`: one per core.
+    pub threads: Option<usize>,
+    /// Leave frames whose file already exists untouched.
+    pub skip_existing: bool,
+    /// Print nothing but errors.
+    pub quiet: bool,
+    /// Render only chunk `chunk` of `chunk_size` consecutive selected frames.
+    pub chunk: Option<(usize, usize)>,
+}
+
+/// What a render run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunSummary {
+    /// Frames rendered and written.
+    pub rendered: Vec<u32>,
+    /// Frames left alone because their file existed.
+    pub skipped: Vec<u32>,
+    pub seconds: f64,
+    pub samples: u64,
+    pub dropped: u64,
+}
+
+/// Loads the scene and applies the command-line overrides, validating them.
+pub fn load_scene(opts: &RenderOptions) -> Result<Scene, Error> {
+    let mut scene = Scene::load(&opts.scene)?;
+    if let Some(s) = opts.samples {
+        if s == 0 {
+            return Err(Error::Usage("--samples must be >= 1, got 0".into()));
+        }
+        scene.render.samples = s;
+    }
+    for (name, value, target) in [
+        ("--width", opts.width, &mut scene.output.width),
+        ("--height", opts.height, &mut scene.output.height),
+    ] {
+        if let Some(v) = value {
+            if v == 0 || v > MAX_SIDE {
+                return Err(Error::Usage(format!(
+                    "{name} must be in 1..={MAX_SIDE}, got {v}"
+                )));
+            }
+            *target = v;
+        }
+    }
+    if let Some(seed) = opts.seed {
+        scene.render.seed = seed;
+    }
+    if let Some(path) = &opts.output {
+        scene.output.path = path.clone();
+    }
+    Ok(scene)
+}
+
+/// The frames a run renders: the `--frames` selection (or the whole shot), then the chunk.
+pub fn select_frames(scene: &Scene, opts: &RenderOptions) -> Result<Vec<u32>, Error> {
+    let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
+    let all = match opts.frames.as_deref().map(str::trim) {
+        None | Some("") => (first..=last).collect(),
+        Some(spec) => frames::parse_frames(spec, first, last)
+            .map_err(|e| Error::Usage(format!("--frames: {e}")))?,
+    };
+    match opts.chunk {
+        None => Ok(all),
+        Some((size, index)) => Ok(frames::chunk(&all, size, index)
+            .map_err(Error::Usage)?
+            .to_vec()),
+    }
+}
+
+/// Renders the selected frames of a scene and writes them. Everything that can be checked
+/// before rendering (scene, arguments, output names) is checked before anything is written.
+pub fn render(opts: &RenderOptions) -> Result<RunSummary, Error> {
+    let scene = load_scene(opts)?;
+    let selected = select_frames(&scene, opts)?;
+    let pattern = scene.output.path.clone();
+    if selected.len() > 1 && !output::pattern_has_frame_number(&pattern) {
+        return Err(Error::Usage(format!(
+            "output path \"{pattern}\" has no '#' for the frame number, so {} frames would overwrite one file",
+            selected.len()
+        )));
+    }
+    let targets: Vec<(u32, PathBuf)> = selected
+        .iter()
+        .map(|&f| (f, output::frame_path(&pattern, f)))
+        .collect();
+    for (_, path) in &targets {
+        output::format_for(path).map_err(Error::Usage)?;
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Error::Usage(format!("--threads: {e}")))?;
+    pool.install(|| render_targets(&scene, &targets, opts))
+}
+
+fn render_targets(
+    scene: &Scene,
+    targets: &[(u32, PathBuf)],
+    opts: &RenderOptions,
+) -> Result<RunSummary, Error> {
+    let start = Instant::now();
+    let progress = Progress::new(targets.len() as u64, opts.quiet);
+    let statics = StaticGeometry::new(scene);
+    let mut summary = RunSummary::default();
+    for (frame, path) in targets {
+        output::remove_stale_temp_files(path);
+        if opts.skip_existing && path.exists() {
+            progress.line(&format!(
+                "frame {frame}: {} exists, skipped",
+                path.display()
+            ));
+            summary.skipped.push(*frame);
+            progress.frame_done();
+            continue;
+        }
+        let req = FrameRequest::from_scene(scene, *frame);
+        let samples = req.width as u64 * req.height as u64 * req.samples as u64;
+        let bar = progress.start_frame(*frame, samples);
+        let result = render_frame(scene, &statics, &req, &|n| bar.inc(n));
+        bar.finish_and_clear();
+        let interval = scene.shot.interval(*frame);
+        let info = FrameInfo {
+            frame: *frame,
+            fps: scene.shot.fps,
+            shutter_open: interval.open,
+            shutter_close: interval.close,
+            samples: req.samples,
+            seed: req.seed,
+            extra: Vec::new(),
+        };
+        output::write_frame(
+            path,
+            req.width,
+            req.height,
+            &result.film.to_rgb_f32(),
+            &info,
+        )?;
+        let st = &result.stats;
+        let seconds = st.prepare_seconds + st.render_seconds;
+        progress.line(&format!(
+            "frame {frame}: {seconds:.2} s, {:.2} M samples/s, {} dropped, {}",
+            st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
+            st.dropped,
+            path.display()
+        ));
+        summary.rendered.push(*frame);
+        summary.samples += st.samples;
+        summary.dropped += st.dropped;
+        progress.frame_done();
+    }
+    summary.seconds = start.elapsed().as_secs_f64();
+    progress.line(&format!(
+        "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s)",
+        summary.rendered.len(),
+        summary.skipped.len(),
+        summary.seconds,
+        summary.samples as f64 / summary.seconds.max(1e-9) / 1e6
+    ));
+    progress.finish();
+    Ok(summary)
+}
+
+/// Progress bars on a terminal's stderr, and one summary line per frame on stdout.
+struct Progress {
+    multi: MultiProgress,
+    frames: ProgressBar,
+    quiet: bool,
+}
+
+impl Progress {
+    fn new(frames: u64, quiet: bool) -> Progress {
+        let target = if quiet || !std::io::stderr().is_terminal() {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        };
+        let multi = MultiProgress::with_draw_target(target);
+        let bar = multi.add(ProgressBar::new(frames));
+        bar.set_style(
+            ProgressStyle::with_template(
+                "frames {pos}/{len} [{wide_bar}] {elapsed_precise} eta {eta_precise}",
+            )
+            .expect("valid template"),
+        );
+        Progress {
+            multi,
+            frames: bar,
+            quiet,
+        }
+    }
+
+    fn start_frame(&self, frame: u32, samples: u64) -> ProgressBar {
+        let bar = self.multi.add(ProgressBar::new(samples));
+        bar.set_style(
+            ProgressStyle::with_template("frame {msg} [{wide_bar}] {percent}% {per_sec} eta {eta}")
+                .expect("valid template"),
+        );
+        bar.set_message(frame.to_string());
+        bar
+    }
+
+    fn frame_done(&self) {
+        self.frames.inc(1);
+    }
+
+    fn line(&self, text: &str) {
+        if !self.quiet {
+            self.multi.suspend(|| println!("{text}"));
+        }
+    }
+
+    fn finish(&self) {
+        self.frames.finish_and_clear();
+    }
+}
+
+/// `raytrace check`: validates a scene and describes it.
+pub fn check(scene_path: &Path, chunk_size: Option<usize>) -> Result<String, Error> {
+    use std::fmt::Write;
+    let scene = Scene::load(scene_path)?;
+    let shot = &scene.shot;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}: ok", scene_path.display());
+    let _ = writeln!(
+        s,
+        "shot: {} frames ({}-{}) at {} fps, shutter {} s ({}), start time {} s",
+        shot.frames,
+        shot.first_frame,
+        shot.last_frame(),
+        shot.fps,
+        shot.shutter,
+        shot.position.name(),
+        shot.start_time
+    );
+    let moving = scene
+        .spheres
+        .iter()
+        .filter(|s| s.motion.is_animated())
+        .count();
+    let _ = writeln!(
+        s,
+        "spheres: {} ({} moving, {} static)",
+        scene.spheres.len(),
+        moving,
+        scene.spheres.len() - moving
+    );
+    let cam = match (&scene.camera.look_from, &scene.camera.look_at) {
+        (crate::motion::Motion::Orbit { orbit, .. }, _) => {
+            format!("orbit at {} degrees/s", orbit.degrees_per_second)
+        }
+        (crate::motion::Motion::Keyframes(k), _) => format!("{} keyframes", k.len()),
+        (_, crate::motion::Motion::Keyframes(k)) => format!("{} keyframes", k.len()),
+        _ => "still".to_string(),
+    };
+    let lens = if scene.camera.aperture > 0.0 {
+        format!("thin lens, aperture {}", scene.camera.aperture)
+    } else {
+        "pinhole".to_string()
+    };
+    let _ = writeln!(s, "camera: {cam}, {lens}, vfov {}", scene.camera.vfov);
+    let per_frame =
+        scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64;
+    let _ = writeln!(
+        s,
+        "image: {}x{}, {} samples/pixel, max depth {}, seed {}, output {}",
+        scene.output.width,
+        scene.output.height,
+        scene.render.samples,
+        scene.render.max_depth,
+        scene.render.seed,
+        scene.output.path
+    );
+    let _ = writeln!(
+        s,
+        "total samples: {} ({} per frame)",
+        per_frame * shot.frames as u64,
+        per_frame
+    );
+    if let Some(size) = chunk_size {
+        if size == 0 {
+            return Err(Error::Usage("--chunk-size must be >= 1".into()));
+        }
+        let _ = writeln!(
+            s,
+            "chunks: {} of up to {size} frames",
+            frames::chunk_count(shot.frames as usize, size)
+        );
+    }
+    let _ = writeln!(s, "frames:");
+    let all: Vec<u32> = (shot.first_frame..=shot.last_frame()).collect();
+    let listed: Vec<Option<u32>> = if all.len() <= 50 {
+        all.iter().map(|&f| Some(f)).collect()
+    } else {
+        all[..20]
+            .iter()
+            .map(|&f| Some(f))
+            .chain([None])
+            .chain(all[all.len() - 5..].iter().map(|&f| Some(f)))
+            .collect()
+    };
+    for f in listed {
+        match f {
+            Some(f) => {
+                let i = shot.interval(f);
+                let moving_now = scene
+                    .spheres
+                    .iter()
+                    .filter(|s| s.prepare(i).motion.is_moving())
+                    .count();
+                let _ = writeln!(
+                    s,
+                    "  {f}: shutter [{}, {}] s, {moving_now} moving",
+                    i.open, i.close
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  ...");
+            }
+        }
+    }
+    Ok(s)
+}

@@ -12,7 +12,10 @@ pub enum Error {
     /// A bad command-line argument (frame spec, chunk, override value).
     Usage(String),
     /// An input/output failure on a path (reading the scene, writing a frame).
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     /// Any other failure while producing output (an encoder error, for example).
     Output { path: PathBuf, message: String },
 }
@@ -29,7 +32,10 @@ impl Error {
 
     /// Convenience constructor for an I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Error {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }
 

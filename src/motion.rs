@@ -59,7 +59,12 @@ impl Motion {
             Motion::Velocity { origin, velocity } => *origin + *velocity * t,
             Motion::Keyframes(keys) => keyframe_at(keys, t),
             Motion::Orbit { origin, orbit } => {
-                orbit.pivot + rotate(*origin - orbit.pivot, orbit.axis, orbit.degrees_per_second * t)
+                orbit.pivot
+                    + rotate(
+                        *origin - orbit.pivot,
+                        orbit.axis,
+                        orbit.degrees_per_second * t,
+                    )
             }
         }
     }
@@ -88,9 +93,11 @@ impl Motion {
         }
         match self {
             Motion::Still(p) => FrameMotion::Fixed(*p),
-            Motion::Velocity { velocity, .. } => {
-                FrameMotion::Linear { start: self.at(t0), velocity: *velocity, t0 }
-            }
+            Motion::Velocity { velocity, .. } => FrameMotion::Linear {
+                start: self.at(t0),
+                velocity: *velocity,
+                t0,
+            },
             Motion::Keyframes(keys) => prepare_keyframes(keys, interval),
             Motion::Orbit { origin, orbit } => {
                 // Decompose origin - pivot into the part along the axis and the radius vector.
@@ -129,9 +136,15 @@ fn keyframe_at(keys: &[Key], t: f64) -> DVec3 {
 fn prepare_keyframes(keys: &[Key], interval: Interval) -> FrameMotion {
     let (t0, t1) = (interval.open, interval.close);
     // Positions at the interval's ends and at every key strictly inside it.
-    let mut points = vec![Key { time: t0, position: keyframe_at(keys, t0) }];
+    let mut points = vec![Key {
+        time: t0,
+        position: keyframe_at(keys, t0),
+    }];
     points.extend(keys.iter().filter(|k| k.time > t0 && k.time < t1).copied());
-    points.push(Key { time: t1, position: keyframe_at(keys, t1) });
+    points.push(Key {
+        time: t1,
+        position: keyframe_at(keys, t1),
+    });
     if points.windows(2).all(|w| w[0].position == w[1].position) {
         return FrameMotion::Fixed(points[0].position);
     }
@@ -140,7 +153,11 @@ fn prepare_keyframes(keys: &[Key], interval: Interval) -> FrameMotion {
         let a = keys.partition_point(|k| k.time <= t0);
         let (ka, kb) = (keys[a - 1], keys[a]);
         let velocity = (kb.position - ka.position) / (kb.time - ka.time);
-        return FrameMotion::Linear { start: points[0].position, velocity, t0 };
+        return FrameMotion::Linear {
+            start: points[0].position,
+            velocity,
+            t0,
+        };
     }
     FrameMotion::Keyframes(points.into_boxed_slice())
 }
@@ -151,11 +168,22 @@ pub enum FrameMotion {
     /// Does not move during the interval.
     Fixed(DVec3),
     /// `start + velocity * (t - t0)`.
-    Linear { start: DVec3, velocity: DVec3, t0: f64 },
+    Linear {
+        start: DVec3,
+        velocity: DVec3,
+        t0: f64,
+    },
     /// Piecewise linear through the given points (the interval's ends and the keys inside).
     Keyframes(Box<[Key]>),
     /// `center + cos(a) e1 + sin(a) e2` with `a = degrees0 + degrees_per_second * (t - t0)`.
-    Circle { center: DVec3, e1: DVec3, e2: DVec3, degrees0: f64, degrees_per_second: f64, t0: f64 },
+    Circle {
+        center: DVec3,
+        e1: DVec3,
+        e2: DVec3,
+        degrees0: f64,
+        degrees_per_second: f64,
+        t0: f64,
+    },
 }
 
 impl FrameMotion {
@@ -164,10 +192,23 @@ impl FrameMotion {
     pub fn at(&self, t: f64) -> DVec3 {
         match self {
             FrameMotion::Fixed(p) => *p,
-            FrameMotion::Linear { start, velocity, t0 } => *start + *velocity * (t - t0),
+            FrameMotion::Linear {
+                start,
+                velocity,
+                t0,
+            } => *start + *velocity * (t - t0),
             FrameMotion::Keyframes(points) => keyframe_at(points, t),
-            FrameMotion::Circle { center, e1, e2, degrees0, degrees_per_second, t0 } => {
-                let (s, c) = (degrees0 + degrees_per_second * (t - t0)).to_radians().sin_cos();
+            FrameMotion::Circle {
+                center,
+                e1,
+                e2,
+                degrees0,
+                degrees_per_second,
+                t0,
+            } => {
+                let (s, c) = (degrees0 + degrees_per_second * (t - t0))
+                    .to_radians()
+                    .sin_cos();
                 *center + *e1 * c + *e2 * s
             }
         }
@@ -186,10 +227,17 @@ impl FrameMotion {
             FrameMotion::Linear { .. } => {
                 Aabb::point(self.at(interval.open)).union_point(self.at(interval.close))
             }
-            FrameMotion::Keyframes(points) => {
-                points.iter().fold(Aabb::EMPTY, |b, k| b.union_point(k.position))
-            }
-            FrameMotion::Circle { center, e1, e2, degrees0, degrees_per_second, .. } => {
+            FrameMotion::Keyframes(points) => points
+                .iter()
+                .fold(Aabb::EMPTY, |b, k| b.union_point(k.position)),
+            FrameMotion::Circle {
+                center,
+                e1,
+                e2,
+                degrees0,
+                degrees_per_second,
+                ..
+            } => {
                 let sweep = degrees_per_second * interval.duration();
                 arc_bounds(*center, *e1, *e2, *degrees0, *degrees0 + sweep)
             }
@@ -234,13 +282,20 @@ mod tests {
     fn orbit_motion() -> Motion {
         Motion::Orbit {
             origin: DVec3::new(2.0, 1.0, 0.0),
-            orbit: Orbit { pivot: DVec3::new(0.0, 1.0, 0.0), axis: DVec3::Y, degrees_per_second: 90.0 },
+            orbit: Orbit {
+                pivot: DVec3::new(0.0, 1.0, 0.0),
+                axis: DVec3::Y,
+                degrees_per_second: 90.0,
+            },
         }
     }
 
     #[test]
     fn velocity_is_exact_at_any_time() {
-        let m = Motion::Velocity { origin: DVec3::new(1.0, 2.0, 3.0), velocity: DVec3::new(0.0, 0.5, -1.0) };
+        let m = Motion::Velocity {
+            origin: DVec3::new(1.0, 2.0, 3.0),
+            velocity: DVec3::new(0.0, 0.5, -1.0),
+        };
         assert_eq!(m.at(0.0), DVec3::new(1.0, 2.0, 3.0));
         assert_eq!(m.at(2.0), DVec3::new(1.0, 3.0, 1.0));
         assert_eq!(m.at(-2.0), DVec3::new(1.0, 1.0, 5.0));
@@ -249,9 +304,18 @@ mod tests {
     #[test]
     fn keyframes_interpolate_and_hold() {
         let m = Motion::Keyframes(vec![
-            Key { time: 1.0, position: DVec3::ZERO },
-            Key { time: 3.0, position: DVec3::new(2.0, 0.0, 0.0) },
-            Key { time: 4.0, position: DVec3::new(2.0, 4.0, 0.0) },
+            Key {
+                time: 1.0,
+                position: DVec3::ZERO,
+            },
+            Key {
+                time: 3.0,
+                position: DVec3::new(2.0, 0.0, 0.0),
+            },
+            Key {
+                time: 4.0,
+                position: DVec3::new(2.0, 4.0, 0.0),
+            },
         ]);
         assert_eq!(m.at(-5.0), DVec3::ZERO);
         assert_eq!(m.at(1.0), DVec3::ZERO);
@@ -278,11 +342,23 @@ mod tests {
     #[test]
     fn prepared_motion_agrees_with_shot_motion() {
         let motions = [
-            Motion::Velocity { origin: DVec3::new(1.0, 2.0, 3.0), velocity: DVec3::new(0.3, 0.5, -1.0) },
+            Motion::Velocity {
+                origin: DVec3::new(1.0, 2.0, 3.0),
+                velocity: DVec3::new(0.3, 0.5, -1.0),
+            },
             Motion::Keyframes(vec![
-                Key { time: 0.0, position: DVec3::ZERO },
-                Key { time: 0.5, position: DVec3::new(1.0, 1.0, 0.0) },
-                Key { time: 0.7, position: DVec3::new(0.0, 3.0, 1.0) },
+                Key {
+                    time: 0.0,
+                    position: DVec3::ZERO,
+                },
+                Key {
+                    time: 0.5,
+                    position: DVec3::new(1.0, 1.0, 0.0),
+                },
+                Key {
+                    time: 0.7,
+                    position: DVec3::new(0.0, 3.0, 1.0),
+                },
             ]),
             orbit_motion(),
         ];
@@ -290,7 +366,10 @@ mod tests {
         for m in &motions {
             for _ in 0..200 {
                 let open = r() * 2.0 - 0.5;
-                let iv = Interval { open, close: open + r() * 0.8 };
+                let iv = Interval {
+                    open,
+                    close: open + r() * 0.8,
+                };
                 let fm = m.prepare(iv);
                 for _ in 0..10 {
                     let t = iv.at(r());
@@ -305,11 +384,23 @@ mod tests {
     fn prepared_bounds_enclose_the_sphere_at_every_time() {
         let motions = [
             Motion::Still(DVec3::new(4.0, -1.0, 2.0)),
-            Motion::Velocity { origin: DVec3::new(1.0, 2.0, 3.0), velocity: DVec3::new(5.0, -0.5, 1.0) },
+            Motion::Velocity {
+                origin: DVec3::new(1.0, 2.0, 3.0),
+                velocity: DVec3::new(5.0, -0.5, 1.0),
+            },
             Motion::Keyframes(vec![
-                Key { time: 0.0, position: DVec3::ZERO },
-                Key { time: 0.2, position: DVec3::new(1.0, 5.0, 0.0) },
-                Key { time: 0.4, position: DVec3::new(-3.0, 3.0, 1.0) },
+                Key {
+                    time: 0.0,
+                    position: DVec3::ZERO,
+                },
+                Key {
+                    time: 0.2,
+                    position: DVec3::new(1.0, 5.0, 0.0),
+                },
+                Key {
+                    time: 0.4,
+                    position: DVec3::new(-3.0, 3.0, 1.0),
+                },
             ]),
             orbit_motion(),
             Motion::Orbit {
@@ -326,7 +417,10 @@ mod tests {
         for m in &motions {
             for _ in 0..300 {
                 let open = r() * 4.0 - 1.0;
-                let iv = Interval { open, close: open + r() * r() };
+                let iv = Interval {
+                    open,
+                    close: open + r() * r(),
+                };
                 let fm = m.prepare(iv);
                 let b = fm.bounds(iv, radius);
                 for _ in 0..20 {
@@ -340,17 +434,24 @@ mod tests {
 
     #[test]
     fn orbit_box_covers_the_arc_not_just_its_ends() {
-        // A quarter turn from +x to -z passes through (sqrt2, 1, -sqrt2): further out in x and z
-        // than the chord's box.
+        // A quarter turn from -45 to +45 degrees about y passes through (2, 1, 0), further out
+        // in x than both its end points (sqrt2, 1, -+sqrt2).
         let m = orbit_motion();
-        let iv = Interval { open: 0.0, close: 1.0 };
+        let iv = Interval {
+            open: -0.5,
+            close: 0.5,
+        };
         let b = m.prepare(iv).bounds(iv, 0.0);
-        let ends = Aabb::point(m.at(0.0)).union_point(m.at(1.0));
-        let mid = m.at(0.5);
+        let ends = Aabb::point(m.at(-0.5)).union_point(m.at(0.5));
+        let mid = m.at(0.0);
+        assert!((b.max.x - 2.0).abs() < 1e-9);
         assert!(!ends.contains(&Aabb::point(mid)));
         assert!(b.contains(&Aabb::point(mid)));
         // Half a turn: the box reaches x = -2 .. 2 but only z in [-2, 0].
-        let iv = Interval { open: 0.0, close: 2.0 };
+        let iv = Interval {
+            open: 0.0,
+            close: 2.0,
+        };
         let b = m.prepare(iv).bounds(iv, 0.0);
         assert!((b.min.x + 2.0).abs() < 1e-9 && (b.max.x - 2.0).abs() < 1e-9);
         assert!((b.min.z + 2.0).abs() < 1e-9 && b.max.z.abs() < 1e-9);
@@ -359,20 +460,54 @@ mod tests {
     #[test]
     fn not_moving_in_an_interval_means_fixed() {
         let m = Motion::Keyframes(vec![
-            Key { time: 0.0, position: DVec3::ZERO },
-            Key { time: 1.0, position: DVec3::X },
+            Key {
+                time: 0.0,
+                position: DVec3::ZERO,
+            },
+            Key {
+                time: 1.0,
+                position: DVec3::X,
+            },
         ]);
         // Held after the last key.
-        assert_eq!(m.prepare(Interval { open: 2.0, close: 3.0 }), FrameMotion::Fixed(DVec3::X));
-        assert!(m.prepare(Interval { open: 0.5, close: 0.6 }).is_moving());
+        assert_eq!(
+            m.prepare(Interval {
+                open: 2.0,
+                close: 3.0
+            }),
+            FrameMotion::Fixed(DVec3::X)
+        );
+        assert!(
+            m.prepare(Interval {
+                open: 0.5,
+                close: 0.6
+            })
+            .is_moving()
+        );
         // Zero shutter: fixed, at the instant.
-        let v = Motion::Velocity { origin: DVec3::ZERO, velocity: DVec3::Y };
-        assert_eq!(v.prepare(Interval::instant(2.0)), FrameMotion::Fixed(DVec3::new(0.0, 2.0, 0.0)));
+        let v = Motion::Velocity {
+            origin: DVec3::ZERO,
+            velocity: DVec3::Y,
+        };
+        assert_eq!(
+            v.prepare(Interval::instant(2.0)),
+            FrameMotion::Fixed(DVec3::new(0.0, 2.0, 0.0))
+        );
         // Zero velocity and a zero-radius orbit never move.
-        assert!(!Motion::Velocity { origin: DVec3::ZERO, velocity: DVec3::ZERO }.is_animated());
+        assert!(
+            !Motion::Velocity {
+                origin: DVec3::ZERO,
+                velocity: DVec3::ZERO
+            }
+            .is_animated()
+        );
         let on_axis = Motion::Orbit {
             origin: DVec3::new(0.0, 5.0, 0.0),
-            orbit: Orbit { pivot: DVec3::ZERO, axis: DVec3::Y, degrees_per_second: 30.0 },
+            orbit: Orbit {
+                pivot: DVec3::ZERO,
+                axis: DVec3::Y,
+                degrees_per_second: 30.0,
+            },
         };
         assert!(!on_axis.is_animated());
     }

@@ -16,7 +16,9 @@ pub fn mix64(mut x: u64) -> u64 {
 /// Hashes a sequence of words into one, order-sensitively.
 #[inline]
 pub fn hash_words(words: &[u64]) -> u64 {
-    words.iter().fold(0x243f_6a88_85a3_08d3, |h, &w| mix64(h ^ w))
+    words
+        .iter()
+        .fold(0x243f_6a88_85a3_08d3, |h, &w| mix64(h ^ w))
 }
 
 /// The PCG32 generator.
@@ -31,7 +33,10 @@ const MULTIPLIER: u64 = 6_364_136_223_846_793_005;
 impl Pcg32 {
     /// A generator at `seed` on stream `stream` (as `pcg32_srandom_r`).
     pub fn new(seed: u64, stream: u64) -> Pcg32 {
-        let mut r = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        let mut r = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
         r.next_u32();
         r.state = r.state.wrapping_add(seed);
         r.next_u32();
@@ -63,7 +68,14 @@ mod tests {
     fn matches_the_reference_pcg32_sequence() {
         // pcg32-global demo: pcg32_srandom_r(&rng, 42u, 54u) then six pcg32_random_r calls.
         let mut r = Pcg32::new(42, 54);
-        let want = [0xa15c02b7u32, 0x7b47f409, 0xba1d3330, 0x83d2f293, 0xbfa4784b, 0xcbed606e];
+        let want = [
+            0xa15c02b7u32,
+            0x7b47f409,
+            0xba1d3330,
+            0x83d2f293,
+            0xbfa4784b,
+            0xcbed606e,
+        ];
         for w in want {
             assert_eq!(r.next_u32(), w);
         }

@@ -7,5 +7,8 @@ use crate::scene::Scene;
 
 /// Parses and validates scene text.
 pub fn parse(_text: &str, source: &Path) -> Result<Scene, Error> {
-    Err(Error::Scene(format!("{}: scene parsing is not written yet", source.display())))
+    Err(Error::Scene(format!(
+        "{}: scene parsing is not written yet",
+        source.display()
+    )))
 }

@@ -122,9 +122,18 @@ impl Shot {
         let t = self.frame_time(frame);
         let s = self.shutter;
         match self.position {
-            ShutterPosition::Start => Interval { open: t, close: t + s },
-            ShutterPosition::Center => Interval { open: t - 0.5 * s, close: t + 0.5 * s },
-            ShutterPosition::End => Interval { open: t - s, close: t },
+            ShutterPosition::Start => Interval {
+                open: t,
+                close: t + s,
+            },
+            ShutterPosition::Center => Interval {
+                open: t - 0.5 * s,
+                close: t + 0.5 * s,
+            },
+            ShutterPosition::End => Interval {
+                open: t - s,
+                close: t,
+            },
         }
     }
 
@@ -142,7 +151,14 @@ mod tests {
     use super::*;
 
     fn shot(position: ShutterPosition) -> Shot {
-        Shot { fps: 24.0, frames: 48, first_frame: 1, start_time: 0.0, shutter: 0.02, position }
+        Shot {
+            fps: 24.0,
+            frames: 48,
+            first_frame: 1,
+            start_time: 0.0,
+            shutter: 0.02,
+            position,
+        }
     }
 
     #[test]

@@ -1,0 +1,68 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::Path;
+
+use glam::DVec3;
+use raytrace::film::Film;
+use raytrace::render::{FrameRequest, render_frame};
+use raytrace::scene::Scene;
+use raytrace::world::StaticGeometry;
+
+/// Parses a scene from TOML text, panicking with the error message if it is invalid.
+pub fn scene(toml: &str) -> Scene {
+    Scene::parse(toml, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}\n{toml}"))
+}
+
+/// Renders frame `frame` of `scene` with its own settings.
+pub fn render(scene: &Scene, frame: u32) -> Film {
+    let statics = StaticGeometry::new(scene);
+    render_frame(
+        scene,
+        &statics,
+        &FrameRequest::from_scene(scene, frame),
+        &|_| {},
+    )
+    .film
+}
+
+/// Renders with a given seed and sample count.
+pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
+    let statics = StaticGeometry::new(scene);
+    let mut req = FrameRequest::from_scene(scene, frame);
+    req.samples = samples;
+    req.seed = seed;
+    render_frame(scene, &statics, &req, &|_| {}).film
+}
+
+/// Means over square blocks of `block` x `block` pixels (partial blocks dropped).
+pub fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
+    let mut out = Vec::new();
+    for by in 0..film.height / block {
+        for bx in 0..film.width / block {
+            let mut sum = DVec3::ZERO;
+            for y in 0..block {
+                for x in 0..block {
+                    sum += film.get(bx * block + x, by * block + y);
+                }
+            }
+            out.push(sum / (block * block) as f64);
+        }
+    }
+    out
+}
+
+/// The image's mean.
+pub fn mean(film: &Film) -> DVec3 {
+    film.pixels().iter().copied().sum::<DVec3>() / film.pixels().len() as f64
+}
+
+/// Formats a float for TOML so that it parses back to the same bits.
+pub fn f(x: f64) -> String {
+    format!("{x:?}")
+}
+
+/// A TOML array of a vector, exact.
+pub fn v(p: DVec3) -> String {
+    format!("[{}, {}, {}]", f(p.x), f(p.y), f(p.z))
+}
