@@ -14,6 +14,9 @@ use crate::render::{FrameRequest, render_frame};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
+/// Age after which a temporary frame file of a process that no longer runs is removed.
+pub const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
+
 /// Largest image side accepted from the command line (as from scene files).
 pub const MAX_SIDE: u32 = 65536;
 
@@ -133,7 +136,11 @@ fn render_targets(
     let statics = StaticGeometry::new(scene);
     let mut summary = RunSummary::default();
     for (frame, path) in targets {
-        output::remove_stale_temp_files(path);
+        // A frame's temporary file lives only while the frame is encoded and written (seconds),
+        // so one a minute old whose writer is gone was left by a killed run. The age also
+        // protects files another machine is writing into a shared folder (its pid means
+        // nothing here).
+        output::remove_stale_temp_files(path, STALE_TEMP_AGE)?;
         if opts.skip_existing && path.exists() {
             progress.line(&format!(
                 "frame {frame}: {} exists, skipped",
