@@ -1,14 +1,500 @@
-//! The scene file: TOML parsed into typed structs, then validated into a [`Scene`].
+//! The scene file: TOML parsed into typed structs (unknown keys rejected), then validated into
+//! a [`Scene`]. Syntax and type errors carry the file and line:column; value errors carry the
+//! file and the field path (`sphere[12].radius must be > 0, got -1`).
 
+use std::collections::BTreeMap;
+use std::fmt;
 use std::path::Path;
 
-use crate::error::Error;
-use crate::scene::Scene;
+use glam::DVec3;
+use serde::Deserialize;
+use serde::de::{self, MapAccess, Visitor};
 
-/// Parses and validates scene text.
-pub fn parse(_text: &str, source: &Path) -> Result<Scene, Error> {
-    Err(Error::Scene(format!(
-        "{}: scene parsing is not written yet",
-        source.display()
-    )))
+use crate::camera::CameraRig;
+use crate::error::Error;
+use crate::material::{Background, Material};
+use crate::motion::{Key, Motion, Orbit};
+use crate::scene::{OutputSettings, RenderSettings, Scene};
+use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
+use crate::sphere::SphereDesc;
+
+/// Largest image side.
+pub const MAX_SIDE: i64 = 65536;
+
+type V3 = [f64; 3];
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    #[serde(default)]
+    shot: RawShot,
+    #[serde(default)]
+    output: RawOutput,
+    #[serde(default)]
+    render: RawRender,
+    #[serde(default)]
+    camera: RawCamera,
+    background: Option<RawBackground>,
+    #[serde(default)]
+    materials: BTreeMap<String, RawMaterial>,
+    #[serde(default)]
+    sphere: Vec<RawSphere>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawShot {
+    fps: Option<f64>,
+    frames: Option<i64>,
+    first_frame: Option<i64>,
+    start_time: Option<f64>,
+    shutter: Option<f64>,
+    shutter_angle: Option<f64>,
+    shutter_position: Option<RawShutterPosition>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawShutterPosition {
+    Start,
+    Center,
+    End,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawOutput {
+    path: Option<String>,
+    width: Option<i64>,
+    height: Option<i64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawRender {
+    samples: Option<i64>,
+    max_depth: Option<i64>,
+    seed: Option<i64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    look_from: Option<V3>,
+    look_at: Option<V3>,
+    up: Option<V3>,
+    vfov: Option<f64>,
+    aperture: Option<f64>,
+    focus_distance: Option<f64>,
+    orbit: Option<RawCameraOrbit>,
+    keyframes: Option<Vec<RawCameraKey>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCameraOrbit {
+    degrees_per_second: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCameraKey {
+    time: f64,
+    look_from: Option<V3>,
+    look_at: Option<V3>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBackground {
+    color: V3,
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum RawMaterial {
+    Lambertian {
+        albedo: V3,
+    },
+    Metal {
+        albedo: V3,
+        #[serde(default)]
+        fuzz: f64,
+    },
+    Dielectric {
+        ior: f64,
+    },
+}
+
+/// A sphere's material: a name from `[materials]` or an inline table.
+enum MaterialRef {
+    Name(String),
+    Inline(RawMaterial),
+}
+
+impl<'de> Deserialize<'de> for MaterialRef {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = MaterialRef;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a material name or an inline material table")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<MaterialRef, E> {
+                Ok(MaterialRef::Name(s.to_string()))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
+                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map)).map(MaterialRef::Inline)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSphere {
+    center: Option<V3>,
+    radius: f64,
+    material: MaterialRef,
+    velocity: Option<V3>,
+    keyframes: Option<Vec<RawSphereKey>>,
+    orbit: Option<RawOrbit>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSphereKey {
+    time: f64,
+    center: V3,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOrbit {
+    pivot: V3,
+    axis: V3,
+    degrees_per_second: f64,
+}
+
+/// Parses and validates scene text; `source` names the file in messages.
+pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
+    let file = source.display().to_string();
+    let raw: RawScene = toml::from_str(text).map_err(|e| {
+        let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+        Error::Scene(format!("{file}:{line}:{col}: {}", e.message().trim_end()))
+    })?;
+    Check { file: &file }.scene(raw, source).map_err(Error::Scene)
+}
+
+/// The 1-based line and column of byte `offset` in `text`.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+/// Formats a number as the scene file would, with negative zero shown as `-0`.
+fn show(x: f64) -> String {
+    if x.is_nan() { "nan".into() } else { format!("{x}") }
+}
+
+/// The validator: every method checks one kind of value and names the field on failure.
+struct Check<'a> {
+    file: &'a str,
+}
+
+impl Check<'_> {
+    fn err<T>(&self, msg: impl fmt::Display) -> Result<T, String> {
+        Err(format!("{}: {msg}", self.file))
+    }
+
+    /// Any finite number that fits the single-precision range frames are stored in.
+    fn num(&self, field: &str, x: f64) -> Result<f64, String> {
+        if !x.is_finite() {
+            return self.err(format_args!("{field} must be a finite number, got {}", show(x)));
+        }
+        if x.abs() > f32::MAX as f64 {
+            return self.err(format_args!("{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)", show(x)));
+        }
+        Ok(x)
+    }
+
+    fn vec(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        for (i, x) in v.iter().enumerate() {
+            self.num(&format!("{field}[{i}]"), *x)?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    fn positive(&self, field: &str, x: f64) -> Result<f64, String> {
+        let x = self.num(field, x)?;
+        if x > 0.0 { Ok(x) } else { self.err(format_args!("{field} must be > 0, got {}", show(x))) }
+    }
+
+    /// `>= 0`; negative zero is rejected too (it usually means a sign error upstream).
+    fn non_negative(&self, field: &str, x: f64) -> Result<f64, String> {
+        let x = self.num(field, x)?;
+        if x > 0.0 || (x == 0.0 && x.is_sign_positive()) {
+            Ok(x)
+        } else if x == 0.0 {
+            self.err(format_args!("{field} must be >= 0, got -0 (negative zero)"))
+        } else {
+            self.err(format_args!("{field} must be >= 0, got {}", show(x)))
+        }
+    }
+
+    fn color(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        for (i, x) in v.iter().enumerate() {
+            self.non_negative(&format!("{field}[{i}]"), *x)?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    fn int(&self, field: &str, x: i64, min: i64, max: i64) -> Result<i64, String> {
+        if x < min || x > max {
+            return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
+        }
+        Ok(x)
+    }
+
+    fn scene(&self, raw: RawScene, source: &Path) -> Result<Scene, String> {
+        let shot = self.shot(&raw.shot)?;
+        let output = self.output(&raw.output, source)?;
+        let render = RenderSettings {
+            samples: self.int("render.samples", raw.render.samples.unwrap_or(16), 1, u32::MAX as i64)? as u32,
+            max_depth: self.int("render.max_depth", raw.render.max_depth.unwrap_or(50), 1, u32::MAX as i64)? as u32,
+            seed: self.int("render.seed", raw.render.seed.unwrap_or(0), 0, i64::MAX)? as u64,
+        };
+        let camera = self.camera(&raw.camera)?;
+        let background = match raw.background {
+            None => Background::Sky,
+            Some(b) => Background::Uniform(self.color("background.color", b.color)?),
+        };
+        let mut materials = Vec::new();
+        let mut names = BTreeMap::new();
+        for (name, m) in &raw.materials {
+            materials.push(self.material(&format!("materials.{name}"), m)?);
+            names.insert(name.as_str(), (materials.len() - 1) as u32);
+        }
+        let mut spheres = Vec::with_capacity(raw.sphere.len());
+        for (i, s) in raw.sphere.iter().enumerate() {
+            let field = format!("sphere[{i}]");
+            let material = match &s.material {
+                MaterialRef::Name(n) => match names.get(n.as_str()) {
+                    Some(&m) => m,
+                    None => {
+                        let known: Vec<&str> = names.keys().copied().collect();
+                        let known = if known.is_empty() { "none defined".to_string() } else { known.join(", ") };
+                        return self.err(format_args!(
+                            "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
+                        ));
+                    }
+                },
+                MaterialRef::Inline(m) => {
+                    materials.push(self.material(&format!("{field}.material"), m)?);
+                    (materials.len() - 1) as u32
+                }
+            };
+            spheres.push(SphereDesc {
+                radius: self.positive(&format!("{field}.radius"), s.radius)?,
+                motion: self.sphere_motion(&field, s)?,
+                material,
+            });
+        }
+        Ok(Scene { source: source.to_path_buf(), shot, output, render, camera, background, materials, spheres })
+    }
+
+    fn shot(&self, s: &RawShot) -> Result<Shot, String> {
+        let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
+        let frames = self.int("shot.frames", s.frames.unwrap_or(1), 1, u32::MAX as i64)?;
+        let first_frame = self.int("shot.first_frame", s.first_frame.unwrap_or(1), 0, u32::MAX as i64)?;
+        if first_frame + frames - 1 > u32::MAX as i64 {
+            return self.err(format_args!(
+                "shot.first_frame + shot.frames - 1 must be at most {}, got {}",
+                u32::MAX,
+                first_frame + frames - 1
+            ));
+        }
+        let shutter = match (s.shutter, s.shutter_angle) {
+            (Some(_), Some(_)) => return self.err("shot: give at most one of shutter and shutter_angle"),
+            (Some(x), None) => self.non_negative("shot.shutter", x)?,
+            (None, a) => shutter_from_angle(self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?, fps),
+        };
+        let shutter = self.num("shot.shutter", shutter)?;
+        let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
+            RawShutterPosition::Start => ShutterPosition::Start,
+            RawShutterPosition::Center => ShutterPosition::Center,
+            RawShutterPosition::End => ShutterPosition::End,
+        };
+        Ok(Shot {
+            fps,
+            frames: frames as u32,
+            first_frame: first_frame as u32,
+            start_time: self.num("shot.start_time", s.start_time.unwrap_or(0.0))?,
+            shutter,
+            position,
+        })
+    }
+
+    fn output(&self, o: &RawOutput, source: &Path) -> Result<OutputSettings, String> {
+        let path = match &o.path {
+            Some(p) if p.trim().is_empty() => return self.err("output.path must not be empty"),
+            Some(p) => p.clone(),
+            None => {
+                let stem = source.file_stem().map_or("frame".into(), |s| s.to_string_lossy().into_owned());
+                format!("{stem}_####.png")
+            }
+        };
+        Ok(OutputSettings {
+            path,
+            width: self.int("output.width", o.width.unwrap_or(400), 1, MAX_SIDE)? as u32,
+            height: self.int("output.height", o.height.unwrap_or(225), 1, MAX_SIDE)? as u32,
+        })
+    }
+
+    fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
+        Ok(match m {
+            RawMaterial::Lambertian { albedo } => Material::Lambertian { albedo: self.color(&format!("{field}.albedo"), *albedo)? },
+            RawMaterial::Metal { albedo, fuzz } => {
+                let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
+                if fuzz > 1.0 {
+                    return self.err(format_args!("{field}.fuzz must be in [0, 1], got {}", show(fuzz)));
+                }
+                Material::Metal { albedo: self.color(&format!("{field}.albedo"), *albedo)?, fuzz }
+            }
+            RawMaterial::Dielectric { ior } => Material::Dielectric { ior: self.positive(&format!("{field}.ior"), *ior)? },
+        })
+    }
+
+    fn keys(&self, field: &str, times: impl Iterator<Item = f64>) -> Result<Vec<f64>, String> {
+        let mut out: Vec<f64> = Vec::new();
+        for (i, t) in times.enumerate() {
+            let t = self.num(&format!("{field}[{i}].time"), t)?;
+            if let Some(&prev) = out.last() {
+                if t <= prev {
+                    return self.err(format_args!(
+                        "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
+                        i - 1,
+                        show(prev),
+                        show(t)
+                    ));
+                }
+            }
+            out.push(t);
+        }
+        if out.is_empty() {
+            return self.err(format_args!("{field} must have at least one key"));
+        }
+        Ok(out)
+    }
+
+    fn sphere_motion(&self, field: &str, s: &RawSphere) -> Result<Motion, String> {
+        let kinds = [s.velocity.is_some(), s.keyframes.is_some(), s.orbit.is_some()];
+        if kinds.iter().filter(|k| **k).count() > 1 {
+            return self.err(format_args!("{field}: give at most one of velocity, keyframes and orbit"));
+        }
+        if let Some(keys) = &s.keyframes {
+            if s.center.is_some() {
+                return self.err(format_args!("{field}: keyframes replace center; give one of them"));
+            }
+            let kf = format!("{field}.keyframes");
+            let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
+            let keys = keys
+                .iter()
+                .zip(times)
+                .enumerate()
+                .map(|(i, (k, time))| Ok(Key { time, position: self.vec(&format!("{kf}[{i}].center"), k.center)? }))
+                .collect::<Result<Vec<_>, String>>()?;
+            return Ok(Motion::Keyframes(keys));
+        }
+        let Some(center) = s.center else {
+            return self.err(format_args!("{field}.center is required (or keyframes)"));
+        };
+        let origin = self.vec(&format!("{field}.center"), center)?;
+        if let Some(v) = s.velocity {
+            return Ok(Motion::Velocity { origin, velocity: self.vec(&format!("{field}.velocity"), v)? });
+        }
+        if let Some(o) = &s.orbit {
+            let orbit = self.orbit(&format!("{field}.orbit"), o.pivot, o.axis, o.degrees_per_second)?;
+            return Ok(Motion::Orbit { origin, orbit });
+        }
+        Ok(Motion::Still(origin))
+    }
+
+    fn orbit(&self, field: &str, pivot: V3, axis: V3, dps: f64) -> Result<Orbit, String> {
+        let pivot = self.vec(&format!("{field}.pivot"), pivot)?;
+        let axis = self.vec(&format!("{field}.axis"), axis)?;
+        let degrees_per_second = self.num(&format!("{field}.degrees_per_second"), dps)?;
+        let len = axis.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return self.err(format_args!("{field}.axis must be a non-zero vector"));
+        }
+        Ok(Orbit { pivot, axis: axis / len, degrees_per_second })
+    }
+
+    /// Checks that a view is not degenerate.
+    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
+        let view = at - from;
+        if view.length() == 0.0 {
+            return self.err(format_args!("{field}: look_from and look_at must differ, both are {}", fmt_v(from)));
+        }
+        if up.length() == 0.0 {
+            return self.err("camera.up must be a non-zero vector");
+        }
+        if up.normalize().cross(view.normalize()).length() < 1e-9 {
+            return self.err(format_args!(
+                "{field}: camera.up {} is parallel to the view direction {}",
+                fmt_v(up),
+                fmt_v(view)
+            ));
+        }
+        Ok(())
+    }
+
+    fn camera(&self, c: &RawCamera) -> Result<CameraRig, String> {
+        let from = self.vec("camera.look_from", c.look_from.unwrap_or([0.0, 0.0, 0.0]))?;
+        let at = self.vec("camera.look_at", c.look_at.unwrap_or([0.0, 0.0, -1.0]))?;
+        let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
+        let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
+        if vfov >= 180.0 {
+            return self.err(format_args!("camera.vfov must be < 180, got {}", show(vfov)));
+        }
+        let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
+        let focus_distance = c.focus_distance.map(|f| self.positive("camera.focus_distance", f)).transpose()?;
+        if c.orbit.is_some() && c.keyframes.is_some() {
+            return self.err("camera: give at most one of orbit and keyframes");
+        }
+        let (look_from, look_at) = if let Some(o) = &c.orbit {
+            self.view("camera", from, at, up)?;
+            let orbit = self.orbit("camera.orbit", at.to_array(), up.to_array(), o.degrees_per_second)?;
+            (Motion::Orbit { origin: from, orbit }, Motion::Still(at))
+        } else if let Some(keys) = &c.keyframes {
+            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
+            let (mut f, mut a) = (from, at);
+            let (mut fk, mut ak) = (Vec::new(), Vec::new());
+            for (i, (k, time)) in keys.iter().zip(times).enumerate() {
+                let field = format!("camera.keyframes[{i}]");
+                if let Some(v) = k.look_from {
+                    f = self.vec(&format!("{field}.look_from"), v)?;
+                }
+                if let Some(v) = k.look_at {
+                    a = self.vec(&format!("{field}.look_at"), v)?;
+                }
+                self.view(&field, f, a, up)?;
+                fk.push(Key { time, position: f });
+                ak.push(Key { time, position: a });
+            }
+            (Motion::Keyframes(fk), Motion::Keyframes(ak))
+        } else {
+            self.view("camera", from, at, up)?;
+            (Motion::Still(from), Motion::Still(at))
+        };
+        Ok(CameraRig { look_from, look_at, up, vfov, aperture, focus_distance })
+    }
+}
+
+fn fmt_v(v: DVec3) -> String {
+    format!("[{}, {}, {}]", show(v.x), show(v.y), show(v.z))
 }
