@@ -35,19 +35,21 @@ pub fn intersect(center: DVec3, radius: f64, ray: &Ray, t_max: f64) -> Option<f6
     let l_len = l.length();
     // r^2 - |l|^2, factored so the difference of nearly equal squares does not cancel.
     let disc = (radius - l_len) * (radius + l_len);
-    if disc < 0.0 {
+    // Zero is a ray tangent to the sphere to the precision of |l|. Its double root cannot be
+    // oriented: the normal there is perpendicular to the ray up to rounding, so the side the
+    // ray arrives from would be decided by noise, and a ray from outside taken for one from
+    // inside is trapped inside an opaque sphere. A tangent ray misses. Otherwise r - l is at
+    // least an ulp of r (it is exact, Sterbenz), so sqrt(disc) >= 1e-8 r and the entry point
+    // is oriented reliably (see `surface_point`).
+    if disc <= 0.0 {
         return None;
     }
     // c = |f|^2 - r^2, factored likewise.
     let f_len = f.length();
     let c = (f_len - radius) * (f_len + radius);
+    // With a = 1 the roots are c/q and q; q != 0 because sqrt(disc) > 0 has the sign of b
+    // added to b.
     let q = -(b + b.signum() * disc.sqrt());
-    // With a = 1 the roots are c/q and q. q == 0 only when b == 0 and disc == 0: a ray from
-    // the centre's plane grazing the sphere; then c == 0 too and the root is 0, which t > 0
-    // excludes.
-    if q == 0.0 {
-        return None;
-    }
     let (t0, t1) = {
         let (x, y) = (c / q, q);
         if x <= y { (x, y) } else { (y, x) }
@@ -75,7 +77,12 @@ pub struct SurfacePoint {
 /// The surface point of the sphere at `center` where `ray` hits it at `t`.
 #[inline]
 pub fn surface_point(center: DVec3, radius: f64, ray: &Ray, t: f64) -> SurfacePoint {
-    let rel = ray.at(t) - center;
+    // Relative to the centre first, as the intersection computes it: `ray.origin - center` is
+    // exact when the origin is near the sphere (Sterbenz), so the normal's direction carries
+    // an error of about eps |origin - center| / r instead of ulp(|origin|) / r. For a sphere
+    // of radius 1e-4 at 1e6 from the origin the latter is 1e-6, enough to turn the normal of
+    // a grazing hit (dir . normal ~ -1e-8) to face the wrong way.
+    let rel = (ray.origin - center) + t * ray.dir;
     let len = rel.length();
     // Project onto the sphere: error of the relative point is gamma(5)|rel| (pbrt-v4, eq. 6.30).
     let normal = if len > 0.0 { rel / len } else { -ray.dir };
@@ -131,6 +138,48 @@ mod tests {
             let sp = surface_point(c, 1e-4, &r, t);
             // On the sphere to the precision of coordinates near 1e6 (an ulp is 1.2e-10).
             assert!((((sp.p - c).length()) - 1e-4).abs() < 4e-10);
+        }
+    }
+
+    /// Rays aimed within a few ulps of the silhouette: every hit of a ray from outside must
+    /// face the ray (`dir . normal < 0`), or the material takes it for a ray leaving the
+    /// inside and traps it there; every ray from inside must hit and leave.
+    #[test]
+    fn grazing_hits_are_oriented_by_the_side_the_ray_comes_from() {
+        let mut rng = crate::rng::Pcg32::new(5, 11);
+        for &(scale, dist) in &[(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1e-4, 1e6), (1.0, 1e6)] {
+            let c = DVec3::new(1.0, -0.6, 0.35).normalize() * dist;
+            for k in 0..20_000 {
+                let mut u = || rng.next_f64() * 2.0 - 1.0;
+                let o = c + DVec3::new(u(), u(), u()).normalize() * (3.0 * scale);
+                // o - c is exact (Sterbenz), so the impact parameter is exact to an ulp.
+                let f = o - c;
+                let toward = -f.normalize();
+                let side = toward.any_orthonormal_vector();
+                let side = (side * u() + toward.cross(side) * u()).normalize();
+                let delta = (k % 9) as f64 * 1.1e-16 - 4.4e-16;
+                let sin = scale * (1.0 - delta) / f.length();
+                let r = ray(o, toward * (1.0 - sin * sin).sqrt() + side * sin);
+                if let Some(t) = intersect(c, scale, &r, f64::INFINITY) {
+                    let sp = surface_point(c, scale, &r, t);
+                    assert!(
+                        r.dir.dot(sp.normal) < 0.0,
+                        "scale {scale} at {dist}, delta {delta}: hit from outside faces away"
+                    );
+                }
+                // From inside (by more than the rounding of positions near 1e6), nearly
+                // tangent: always leaves through the far side.
+                let inside = c + DVec3::new(u(), u(), u()).normalize() * (scale * (1.0 - 1e-5));
+                let n = (inside - c).normalize();
+                let along = n.any_orthonormal_vector();
+                let r = ray(inside, along + n * (u() * 1e-9));
+                let t = intersect(c, scale, &r, f64::INFINITY).expect("a ray from inside leaves");
+                let sp = surface_point(c, scale, &r, t);
+                assert!(
+                    r.dir.dot(sp.normal) > 0.0,
+                    "scale {scale} at {dist}: exit faces in"
+                );
+            }
         }
     }
 
