@@ -144,7 +144,8 @@ impl<'de> Deserialize<'de> for MaterialRef {
                 Ok(MaterialRef::Name(s.to_string()))
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
-                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map)).map(MaterialRef::Inline)
+                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(MaterialRef::Inline)
             }
         }
         d.deserialize_any(V)
@@ -184,7 +185,9 @@ pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
         let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
         Error::Scene(format!("{file}:{line}:{col}: {}", e.message().trim_end()))
     })?;
-    Check { file: &file }.scene(raw, source).map_err(Error::Scene)
+    Check { file: &file }
+        .scene(raw, source)
+        .map_err(Error::Scene)
 }
 
 /// The 1-based line and column of byte `offset` in `text`.
@@ -197,7 +200,11 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 
 /// Formats a number as the scene file would, with negative zero shown as `-0`.
 fn show(x: f64) -> String {
-    if x.is_nan() { "nan".into() } else { format!("{x}") }
+    if x.is_nan() {
+        "nan".into()
+    } else {
+        format!("{x}")
+    }
 }
 
 /// The validator: every method checks one kind of value and names the field on failure.
@@ -213,10 +220,16 @@ impl Check<'_> {
     /// Any finite number that fits the single-precision range frames are stored in.
     fn num(&self, field: &str, x: f64) -> Result<f64, String> {
         if !x.is_finite() {
-            return self.err(format_args!("{field} must be a finite number, got {}", show(x)));
+            return self.err(format_args!(
+                "{field} must be a finite number, got {}",
+                show(x)
+            ));
         }
         if x.abs() > f32::MAX as f64 {
-            return self.err(format_args!("{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)", show(x)));
+            return self.err(format_args!(
+                "{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)",
+                show(x)
+            ));
         }
         Ok(x)
     }
@@ -230,7 +243,11 @@ impl Check<'_> {
 
     fn positive(&self, field: &str, x: f64) -> Result<f64, String> {
         let x = self.num(field, x)?;
-        if x > 0.0 { Ok(x) } else { self.err(format_args!("{field} must be > 0, got {}", show(x))) }
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            self.err(format_args!("{field} must be > 0, got {}", show(x)))
+        }
     }
 
     /// `>= 0`; negative zero is rejected too (it usually means a sign error upstream).
@@ -263,8 +280,18 @@ impl Check<'_> {
         let shot = self.shot(&raw.shot)?;
         let output = self.output(&raw.output, source)?;
         let render = RenderSettings {
-            samples: self.int("render.samples", raw.render.samples.unwrap_or(16), 1, u32::MAX as i64)? as u32,
-            max_depth: self.int("render.max_depth", raw.render.max_depth.unwrap_or(50), 1, u32::MAX as i64)? as u32,
+            samples: self.int(
+                "render.samples",
+                raw.render.samples.unwrap_or(16),
+                1,
+                u32::MAX as i64,
+            )? as u32,
+            max_depth: self.int(
+                "render.max_depth",
+                raw.render.max_depth.unwrap_or(50),
+                1,
+                u32::MAX as i64,
+            )? as u32,
             seed: self.int("render.seed", raw.render.seed.unwrap_or(0), 0, i64::MAX)? as u64,
         };
         let camera = self.camera(&raw.camera)?;
@@ -286,7 +313,11 @@ impl Check<'_> {
                     Some(&m) => m,
                     None => {
                         let known: Vec<&str> = names.keys().copied().collect();
-                        let known = if known.is_empty() { "none defined".to_string() } else { known.join(", ") };
+                        let known = if known.is_empty() {
+                            "none defined".to_string()
+                        } else {
+                            known.join(", ")
+                        };
                         return self.err(format_args!(
                             "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
                         ));
@@ -303,13 +334,27 @@ impl Check<'_> {
                 material,
             });
         }
-        Ok(Scene { source: source.to_path_buf(), shot, output, render, camera, background, materials, spheres })
+        Ok(Scene {
+            source: source.to_path_buf(),
+            shot,
+            output,
+            render,
+            camera,
+            background,
+            materials,
+            spheres,
+        })
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
         let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
         let frames = self.int("shot.frames", s.frames.unwrap_or(1), 1, u32::MAX as i64)?;
-        let first_frame = self.int("shot.first_frame", s.first_frame.unwrap_or(1), 0, u32::MAX as i64)?;
+        let first_frame = self.int(
+            "shot.first_frame",
+            s.first_frame.unwrap_or(1),
+            0,
+            u32::MAX as i64,
+        )?;
         if first_frame + frames - 1 > u32::MAX as i64 {
             return self.err(format_args!(
                 "shot.first_frame + shot.frames - 1 must be at most {}, got {}",
@@ -318,9 +363,14 @@ impl Check<'_> {
             ));
         }
         let shutter = match (s.shutter, s.shutter_angle) {
-            (Some(_), Some(_)) => return self.err("shot: give at most one of shutter and shutter_angle"),
+            (Some(_), Some(_)) => {
+                return self.err("shot: give at most one of shutter and shutter_angle");
+            }
             (Some(x), None) => self.non_negative("shot.shutter", x)?,
-            (None, a) => shutter_from_angle(self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?, fps),
+            (None, a) => shutter_from_angle(
+                self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?,
+                fps,
+            ),
         };
         let shutter = self.num("shot.shutter", shutter)?;
         let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
@@ -343,7 +393,9 @@ impl Check<'_> {
             Some(p) if p.trim().is_empty() => return self.err("output.path must not be empty"),
             Some(p) => p.clone(),
             None => {
-                let stem = source.file_stem().map_or("frame".into(), |s| s.to_string_lossy().into_owned());
+                let stem = source
+                    .file_stem()
+                    .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
                 format!("{stem}_####.png")
             }
         };
@@ -356,15 +408,25 @@ impl Check<'_> {
 
     fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
         Ok(match m {
-            RawMaterial::Lambertian { albedo } => Material::Lambertian { albedo: self.color(&format!("{field}.albedo"), *albedo)? },
+            RawMaterial::Lambertian { albedo } => Material::Lambertian {
+                albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+            },
             RawMaterial::Metal { albedo, fuzz } => {
                 let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
                 if fuzz > 1.0 {
-                    return self.err(format_args!("{field}.fuzz must be in [0, 1], got {}", show(fuzz)));
+                    return self.err(format_args!(
+                        "{field}.fuzz must be in [0, 1], got {}",
+                        show(fuzz)
+                    ));
                 }
-                Material::Metal { albedo: self.color(&format!("{field}.albedo"), *albedo)?, fuzz }
+                Material::Metal {
+                    albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                    fuzz,
+                }
             }
-            RawMaterial::Dielectric { ior } => Material::Dielectric { ior: self.positive(&format!("{field}.ior"), *ior)? },
+            RawMaterial::Dielectric { ior } => Material::Dielectric {
+                ior: self.positive(&format!("{field}.ior"), *ior)?,
+            },
         })
     }
 
@@ -391,13 +453,21 @@ impl Check<'_> {
     }
 
     fn sphere_motion(&self, field: &str, s: &RawSphere) -> Result<Motion, String> {
-        let kinds = [s.velocity.is_some(), s.keyframes.is_some(), s.orbit.is_some()];
+        let kinds = [
+            s.velocity.is_some(),
+            s.keyframes.is_some(),
+            s.orbit.is_some(),
+        ];
         if kinds.iter().filter(|k| **k).count() > 1 {
-            return self.err(format_args!("{field}: give at most one of velocity, keyframes and orbit"));
+            return self.err(format_args!(
+                "{field}: give at most one of velocity, keyframes and orbit"
+            ));
         }
         if let Some(keys) = &s.keyframes {
             if s.center.is_some() {
-                return self.err(format_args!("{field}: keyframes replace center; give one of them"));
+                return self.err(format_args!(
+                    "{field}: keyframes replace center; give one of them"
+                ));
             }
             let kf = format!("{field}.keyframes");
             let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
@@ -405,7 +475,12 @@ impl Check<'_> {
                 .iter()
                 .zip(times)
                 .enumerate()
-                .map(|(i, (k, time))| Ok(Key { time, position: self.vec(&format!("{kf}[{i}].center"), k.center)? }))
+                .map(|(i, (k, time))| {
+                    Ok(Key {
+                        time,
+                        position: self.vec(&format!("{kf}[{i}].center"), k.center)?,
+                    })
+                })
                 .collect::<Result<Vec<_>, String>>()?;
             return Ok(Motion::Keyframes(keys));
         }
@@ -414,10 +489,18 @@ impl Check<'_> {
         };
         let origin = self.vec(&format!("{field}.center"), center)?;
         if let Some(v) = s.velocity {
-            return Ok(Motion::Velocity { origin, velocity: self.vec(&format!("{field}.velocity"), v)? });
+            return Ok(Motion::Velocity {
+                origin,
+                velocity: self.vec(&format!("{field}.velocity"), v)?,
+            });
         }
         if let Some(o) = &s.orbit {
-            let orbit = self.orbit(&format!("{field}.orbit"), o.pivot, o.axis, o.degrees_per_second)?;
+            let orbit = self.orbit(
+                &format!("{field}.orbit"),
+                o.pivot,
+                o.axis,
+                o.degrees_per_second,
+            )?;
             return Ok(Motion::Orbit { origin, orbit });
         }
         Ok(Motion::Still(origin))
@@ -431,14 +514,21 @@ impl Check<'_> {
         if !(len > 0.0 && len.is_finite()) {
             return self.err(format_args!("{field}.axis must be a non-zero vector"));
         }
-        Ok(Orbit { pivot, axis: axis / len, degrees_per_second })
+        Ok(Orbit {
+            pivot,
+            axis: axis / len,
+            degrees_per_second,
+        })
     }
 
     /// Checks that a view is not degenerate.
     fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
         let view = at - from;
         if view.length() == 0.0 {
-            return self.err(format_args!("{field}: look_from and look_at must differ, both are {}", fmt_v(from)));
+            return self.err(format_args!(
+                "{field}: look_from and look_at must differ, both are {}",
+                fmt_v(from)
+            ));
         }
         if up.length() == 0.0 {
             return self.err("camera.up must be a non-zero vector");
@@ -459,17 +549,34 @@ impl Check<'_> {
         let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
         let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
         if vfov >= 180.0 {
-            return self.err(format_args!("camera.vfov must be < 180, got {}", show(vfov)));
+            return self.err(format_args!(
+                "camera.vfov must be < 180, got {}",
+                show(vfov)
+            ));
         }
         let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
-        let focus_distance = c.focus_distance.map(|f| self.positive("camera.focus_distance", f)).transpose()?;
+        let focus_distance = c
+            .focus_distance
+            .map(|f| self.positive("camera.focus_distance", f))
+            .transpose()?;
         if c.orbit.is_some() && c.keyframes.is_some() {
             return self.err("camera: give at most one of orbit and keyframes");
         }
         let (look_from, look_at) = if let Some(o) = &c.orbit {
             self.view("camera", from, at, up)?;
-            let orbit = self.orbit("camera.orbit", at.to_array(), up.to_array(), o.degrees_per_second)?;
-            (Motion::Orbit { origin: from, orbit }, Motion::Still(at))
+            let orbit = self.orbit(
+                "camera.orbit",
+                at.to_array(),
+                up.to_array(),
+                o.degrees_per_second,
+            )?;
+            (
+                Motion::Orbit {
+                    origin: from,
+                    orbit,
+                },
+                Motion::Still(at),
+            )
         } else if let Some(keys) = &c.keyframes {
             let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
             let (mut f, mut a) = (from, at);
@@ -491,7 +598,14 @@ impl Check<'_> {
             self.view("camera", from, at, up)?;
             (Motion::Still(from), Motion::Still(at))
         };
-        Ok(CameraRig { look_from, look_at, up, vfov, aperture, focus_distance })
+        Ok(CameraRig {
+            look_from,
+            look_at,
+            up,
+            vfov,
+            aperture,
+            focus_distance,
+        })
     }
 }
 
