@@ -434,15 +434,15 @@ impl Check<'_> {
         let mut out: Vec<f64> = Vec::new();
         for (i, t) in times.enumerate() {
             let t = self.num(&format!("{field}[{i}].time"), t)?;
-            if let Some(&prev) = out.last() {
-                if t <= prev {
-                    return self.err(format_args!(
-                        "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
-                        i - 1,
-                        show(prev),
-                        show(t)
-                    ));
-                }
+            if let Some(&prev) = out.last()
+                && t <= prev
+            {
+                return self.err(format_args!(
+                    "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
+                    i - 1,
+                    show(prev),
+                    show(t)
+                ));
             }
             out.push(t);
         }
