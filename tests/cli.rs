@@ -269,9 +269,22 @@ fn bare_frames_means_every_frame_and_lists_select_some() {
     let o = run(d.path(), &["render", "shot.toml", "--frames"]);
     assert!(o.status.success(), "{}", text(&o));
     assert_eq!(files(d.path()).len(), 5);
-    let o = run(d.path(), &["render", "shot.toml", "--frames", "1,3-4:1", "--output", "sel/x_#.png"]);
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--frames",
+            "1,3-4:1",
+            "--output",
+            "sel/x_#.png",
+        ],
+    );
     assert!(o.status.success(), "{}", text(&o));
-    let names: Vec<String> = files(&d.path().join("sel")).iter().map(|p| p.display().to_string()).collect();
+    let names: Vec<String> = files(&d.path().join("sel"))
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
     assert_eq!(names, ["x_1.png", "x_3.png", "x_4.png"]);
 }
 
