@@ -189,7 +189,8 @@ fn split(items: &mut [BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
     let extent = cb.max - cb.min;
     let mut best: Option<(f64, usize, usize)> = None; // (cost, axis, bin boundary)
     for axis in 0..3 {
-        if !(extent[axis] > 0.0) {
+        // Also skips a NaN extent.
+        if extent[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let scale = BINS as f64 / extent[axis];

@@ -411,8 +411,9 @@ fn exr_attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAttributes
     );
     for (name, value) in &info.extra {
         let bad = |why: &str| format!("extra attribute name \"{name}\" {why}");
-        if name.is_empty() || name.len() > 255 {
-            return Err(bad("must have 1 to 255 characters"));
+        // Up to 31 characters: longer names need the file's long-name flag.
+        if name.is_empty() || name.len() > 31 {
+            return Err(bad("must have 1 to 31 characters"));
         }
         if name.chars().any(char::is_control) {
             return Err(bad("contains a control character"));
@@ -453,17 +454,105 @@ fn write_exr(
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
+    // The exr crate writes custom attributes in the iteration order of a randomly seeded
+    // HashMap, so the same frame would get different bytes in different processes. Write the
+    // image without them, then splice them into the header in name order.
+    let mut attributes = attributes;
+    let mut custom: Vec<_> = attributes.other.drain().collect();
+    custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
     let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
-        .to_buffered(writer)
+        .non_parallel()
+        .to_buffered(&mut bytes)
         .map_err(|e| match e {
             exr::error::Error::Io(e) => Error::io(path, e),
             other => Error::Output {
                 path: path.to_path_buf(),
                 message: format!("EXR encoder: {other}"),
             },
-        })
+        })?;
+    let chunks = (height as usize).div_ceil(16);
+    let bytes = splice_exr_attributes(bytes.into_inner(), &custom, chunks).map_err(|message| {
+        Error::Output {
+            path: path.to_path_buf(),
+            message,
+        }
+    })?;
+    writer.write_all(&bytes).map_err(|e| Error::io(path, e))
+}
+
+/// Inserts `attributes` at the end of the header of a single-part scanline EXR file with
+/// `chunks` chunks, and moves the offset table's entries by the inserted length. (OpenEXR file
+/// layout: magic and version, attributes as `name\0 type\0 size value`, a null byte, the offset
+/// table of u64 file positions, the chunks.)
+fn splice_exr_attributes(
+    file: Vec<u8>,
+    attributes: &[(
+        exr::meta::attribute::Text,
+        exr::meta::attribute::AttributeValue,
+    )],
+    chunks: usize,
+) -> Result<Vec<u8>, String> {
+    use exr::meta::attribute::AttributeValue;
+    let malformed = || "EXR encoder produced an unexpected header".to_string();
+    // Find the null byte that ends the header.
+    let mut pos = 8;
+    loop {
+        let name_end = pos
+            + file
+                .get(pos..)
+                .and_then(|r| r.iter().position(|&b| b == 0))
+                .ok_or_else(malformed)?;
+        if name_end == pos {
+            break;
+        }
+        let type_end = name_end
+            + 1
+            + file
+                .get(name_end + 1..)
+                .and_then(|r| r.iter().position(|&b| b == 0))
+                .ok_or_else(malformed)?;
+        let size_bytes: [u8; 4] = file
+            .get(type_end + 1..type_end + 5)
+            .ok_or_else(malformed)?
+            .try_into()
+            .unwrap();
+        pos = type_end + 5 + u32::from_le_bytes(size_bytes) as usize;
+    }
+    let mut inserted = Vec::new();
+    for (name, value) in attributes {
+        let (kind, data): (&str, Vec<u8>) = match value {
+            AttributeValue::I32(v) => ("int", v.to_le_bytes().to_vec()),
+            AttributeValue::F64(v) => ("double", v.to_le_bytes().to_vec()),
+            AttributeValue::Text(t) => ("string", t.as_slice().to_vec()),
+            other => return Err(format!("unsupported custom attribute {other:?}")),
+        };
+        inserted.extend_from_slice(name.as_slice());
+        inserted.push(0);
+        inserted.extend_from_slice(kind.as_bytes());
+        inserted.push(0);
+        inserted.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        inserted.extend_from_slice(&data);
+    }
+    let delta = inserted.len() as u64;
+    let table = pos + 1;
+    let mut out = Vec::with_capacity(file.len() + inserted.len());
+    out.extend_from_slice(&file[..pos]);
+    out.extend_from_slice(&inserted);
+    out.push(0);
+    for i in 0..chunks {
+        let at = table + 8 * i;
+        let entry: [u8; 8] = file
+            .get(at..at + 8)
+            .ok_or_else(malformed)?
+            .try_into()
+            .unwrap();
+        out.extend_from_slice(&(u64::from_le_bytes(entry) + delta).to_le_bytes());
+    }
+    out.extend_from_slice(&file[table + 8 * chunks..]);
+    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -715,7 +804,8 @@ mod tests {
         let path = dir.path().join("sub/x.exr");
         let rgb = pixels(2, 2);
         for (name, why) in [
-            ("", "1 to 255"),
+            ("", "1 to 31"),
+            ("an_attribute_name_of_32_letters_", "1 to 31"),
             ("seed", "reserved"),
             ("framesPerSecond", "reserved"),
             ("a\nb", "control"),

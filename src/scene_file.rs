@@ -144,7 +144,8 @@ impl<'de> Deserialize<'de> for MaterialRef {
                 Ok(MaterialRef::Name(s.to_string()))
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
-                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map)).map(MaterialRef::Inline)
+                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(MaterialRef::Inline)
             }
         }
         d.deserialize_any(V)
@@ -184,7 +185,9 @@ pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
         let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
         Error::Scene(format!("{file}:{line}:{col}: {}", e.message().trim_end()))
     })?;
-    Check { file: &file }.scene(raw, source).map_err(Error::Scene)
+    Check { file: &file }
+        .scene(raw, source)
+        .map_err(Error::Scene)
 }
 
 /// The 1-based line and column of byte `offset` in `text`.
@@ -197,7 +200,11 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 
 /// Formats a number as the scene file would, with negative zero shown as `-0`.
 fn show(x: f64) -> String {
-    if x.is_nan() { "nan".into() } else { format!("{x}") }
+    if x.is_nan() {
+        "nan".into()
+    } else {
+        format!("{x}")
+    }
 }
 
 /// The validator: every method checks one kind of value and names the field on failure.
@@ -213,10 +220,16 @@ impl Check<'_> {
     /// Any finite number that fits the single-precision range frames are stored in.
     fn num(&self, field: &str, x: f64) -> Result<f64, String> {
         if !x.is_finite() {
-            return self.err(format_args!("{field} must be a finite number, got {}", show(x)));
+            return self.err(format_args!(
+                "{field} must be a finite number, got {}",
+                show(x)
+            ));
         }
         if x.abs() > f32::MAX as f64 {
-            return self.err(format_args!("{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)", show(x)));
+            return self.err(format_args!(
+                "{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)",
+                show(x)
+            ));
         }
         Ok(x)
     }
@@ -230,7 +243,11 @@ impl Check<'_> {
 
     fn positive(&self, field: &str, x: f64) -> Result<f64, String> {
         let x = self.num(field, x)?;
-        if x > 0.0 { Ok(x) } else { self.err(format_args!("{field} must be > 0, got {}", show(x))) }
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            self.err(format_args!("{field} must be > 0, got {}", show(x)))
+        }
     }
 
     /// `>= 0`; negative zero is rejected too (it usually means a sign error upstream).
@@ -263,8 +280,18 @@ impl Check<'_> {
         let shot = self.shot(&raw.shot)?;
         let output = self.output(&raw.output, source)?;
         let render = RenderSettings {
-            samples: self.int("render.samples", raw.render.samples.unwrap_or(16), 1, u32::MAX as i64)? as u32,
-            max_depth: self.int("render.max_depth", raw.render.max_depth.unwrap_or(50), 1, u32::MAX as i64)? as u32,
+            samples: self.int(
+                "render.samples",
+                raw.render.samples.unwrap_or(16),
+                1,
+                u32::MAX as i64,
+            )? as u32,
+            max_depth: self.int(
+                "render.max_depth",
+                raw.render.max_depth.unwrap_or(50),
+                1,
+                u32::MAX as i64,
+            )? as u32,
             seed: self.int("render.seed", raw.render.seed.unwrap_or(0), 0, i64::MAX)? as u64,
         };
         let camera = self.camera(&raw.camera)?;
@@ -286,7 +313,11 @@ impl Check<'_> {
                     Some(&m) => m,
                     None => {
                         let known: Vec<&str> = names.keys().copied().collect();
-                        let known = if known.is_empty() { "none defined".to_string() } else { known.join(", ") };
+                        let known = if known.is_empty() {
+                            "none defined".to_string()
+                        } else {
+                            known.join(", ")
+                        };
                         return self.err(format_args!(
                             "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
                         ));
@@ -303,13 +334,27 @@ impl Check<'_> {
                 material,
             });
         }
-        Ok(Scene { source: source.to_path_buf(), shot, output, render, camera, background, materials, spheres })
+        Ok(Scene {
+            source: source.to_path_buf(),
+            shot,
+            output,
+            render,
+            camera,
+            background,
+            materials,
+            spheres,
+        })
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
         let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
         let frames = self.int("shot.frames", s.frames.unwrap_or(1), 1, u32::MAX as i64)?;
-        let first_frame = self.int("shot.first_frame", s.first_frame.unwrap_or(1), 0, u32::MAX as i64)?;
+        let first_frame = self.int(
+            "shot.first_frame",
+            s.first_frame.unwrap_or(1),
+            0,
+            u32::MAX as i64,
+        )?;
         if first_frame + frames - 1 > u32::MAX as i64 {
             return self.err(format_args!(
                 "shot.first_frame + shot.frames - 1 must be at most {}, got {}",
@@ -318,9 +363,14 @@ impl Check<'_> {
             ));
         }
         let shutter = match (s.shutter, s.shutter_angle) {
-            (Some(_), Some(_)) => return self.err("shot: give at most one of shutter and shutter_angle"),
+            (Some(_), Some(_)) => {
+                return self.err("shot: give at most one of shutter and shutter_angle");
+            }
             (Some(x), None) => self.non_negative("shot.shutter", x)?,
-            (None, a) => shutter_from_angle(self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?, fps),
+            (None, a) => shutter_from_angle(
+                self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?,
+                fps,
+            ),
         };
         let shutter = self.num("shot.shutter", shutter)?;
         let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
@@ -343,7 +393,9 @@ impl Check<'_> {
             Some(p) if p.trim().is_empty() => return self.err("output.path must not be empty"),
             Some(p) => p.clone(),
             None => {
-                let stem = source.file_stem().map_or("frame".into(), |s| s.to_string_lossy().into_owned());
+                let stem = source
+                    .file_stem()
+                    .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
                 format!("{stem}_####.png")
             }
         };
@@ -356,15 +408,25 @@ impl Check<'_> {
 
     fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
         Ok(match m {
-            RawMaterial::Lambertian { albedo } => Material::Lambertian { albedo: self.color(&format!("{field}.albedo"), *albedo)? },
+            RawMaterial::Lambertian { albedo } => Material::Lambertian {
+                albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+            },
             RawMaterial::Metal { albedo, fuzz } => {
                 let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
                 if fuzz > 1.0 {
-                    return self.err(format_args!("{field}.fuzz must be in [0, 1], got {}", show(fuzz)));
+                    return self.err(format_args!(
+                        "{field}.fuzz must be in [0, 1], got {}",
+                        show(fuzz)
+                    ));
                 }
-                Material::Metal { albedo: self.color(&format!("{field}.albedo"), *albedo)?, fuzz }
+                Material::Metal {
+                    albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                    fuzz,
+                }
             }
-            RawMaterial::Dielectric { ior } => Material::Dielectric { ior: self.positive(&format!("{field}.ior"), *ior)? },
+            RawMaterial::Dielectric { ior } => Material::Dielectric {
+                ior: self.positive(&format!("{field}.ior"), *ior)?,
+            },
         })
     }
 
@@ -372,15 +434,15 @@ impl Check<'_> {
         let mut out: Vec<f64> = Vec::new();
         for (i, t) in times.enumerate() {
             let t = self.num(&format!("{field}[{i}].time"), t)?;
-            if let Some(&prev) = out.last() {
-                if t <= prev {
-                    return self.err(format_args!(
-                        "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
-                        i - 1,
-                        show(prev),
-                        show(t)
-                    ));
-                }
+            if let Some(&prev) = out.last()
+                && t <= prev
+            {
+                return self.err(format_args!(
+                    "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
+                    i - 1,
+                    show(prev),
+                    show(t)
+                ));
             }
             out.push(t);
         }
@@ -391,13 +453,21 @@ impl Check<'_> {
     }
 
     fn sphere_motion(&self, field: &str, s: &RawSphere) -> Result<Motion, String> {
-        let kinds = [s.velocity.is_some(), s.keyframes.is_some(), s.orbit.is_some()];
+        let kinds = [
+            s.velocity.is_some(),
+            s.keyframes.is_some(),
+            s.orbit.is_some(),
+        ];
         if kinds.iter().filter(|k| **k).count() > 1 {
-            return self.err(format_args!("{field}: give at most one of velocity, keyframes and orbit"));
+            return self.err(format_args!(
+                "{field}: give at most one of velocity, keyframes and orbit"
+            ));
         }
         if let Some(keys) = &s.keyframes {
             if s.center.is_some() {
-                return self.err(format_args!("{field}: keyframes replace center; give one of them"));
+                return self.err(format_args!(
+                    "{field}: keyframes replace center; give one of them"
+                ));
             }
             let kf = format!("{field}.keyframes");
             let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
@@ -405,7 +475,12 @@ impl Check<'_> {
                 .iter()
                 .zip(times)
                 .enumerate()
-                .map(|(i, (k, time))| Ok(Key { time, position: self.vec(&format!("{kf}[{i}].center"), k.center)? }))
+                .map(|(i, (k, time))| {
+                    Ok(Key {
+                        time,
+                        position: self.vec(&format!("{kf}[{i}].center"), k.center)?,
+                    })
+                })
                 .collect::<Result<Vec<_>, String>>()?;
             return Ok(Motion::Keyframes(keys));
         }
@@ -414,10 +489,18 @@ impl Check<'_> {
         };
         let origin = self.vec(&format!("{field}.center"), center)?;
         if let Some(v) = s.velocity {
-            return Ok(Motion::Velocity { origin, velocity: self.vec(&format!("{field}.velocity"), v)? });
+            return Ok(Motion::Velocity {
+                origin,
+                velocity: self.vec(&format!("{field}.velocity"), v)?,
+            });
         }
         if let Some(o) = &s.orbit {
-            let orbit = self.orbit(&format!("{field}.orbit"), o.pivot, o.axis, o.degrees_per_second)?;
+            let orbit = self.orbit(
+                &format!("{field}.orbit"),
+                o.pivot,
+                o.axis,
+                o.degrees_per_second,
+            )?;
             return Ok(Motion::Orbit { origin, orbit });
         }
         Ok(Motion::Still(origin))
@@ -431,14 +514,21 @@ impl Check<'_> {
         if !(len > 0.0 && len.is_finite()) {
             return self.err(format_args!("{field}.axis must be a non-zero vector"));
         }
-        Ok(Orbit { pivot, axis: axis / len, degrees_per_second })
+        Ok(Orbit {
+            pivot,
+            axis: axis / len,
+            degrees_per_second,
+        })
     }
 
     /// Checks that a view is not degenerate.
     fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
         let view = at - from;
         if view.length() == 0.0 {
-            return self.err(format_args!("{field}: look_from and look_at must differ, both are {}", fmt_v(from)));
+            return self.err(format_args!(
+                "{field}: look_from and look_at must differ, both are {}",
+                fmt_v(from)
+            ));
         }
         if up.length() == 0.0 {
             return self.err("camera.up must be a non-zero vector");
@@ -459,17 +549,34 @@ impl Check<'_> {
         let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
         let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
         if vfov >= 180.0 {
-            return self.err(format_args!("camera.vfov must be < 180, got {}", show(vfov)));
+            return self.err(format_args!(
+                "camera.vfov must be < 180, got {}",
+                show(vfov)
+            ));
         }
         let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
-        let focus_distance = c.focus_distance.map(|f| self.positive("camera.focus_distance", f)).transpose()?;
+        let focus_distance = c
+            .focus_distance
+            .map(|f| self.positive("camera.focus_distance", f))
+            .transpose()?;
         if c.orbit.is_some() && c.keyframes.is_some() {
             return self.err("camera: give at most one of orbit and keyframes");
         }
         let (look_from, look_at) = if let Some(o) = &c.orbit {
             self.view("camera", from, at, up)?;
-            let orbit = self.orbit("camera.orbit", at.to_array(), up.to_array(), o.degrees_per_second)?;
-            (Motion::Orbit { origin: from, orbit }, Motion::Still(at))
+            let orbit = self.orbit(
+                "camera.orbit",
+                at.to_array(),
+                up.to_array(),
+                o.degrees_per_second,
+            )?;
+            (
+                Motion::Orbit {
+                    origin: from,
+                    orbit,
+                },
+                Motion::Still(at),
+            )
         } else if let Some(keys) = &c.keyframes {
             let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
             let (mut f, mut a) = (from, at);
@@ -491,10 +598,271 @@ impl Check<'_> {
             self.view("camera", from, at, up)?;
             (Motion::Still(from), Motion::Still(at))
         };
-        Ok(CameraRig { look_from, look_at, up, vfov, aperture, focus_distance })
+        Ok(CameraRig {
+            look_from,
+            look_at,
+            up,
+            vfov,
+            aperture,
+            focus_distance,
+        })
     }
 }
 
 fn fmt_v(v: DVec3) -> String {
     format!("[{}, {}, {}]", show(v.x), show(v.y), show(v.z))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ok(text: &str) -> Scene {
+        parse(text, Path::new("s.toml")).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn err(text: &str) -> String {
+        match parse(text, Path::new("s.toml")) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn empty_scene_has_every_default() {
+        let s = ok("");
+        assert_eq!(s.shot, Shot::default());
+        assert_eq!(s.shot.shutter, 1.0 / 48.0);
+        assert_eq!(s.output.path, "s_####.png");
+        assert_eq!((s.output.width, s.output.height), (400, 225));
+        assert_eq!(
+            s.render,
+            RenderSettings {
+                samples: 16,
+                max_depth: 50,
+                seed: 0
+            }
+        );
+        assert_eq!(s.camera.look_from, Motion::Still(DVec3::ZERO));
+        assert_eq!(s.camera.look_at, Motion::Still(DVec3::new(0.0, 0.0, -1.0)));
+        assert_eq!(
+            (s.camera.up, s.camera.vfov, s.camera.aperture),
+            (DVec3::Y, 90.0, 0.0)
+        );
+        assert_eq!(s.camera.focus_distance, None);
+        assert_eq!(s.background, Background::Sky);
+        assert!(s.spheres.is_empty() && s.materials.is_empty());
+    }
+
+    #[test]
+    fn the_contracts_example_parses() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/scene-format.md"
+        ));
+        // The contract sits beside the project in development; the same example is kept here.
+        let example = text.ok().and_then(|t| {
+            let start = t.find("```toml\n")? + 8;
+            let end = start + t[start..].find("```")?;
+            Some(t[start..end].to_string())
+        });
+        let example = example.unwrap_or_else(|| CONTRACT_EXAMPLE.to_string());
+        let s = ok(&example);
+        assert_eq!(s.spheres.len(), 4);
+        assert_eq!(s.shot.shutter, 0.0208333);
+        assert!(matches!(s.spheres[1].motion, Motion::Velocity { .. }));
+        assert!(matches!(s.spheres[2].motion, Motion::Keyframes(_)));
+        assert!(matches!(s.spheres[3].motion, Motion::Orbit { .. }));
+        assert_eq!(s.materials.len(), 3);
+        assert_eq!(s.background, Background::Uniform(DVec3::ONE));
+        ok(CONTRACT_EXAMPLE);
+    }
+
+    const CONTRACT_EXAMPLE: &str = r#"
+[shot]
+fps = 24.0
+frames = 48
+first_frame = 1
+start_time = 0.0
+shutter = 0.0208333
+shutter_position = "center"
+[output]
+path = "renders/shot_####.exr"
+[render]
+samples = 100
+[camera]
+look_from = [13.0, 2.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+vfov = 20.0
+aperture = 0.1
+focus_distance = 10.0
+[background]
+color = [1.0, 1.0, 1.0]
+[materials]
+ground = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
+steel  = { type = "metal", albedo = [0.7, 0.6, 0.5], fuzz = 0.0 }
+glass  = { type = "dielectric", ior = 1.5 }
+[[sphere]]
+center = [0.0, -1000.0, 0.0]
+radius = 1000.0
+material = "ground"
+[[sphere]]
+center = [1.2, 0.2, 3.4]
+radius = 0.2
+material = "steel"
+velocity = [0.0, 0.25, 0.0]
+[[sphere]]
+radius = 0.5
+material = "glass"
+keyframes = [ { time = 0.0, center = [0, 1, 0] }, { time = 1.0, center = [2, 1, 0] } ]
+[[sphere]]
+center = [0.0, 1.0, 0.0]
+radius = 0.3
+material = "steel"
+orbit = { pivot = [0.0, 1.0, 0.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 90.0 }
+"#;
+
+    #[test]
+    fn shutter_angle_and_seconds() {
+        assert_eq!(
+            ok("[shot]\nfps = 25\nshutter_angle = 90\n").shot.shutter,
+            0.01
+        );
+        assert_eq!(ok("[shot]\nshutter = 0.004\n").shot.shutter, 0.004);
+        assert_eq!(
+            ok("[shot]\nshutter_position = \"end\"\n").shot.position,
+            ShutterPosition::End
+        );
+    }
+
+    #[test]
+    fn materials_by_name_and_inline() {
+        let s = ok(r#"
+[materials]
+a = { type = "metal", albedo = [0.1, 0.2, 0.3] }
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "a"
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = { type = "dielectric", ior = 1.33 }
+"#);
+        assert_eq!(
+            s.materials[s.spheres[0].material as usize],
+            Material::Metal {
+                albedo: DVec3::new(0.1, 0.2, 0.3),
+                fuzz: 0.0
+            }
+        );
+        assert_eq!(
+            s.materials[s.spheres[1].material as usize],
+            Material::Dielectric { ior: 1.33 }
+        );
+    }
+
+    #[test]
+    fn orbit_axis_is_normalised_and_camera_motions_convert() {
+        let s = ok(
+            "[[sphere]]\ncenter = [1, 0, 0]\nradius = 0.1\nmaterial = { type = \"lambertian\", albedo = [1, 1, 1] }\norbit = { pivot = [0, 0, 0], axis = [0, 2, 0], degrees_per_second = 10 }\n",
+        );
+        let Motion::Orbit { orbit, .. } = &s.spheres[0].motion else {
+            panic!()
+        };
+        assert_eq!(orbit.axis, DVec3::Y);
+        let s = ok(
+            "[camera]\nlook_from = [0, 1, 5]\nlook_at = [0, 1, 0]\norbit = { degrees_per_second = 45 }\n",
+        );
+        let Motion::Orbit { origin, orbit } = &s.camera.look_from else {
+            panic!()
+        };
+        assert_eq!(
+            (*origin, orbit.pivot, orbit.axis),
+            (
+                DVec3::new(0.0, 1.0, 5.0),
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::Y
+            )
+        );
+        let s = ok(r#"
+[camera]
+look_from = [0, 0, 5]
+look_at = [0, 0, 0]
+keyframes = [ { time = 0 }, { time = 1, look_from = [5, 0, 0] }, { time = 2, look_at = [0, 1, 0] } ]
+"#);
+        let (Motion::Keyframes(f), Motion::Keyframes(a)) = (&s.camera.look_from, &s.camera.look_at)
+        else {
+            panic!()
+        };
+        assert_eq!(
+            f.iter().map(|k| k.position).collect::<Vec<_>>(),
+            [
+                DVec3::new(0.0, 0.0, 5.0),
+                DVec3::new(5.0, 0.0, 0.0),
+                DVec3::new(5.0, 0.0, 0.0)
+            ]
+        );
+        assert_eq!(
+            a.iter().map(|k| k.position).collect::<Vec<_>>(),
+            [DVec3::ZERO, DVec3::ZERO, DVec3::Y]
+        );
+    }
+
+    #[test]
+    fn malformed_scenes_name_the_place() {
+        let sphere = |extra: &str| {
+            format!(
+                "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}\n{extra}"
+            )
+        };
+        let cases: Vec<(String, &str)> = vec![
+            ("[shot]\nfpz = 3\n".into(), "s.toml:2:1"),
+            ("[camera]\nlook_from = [0, 0]\n".into(), "s.toml:2:"),
+            ("[[sphere]]\ncenter = [0, 0, 0]\nmaterial = \"x\"\n".into(), "radius"),
+            ("[shot]\nfps = nan\n".into(), "shot.fps must be a finite number, got nan"),
+            ("[shot]\nfps = inf\n".into(), "shot.fps"),
+            ("[shot]\nstart_time = 1e39\n".into(), "shot.start_time is too large"),
+            ("[shot]\nshutter = -0.0\n".into(), "shot.shutter must be >= 0, got -0"),
+            ("[shot]\nframes = 0\n".into(), "shot.frames must be in 1"),
+            ("[shot]\nframes = -4\n".into(), "shot.frames"),
+            ("[shot]\nfirst_frame = 4294967295\nframes = 2\n".into(), "first_frame + shot.frames"),
+            ("[camera]\naperture = -0.0\n".into(), "camera.aperture"),
+            ("[camera]\nvfov = 180\n".into(), "camera.vfov must be < 180"),
+            ("[camera]\nup = [0, 0, 2]\n".into(), "parallel"),
+            ("[camera]\nup = [0, 0, 0]\n".into(), "camera.up"),
+            ("[camera]\norbit = { degrees_per_second = 1 }\nkeyframes = [ { time = 0 } ]\n".into(), "at most one of orbit and keyframes"),
+            ("[camera]\nkeyframes = []\n".into(), "camera.keyframes must have at least one key"),
+            ("[camera]\nkeyframes = [ { time = 1 }, { time = 1 } ]\n".into(), "camera.keyframes[1].time must be greater"),
+            ("[camera]\nkeyframes = [ { time = 0, look_at = [0, 0, 0] } ]\n".into(), "camera.keyframes[0]: look_from and look_at must differ"),
+            (sphere("velocity = [1, 0, 0]\norbit = { pivot = [0, 0, 0], axis = [0, 1, 0], degrees_per_second = 1 }\n"), "sphere[0]: give at most one"),
+            (sphere("keyframes = [ { time = 0, center = [0, 0, 0] } ]\n"), "keyframes replace center"),
+            (sphere("orbit = { pivot = [0, 0, 0], axis = [0, 0, 0], degrees_per_second = 1 }\n"), "sphere[0].orbit.axis must be a non-zero"),
+            (sphere("velocity = [0, nan, 0]\n"), "sphere[0].velocity[1]"),
+            ("[[sphere]]\ncenter = [0, 0, 0]\nradius = -0.0\nmaterial = \"m\"\n[materials]\nm = { type = \"dielectric\", ior = 1 }\n".into(), "sphere[0].radius must be > 0, got -0"),
+            ("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"steel\"\n".into(), "sphere[0].material \"steel\" is not a material"),
+            ("[materials]\nm = { type = \"plastic\" }\n".into(), "plastic"),
+            ("[materials]\nm = { type = \"metal\", albedo = [1, 1, 1], fuzz = 2 }\n".into(), "materials.m.fuzz must be in [0, 1], got 2"),
+            ("[materials]\nm = { type = \"metal\", albedo = [1, 1, 1], shine = 2 }\n".into(), "shine"),
+            ("[materials]\nm = { type = \"lambertian\", albedo = [-1, 1, 1] }\n".into(), "materials.m.albedo[0] must be >= 0"),
+            ("[background]\ncolor = [1, 1, inf]\n".into(), "background.color[2]"),
+            ("[output]\nwidth = 0\n".into(), "output.width"),
+            ("[render]\nseed = -1\n".into(), "render.seed"),
+            ("[render]\nsamples = 0\n".into(), "render.samples"),
+            ("[shot]\nshutter = 0.1\nshutter_angle = 10\n".into(), "at most one of shutter and shutter_angle"),
+            ("[shot]\nshutter_position = \"middle\"\n".into(), "s.toml:2:"),
+            ("[shot\n".into(), "s.toml:1:"),
+        ];
+        for (text, want) in cases {
+            let e = err(&text);
+            assert!(e.contains(want), "{text:?}: {e:?} lacks {want:?}");
+            assert!(e.starts_with("s.toml"), "{e}");
+        }
+    }
+
+    #[test]
+    fn negative_zero_coordinates_are_zero() {
+        let s = ok("[camera]\nlook_from = [-0.0, 0, 0]\n");
+        assert_eq!(s.camera.look_from.at(0.0), DVec3::ZERO);
+    }
 }

@@ -6,11 +6,19 @@ use std::process::{Command, Output};
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
 
 fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN).args(args).current_dir(dir).output().expect("run raytrace")
+    Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run raytrace")
 }
 
 fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// Every file below `dir`, relative, sorted.
@@ -74,15 +82,28 @@ fn renders_every_frame_with_padded_names() {
     let d = setup(SMALL);
     let o = run(d.path(), &["render", "shot.toml"]);
     assert!(o.status.success(), "{}", text(&o));
-    let want: Vec<PathBuf> = ["out/f_0001.exr", "out/f_0002.exr", "out/f_0003.exr", "out/f_0004.exr", "shot.toml"]
-        .iter()
-        .map(PathBuf::from)
-        .collect();
+    let want: Vec<PathBuf> = [
+        "out/f_0001.exr",
+        "out/f_0002.exr",
+        "out/f_0003.exr",
+        "out/f_0004.exr",
+        "shot.toml",
+    ]
+    .iter()
+    .map(PathBuf::from)
+    .collect();
     assert_eq!(files(d.path()), want);
     // One summary line per frame, and a total.
     let out = String::from_utf8_lossy(&o.stdout);
-    assert_eq!(out.lines().filter(|l| l.starts_with("frame ")).count(), 4, "{out}");
-    assert!(out.lines().last().unwrap().contains("4 frames rendered"), "{out}");
+    assert_eq!(
+        out.lines().filter(|l| l.starts_with("frame ")).count(),
+        4,
+        "{out}"
+    );
+    assert!(
+        out.lines().last().unwrap().contains("4 frames rendered"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -92,13 +113,49 @@ fn frame_is_identical_alone_in_a_range_and_on_any_thread_count() {
         let o = run(d.path(), args);
         assert!(o.status.success(), "{}", text(&o));
     };
-    ok(&["render", "shot.toml", "--threads", "1", "--frames", "3", "--output", "a/f_####.exr"]);
-    ok(&["render", "shot.toml", "--threads", "2", "--frames", "3", "--output", "b/f_####.exr"]);
-    ok(&["render", "shot.toml", "--threads", "2", "--frames", "1-4", "--output", "c/f_####.exr"]);
+    ok(&[
+        "render",
+        "shot.toml",
+        "--threads",
+        "1",
+        "--frames",
+        "3",
+        "--output",
+        "a/f_####.exr",
+    ]);
+    ok(&[
+        "render",
+        "shot.toml",
+        "--threads",
+        "2",
+        "--frames",
+        "3",
+        "--output",
+        "b/f_####.exr",
+    ]);
+    ok(&[
+        "render",
+        "shot.toml",
+        "--threads",
+        "2",
+        "--frames",
+        "1-4",
+        "--output",
+        "c/f_####.exr",
+    ]);
     let read = |p: &str| std::fs::read(d.path().join(p)).unwrap();
-    assert_eq!(read("a/f_0003.exr"), read("b/f_0003.exr"));
-    assert_eq!(read("a/f_0003.exr"), read("c/f_0003.exr"));
-    assert_ne!(read("c/f_0002.exr"), read("c/f_0003.exr"));
+    assert!(
+        read("a/f_0003.exr") == read("b/f_0003.exr"),
+        "1 and 2 threads differ"
+    );
+    assert!(
+        read("a/f_0003.exr") == read("c/f_0003.exr"),
+        "alone and in a range differ"
+    );
+    assert!(
+        read("c/f_0002.exr") != read("c/f_0003.exr"),
+        "two frames are the same"
+    );
 }
 
 #[test]
@@ -106,17 +163,29 @@ fn exr_has_linear_float_channels_and_frame_attributes() {
     let d = setup(SMALL);
     let o = run(d.path(), &["render", "shot.toml", "--frames", "2"]);
     assert!(o.status.success(), "{}", text(&o));
-    let img = exr::prelude::read_all_flat_layers_from_file(d.path().join("out/f_0002.exr")).unwrap();
+    let img =
+        exr::prelude::read_all_flat_layers_from_file(d.path().join("out/f_0002.exr")).unwrap();
     let layer = &img.layer_data[0];
     assert_eq!(layer.size, exr::math::Vec2(24, 16));
-    let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    let names: Vec<String> = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
     assert_eq!(names, ["B", "G", "R"]);
     for c in &layer.channel_data.list {
         assert!(matches!(c.sample_data, exr::image::FlatSamples::F32(_)));
     }
-    assert!(matches!(layer.encoding.compression, exr::compression::Compression::ZIP16 | exr::compression::Compression::ZIP1 | exr::compression::Compression::PIZ));
-    let attrs = format!("{:?} {:?}", img.attributes, layer.attributes);
-    for key in ["framesPerSecond", "frame", "shutterOpen", "shutterClose", "samples", "seed"] {
+    assert!(matches!(
+        layer.encoding.compression,
+        exr::compression::Compression::ZIP16
+            | exr::compression::Compression::ZIP1
+            | exr::compression::Compression::PIZ
+    ));
+    assert_eq!(layer.attributes.frames_per_second, Some((24, 1)));
+    let attrs = format!("{:?}", layer.attributes.other);
+    for key in ["frame", "shutterOpen", "shutterClose", "samples", "seed"] {
         assert!(attrs.contains(key), "attribute {key} missing: {attrs}");
     }
 }
@@ -145,7 +214,11 @@ fn default_output_is_named_after_the_scene() {
     let d = setup("[output]\nwidth = 4\nheight = 4\n");
     let o = run(d.path(), &["render", "shot.toml"]);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(d.path().join("shot_0001.png").exists(), "{:?}", files(d.path()));
+    assert!(
+        d.path().join("shot_0001.png").exists(),
+        "{:?}",
+        files(d.path())
+    );
 }
 
 #[test]
@@ -155,7 +228,10 @@ fn skip_existing_leaves_frames_untouched() {
     std::fs::write(d.path().join("out/f_0002.exr"), b"keep me").unwrap();
     let o = run(d.path(), &["render", "shot.toml", "--skip-existing"]);
     assert!(o.status.success(), "{}", text(&o));
-    assert_eq!(std::fs::read(d.path().join("out/f_0002.exr")).unwrap(), b"keep me");
+    assert_eq!(
+        std::fs::read(d.path().join("out/f_0002.exr")).unwrap(),
+        b"keep me"
+    );
     assert_eq!(files(d.path()).len(), 5);
     assert!(text(&o).contains("skipped"));
 }
@@ -166,17 +242,58 @@ fn check_describes_the_shot() {
     let o = run(d.path(), &["check", "shot.toml", "--chunk-size", "3"]);
     assert!(o.status.success(), "{}", text(&o));
     let out = text(&o);
-    for want in ["4 frames", "spheres: 2 (1 moving", "thin lens", "chunks: 2", "total samples: 6144"] {
+    for want in [
+        "4 frames",
+        "spheres: 2 (1 moving",
+        "thin lens",
+        "chunks: 2",
+        "total samples: 6144",
+    ] {
         assert!(out.contains(want), "missing {want:?} in\n{out}");
     }
     // Frame 2 at 24 fps with a centred 1/48 s shutter.
-    assert!(out.contains(&format!("2: shutter [{}, {}]", 1.0 / 24.0 - 1.0 / 96.0, 1.0 / 24.0 + 1.0 / 96.0)), "{out}");
+    assert!(
+        out.contains(&format!(
+            "2: shutter [{}, {}]",
+            1.0 / 24.0 - 1.0 / 96.0,
+            1.0 / 24.0 + 1.0 / 96.0
+        )),
+        "{out}"
+    );
     assert_eq!(files(d.path()), [PathBuf::from("shot.toml")]);
 }
 
 #[test]
+fn bare_frames_means_every_frame_and_lists_select_some() {
+    let d = setup(SMALL);
+    let o = run(d.path(), &["render", "shot.toml", "--frames"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(files(d.path()).len(), 5);
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--frames",
+            "1,3-4:1",
+            "--output",
+            "sel/x_#.png",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let names: Vec<String> = files(&d.path().join("sel"))
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    assert_eq!(names, ["x_1.png", "x_3.png", "x_4.png"]);
+}
+
+#[test]
 fn help_has_examples() {
-    let o = Command::new(BIN).args(["render", "--help"]).output().unwrap();
+    let o = Command::new(BIN)
+        .args(["render", "--help"])
+        .output()
+        .unwrap();
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stdout).contains("Examples:"));
 }
@@ -190,20 +307,44 @@ fn bad_input_exits_2_with_a_located_message_and_writes_nothing() {
         ("[shot]\nfps = 24.0\nfps_typo = 1\n", &[], "shot.toml:3:1"),
         ("[shot\nfps = 24.0\n", &[], "shot.toml:1:"),
         ("[shot]\nframes = \"ten\"\n", &[], "shot.toml:2:"),
-        ("[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = -1.0\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n", &[], "sphere[0].radius"),
-        ("[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"nope\"\n", &[], "sphere[0].material"),
-        ("[shot]\nshutter = 0.01\nshutter_angle = 90.0\n", &[], "shutter"),
-        ("[camera]\nlook_from = [0.0, 0.0, 0.0]\nlook_at = [0.0, 0.0, 0.0]\n", &[], "camera"),
+        (
+            "[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = -1.0\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
+            &[],
+            "sphere[0].radius",
+        ),
+        (
+            "[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"nope\"\n",
+            &[],
+            "sphere[0].material",
+        ),
+        (
+            "[shot]\nshutter = 0.01\nshutter_angle = 90.0\n",
+            &[],
+            "shutter",
+        ),
+        (
+            "[camera]\nlook_from = [0.0, 0.0, 0.0]\nlook_at = [0.0, 0.0, 0.0]\n",
+            &[],
+            "camera",
+        ),
         ("[camera]\nlook_at = [0.0, 1.0, 0.0]\n", &[], "camera"),
         ("[shot]\nframes = 4\n", &["--frames", "9"], "frame 9"),
         ("[shot]\nframes = 4\n", &["--frames", "3-1"], "--frames"),
         ("[shot]\nframes = 4\n", &["--frames", "x"], "--frames"),
         ("[shot]\nframes = 4\n", &["--output", "f.jpg"], "f.jpg"),
-        ("[shot]\nframes = 4\n", &["--output", "same.png"], "same.png"),
+        (
+            "[shot]\nframes = 4\n",
+            &["--output", "same.png"],
+            "same.png",
+        ),
         ("[shot]\nframes = 4\n", &["--samples", "0"], "--samples"),
-        ("[shot]\nframes = 4\n", &["--width", "-3"], "--width"),
+        ("[shot]\nframes = 4\n", &["--width", "0"], "--width"),
         ("[shot]\nframes = 4\n", &["--threads", "0"], "--threads"),
-        ("[shot]\nframes = 4\n", &["--chunk-size", "2", "--chunk", "7"], "chunk"),
+        (
+            "[shot]\nframes = 4\n",
+            &["--chunk-size", "2", "--chunk", "7"],
+            "chunk",
+        ),
         ("[shot]\nframes = 4\n", &["--bogus"], "--bogus"),
     ];
     for (scene, args, want) in cases {
@@ -213,9 +354,16 @@ fn bad_input_exits_2_with_a_located_message_and_writes_nothing() {
         let o = run(d.path(), &all);
         let msg = text(&o);
         assert_eq!(o.status.code(), Some(2), "{scene:?} {args:?}: {msg}");
-        assert!(msg.contains(want), "{scene:?} {args:?}: message lacks {want:?}: {msg}");
+        assert!(
+            msg.contains(want),
+            "{scene:?} {args:?}: message lacks {want:?}: {msg}"
+        );
         assert!(!msg.contains("panicked"), "{msg}");
-        assert_eq!(files(d.path()), [PathBuf::from("shot.toml")], "{scene:?} {args:?} wrote files");
+        assert_eq!(
+            files(d.path()),
+            [PathBuf::from("shot.toml")],
+            "{scene:?} {args:?} wrote files"
+        );
     }
     // A scene file that does not exist.
     let d = tempfile::tempdir().unwrap();

@@ -156,9 +156,9 @@ center = [0.0, 0.0, -10005.0]
 radius = 10000.0
 material = {{ type = "metal", albedo = [0.9, 0.9, 0.9], fuzz = 0.0 }}
 [[sphere]]
-center = [-1.5, 0.0, 3.0]
-radius = 0.8
-material = {{ type = "lambertian", albedo = [0.2, 0.3, 0.8] }}
+center = [-2.5, 0.0, 3.0]
+radius = 1.5
+material = {{ type = "lambertian", albedo = [0.02, 0.03, 0.08] }}
 velocity = [30.0, 0.0, 0.0]
 "#
     )
