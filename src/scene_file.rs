@@ -378,14 +378,25 @@ impl Check<'_> {
             RawShutterPosition::Center => ShutterPosition::Center,
             RawShutterPosition::End => ShutterPosition::End,
         };
-        Ok(Shot {
+        let shot = Shot {
             fps,
             frames: frames as u32,
             first_frame: first_frame as u32,
             start_time: self.num("shot.start_time", s.start_time.unwrap_or(0.0))?,
             shutter,
             position,
-        })
+        };
+        // A tiny fps over many frames can push the last frame's time out of range.
+        let whole = shot.whole_interval();
+        for t in [whole.open, whole.close] {
+            if !t.is_finite() || t.abs() > f32::MAX as f64 {
+                return self.err(format_args!(
+                    "shot: the last frame's time ({}) is out of range; check shot.fps and shot.frames",
+                    show(t)
+                ));
+            }
+        }
+        Ok(shot)
     }
 
     fn output(&self, o: &RawOutput, source: &Path) -> Result<OutputSettings, String> {
@@ -852,6 +863,7 @@ keyframes = [ { time = 0 }, { time = 1, look_from = [5, 0, 0] }, { time = 2, loo
             ("[shot]\nshutter = 0.1\nshutter_angle = 10\n".into(), "at most one of shutter and shutter_angle"),
             ("[shot]\nshutter_position = \"middle\"\n".into(), "s.toml:2:"),
             ("[shot\n".into(), "s.toml:1:"),
+            ("[shot]\nfps = 1e-38\nframes = 100\n".into(), "out of range"),
         ];
         for (text, want) in cases {
             let e = err(&text);
