@@ -2,16 +2,19 @@
 
 use glam::DVec3;
 
+use crate::bvh::TraversalStack;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
 use crate::sampler::Sampler;
 use crate::world::World;
 
-/// Counters kept while tracing.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
+#[derive(Clone, Debug, Default)]
 pub struct TraceStats {
     /// Rays intersected with the scene.
     pub rays: u64,
+    /// The hierarchy traversal's stack.
+    pub stack: TraversalStack,
 }
 
 /// The radiance arriving along `ray`, following at most `max_depth` bounces; a path that
@@ -29,7 +32,7 @@ pub fn radiance<S: Sampler>(
     let mut skip = u32::MAX;
     for _ in 0..max_depth {
         stats.rays += 1;
-        let Some(hit) = world.hit(&ray, skip) else {
+        let Some(hit) = world.hit(&ray, skip, &mut stats.stack) else {
             return throughput * world.background.radiance(ray.dir);
         };
         match hit.material.scatter(ray.dir, hit.surface.normal, sampler) {

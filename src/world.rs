@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use crate::aabb::Aabb;
-use crate::bvh::Bvh;
+use crate::bvh::{Bvh, TraversalStack};
 use crate::material::{Background, Material};
 use crate::motion::FrameMotion;
 use crate::ray::Ray;
@@ -63,9 +63,10 @@ impl Group {
         ray: &Ray,
         skip: u32,
         t_max: f64,
+        stack: &mut TraversalStack,
     ) -> Option<(f64, Prim)> {
         self.bvh
-            .closest_hit(ray.origin, ray.dir, t_max, |i, t_max| {
+            .closest_hit(ray.origin, ray.dir, t_max, stack, |i, t_max| {
                 let p = &self.prims[i as usize];
                 if p.id == skip {
                     return None;
@@ -186,15 +187,18 @@ impl<'a> World<'a> {
     }
 
     /// The nearest intersection of `ray` with any sphere except the one with index `skip`
-    /// (pass `u32::MAX` to skip none).
+    /// (pass `u32::MAX` to skip none). `stack` is scratch space, reused across calls.
     #[inline]
-    pub fn hit(&self, ray: &Ray, skip: u32) -> Option<Hit> {
+    pub fn hit(&self, ray: &Ray, skip: u32, stack: &mut TraversalStack) -> Option<Hit> {
         let mut best = self
             .statics
             .group
-            .closest(&self.motions, ray, skip, f64::INFINITY);
+            .closest(&self.motions, ray, skip, f64::INFINITY, stack);
         let t_max = best.map_or(f64::INFINITY, |b| b.0);
-        if let Some(h) = self.animated.closest(&self.motions, ray, skip, t_max) {
+        if let Some(h) = self
+            .animated
+            .closest(&self.motions, ray, skip, t_max, stack)
+        {
             best = Some(h);
         }
         best.map(|(t, p)| {
