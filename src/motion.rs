@@ -205,12 +205,7 @@ impl FrameMotion {
                 degrees0,
                 degrees_per_second,
                 t0,
-            } => {
-                let (s, c) = (degrees0 + degrees_per_second * (t - t0))
-                    .to_radians()
-                    .sin_cos();
-                *center + *e1 * c + *e2 * s
-            }
+            } => circle_point(*center, *e1, *e2, degrees0 + degrees_per_second * (t - t0)),
         }
     }
 
@@ -246,15 +241,19 @@ impl FrameMotion {
     }
 }
 
+/// The point at `degrees` on the circle `center + cos(a) e1 + sin(a) e2`.
+#[inline]
+fn circle_point(center: DVec3, e1: DVec3, e2: DVec3, degrees: f64) -> DVec3 {
+    let (s, c) = degrees.to_radians().sin_cos();
+    center + e1 * c + e2 * s
+}
+
 /// The box of the arc `center + cos(a) e1 + sin(a) e2` for `a` from `a0` to `a1` degrees
 /// (either order): its two end points plus, per axis, the circle's extreme points whose angles
 /// fall inside the arc.
 fn arc_bounds(center: DVec3, e1: DVec3, e2: DVec3, a0: f64, a1: f64) -> Aabb {
     let (lo, hi) = if a0 <= a1 { (a0, a1) } else { (a1, a0) };
-    let point = |deg: f64| {
-        let (s, c) = deg.to_radians().sin_cos();
-        center + e1 * c + e2 * s
-    };
+    let point = |deg: f64| circle_point(center, e1, e2, deg);
     let mut b = Aabb::point(point(lo)).union_point(point(hi));
     for axis in 0..3 {
         // Coordinate `axis` is center + e1[axis] cos a + e2[axis] sin a = center + A cos(a - phi).
