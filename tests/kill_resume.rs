@@ -177,7 +177,11 @@ fn assert_valid_exr(path: &Path) {
         .map(|c| c.name.to_string())
         .collect();
     for want in ["R", "G", "B"] {
-        assert!(names.iter().any(|n| n == want), "{}: channels {names:?}", path.display());
+        assert!(
+            names.iter().any(|n| n == want),
+            "{}: channels {names:?}",
+            path.display()
+        );
     }
     for c in &layer.channel_data.list {
         assert!(
@@ -193,10 +197,7 @@ fn frame_lines(stdout: &str) -> (Vec<u32>, Vec<u32>) {
     let mut rendered = Vec::new();
     let mut skipped = Vec::new();
     for line in stdout.lines() {
-        let Some((n, rest)) = line
-            .strip_prefix("frame ")
-            .and_then(|r| r.split_once(": "))
-        else {
+        let Some((n, rest)) = line.strip_prefix("frame ").and_then(|r| r.split_once(": ")) else {
             continue;
         };
         let n: u32 = n.parse().unwrap_or_else(|_| panic!("bad line {line:?}"));
@@ -220,7 +221,8 @@ fn killed_render_resumes_to_identical_frames() {
     // Start the render and kill it (SIGKILL) as soon as its first frame is on disk, that is
     // while it is busy with the next one.
     let mut cmd = Command::new(BIN);
-    cmd.args(["render", "shot.toml", "--threads", "1"]).current_dir(root);
+    cmd.args(["render", "shot.toml", "--threads", "1"])
+        .current_dir(root);
     println!("$ {cmd:?} &");
     let log = root.join("killed.log");
     let mut child = cmd
@@ -250,7 +252,11 @@ fn killed_render_resumes_to_identical_frames() {
         "killed pid {pid} after {:.2} s: {status}",
         start.elapsed().as_secs_f64()
     );
-    assert_eq!(status.signal(), Some(9), "the render was not killed: {status}");
+    assert_eq!(
+        status.signal(),
+        Some(9),
+        "the render was not killed: {status}"
+    );
 
     let (present, temps) = listing(&out);
     println!("after the kill: frames {present:?}, temporary files {temps:?}");
@@ -283,7 +289,10 @@ fn killed_render_resumes_to_identical_frames() {
             .unwrap();
     }
     let (frames_now, _) = listing(&out);
-    assert_eq!(frames_now, present, "a temporary file was taken for a frame");
+    assert_eq!(
+        frames_now, present,
+        "a temporary file was taken for a frame"
+    );
 
     // Resume.
     let o = run(root, &["render", "shot.toml", "--skip-existing"]);
@@ -294,7 +303,10 @@ fn killed_render_resumes_to_identical_frames() {
     assert_eq!(rendered, missing, "rendered frames\n{}", text(&o));
     let (after, temps_after) = listing(&out);
     assert_eq!(after, (1..=FRAMES).collect::<Vec<_>>());
-    assert!(temps_after.is_empty(), "temporary files left: {temps_after:?}");
+    assert!(
+        temps_after.is_empty(),
+        "temporary files left: {temps_after:?}"
+    );
     for (&f, bytes) in present.iter().zip(&before) {
         assert!(
             fs::read(frame_path(&out, f)).unwrap() == *bytes,
@@ -303,12 +315,18 @@ fn killed_render_resumes_to_identical_frames() {
     }
 
     // The same shot, uninterrupted and on all cores, into another folder: same bits.
-    let o = run(root, &["render", "shot.toml", "--output", "ref/shot_####.exr"]);
+    let o = run(
+        root,
+        &["render", "shot.toml", "--output", "ref/shot_####.exr"],
+    );
     assert!(o.status.success(), "{}", text(&o));
     for f in 1..=FRAMES {
         let a = fs::read(frame_path(&out, f)).unwrap();
         let b = fs::read(frame_path(&root.join("ref"), f)).unwrap();
-        assert!(a == b, "frame {f}: the resumed render differs from the uninterrupted one");
+        assert!(
+            a == b,
+            "frame {f}: the resumed render differs from the uninterrupted one"
+        );
     }
 }
 
@@ -352,14 +370,24 @@ fn can_create_file_in(dir: &Path) -> bool {
 /// unchanged, and there is no frame 2 and no temporary file.
 fn assert_failed_write_is_clean(root: &Path, dir: &Path, make_unwritable: impl FnOnce()) {
     let pattern = format!("{}/shot_####.exr", dir.display());
-    let o = run(root, &["render", "shot.toml", "--frames", "1", "--output", &pattern]);
+    let o = run(
+        root,
+        &["render", "shot.toml", "--frames", "1", "--output", &pattern],
+    );
     assert!(o.status.success(), "{}", text(&o));
     let first = fs::read(frame_path(dir, 1)).unwrap();
     make_unwritable();
 
     let o = run(
         root,
-        &["render", "shot.toml", "--frames", "1-2", "--output", &pattern],
+        &[
+            "render",
+            "shot.toml",
+            "--frames",
+            "1-2",
+            "--output",
+            &pattern,
+        ],
     );
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -368,7 +396,10 @@ fn assert_failed_write_is_clean(root: &Path, dir: &Path, make_unwritable: impl F
         "the message does not name the path:\n{}",
         text(&o)
     );
-    assert!(fs::read(frame_path(dir, 1)).unwrap() == first, "frame 1 changed");
+    assert!(
+        fs::read(frame_path(dir, 1)).unwrap() == first,
+        "frame 1 changed"
+    );
     let (frames, temps) = listing(dir);
     assert_eq!(frames, vec![1], "frames in {}", dir.display());
     assert!(temps.is_empty(), "temporary files left: {temps:?}");
@@ -399,7 +430,8 @@ fn unwritable_folder_fails_cleanly() {
     let full = root.join("full");
     fs::create_dir(&full).unwrap();
     let mut cmd = Command::new("mount");
-    cmd.args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"]).arg(&full);
+    cmd.args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&full);
     println!("$ {cmd:?}");
     match cmd.output() {
         Ok(o) if o.status.success() => {}

@@ -74,9 +74,7 @@ fn find_tool(name: &str) -> Option<PathBuf> {
     std::env::split_paths(&path)
         .chain(["/usr/sbin", "/sbin", "/usr/local/sbin"].map(PathBuf::from))
         .map(|dir| dir.join(name))
-        .find(|p| {
-            fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
-        })
+        .find(|p| fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0))
 }
 
 struct Tools {
@@ -90,7 +88,14 @@ struct Tools {
 
 /// The Slurm and munge programs, or the names of the missing ones.
 fn tools() -> Result<Tools, Vec<&'static str>> {
-    let names = ["munged", "slurmctld", "slurmd", "sbatch", "sinfo", "scancel"];
+    let names = [
+        "munged",
+        "slurmctld",
+        "slurmd",
+        "sbatch",
+        "sinfo",
+        "scancel",
+    ];
     let found: Vec<Option<PathBuf>> = names.iter().map(|n| find_tool(n)).collect();
     let missing: Vec<&str> = names
         .iter()
@@ -246,11 +251,10 @@ impl Drop for Cluster {
                 .stdout(Stdio::null())
                 .stderr(Stdio::null())
                 .spawn()
+                && wait_bounded(&mut c, Duration::from_secs(10)).is_none()
             {
-                if wait_bounded(&mut c, Duration::from_secs(10)).is_none() {
-                    let _ = c.kill();
-                    let _ = c.wait();
-                }
+                let _ = c.kill();
+                let _ = c.wait();
             }
         }
         while let Some(mut daemon) = self.daemons.pop() {
@@ -269,7 +273,13 @@ impl Cluster {
     fn logs(&self) -> String {
         self.daemons
             .iter()
-            .map(|d| format!("{}\n{}", tail(&d.log, 30), tail(&d.log.with_extension("stderr"), 30)))
+            .map(|d| {
+                format!(
+                    "{}\n{}",
+                    tail(&d.log, 30),
+                    tail(&d.log.with_extension("stderr"), 30)
+                )
+            })
             .collect::<Vec<_>>()
             .join("\n")
     }
@@ -279,7 +289,10 @@ impl Cluster {
 fn free_ports() -> (u16, u16) {
     let a = TcpListener::bind("127.0.0.1:0").unwrap();
     let b = TcpListener::bind("127.0.0.1:0").unwrap();
-    (a.local_addr().unwrap().port(), b.local_addr().unwrap().port())
+    (
+        a.local_addr().unwrap().port(),
+        b.local_addr().unwrap().port(),
+    )
 }
 
 fn user_name() -> String {
@@ -293,7 +306,10 @@ fn dir_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| {
             let e = e.unwrap();
-            (e.file_name().to_string_lossy().into_owned(), fs::read(e.path()).unwrap())
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                fs::read(e.path()).unwrap(),
+            )
         })
         .collect();
     files.sort();
@@ -308,11 +324,25 @@ fn expected_names() -> Vec<String> {
 fn assert_same_frames(farm: &Path, single: &Path) {
     let farm_files = dir_files(farm);
     let single_files = dir_files(single);
-    let names = |files: &[(String, Vec<u8>)]| files.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
-    assert_eq!(names(&farm_files), expected_names(), "files in {}", farm.display());
-    assert_eq!(names(&single_files), expected_names(), "files in {}", single.display());
+    let names =
+        |files: &[(String, Vec<u8>)]| files.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(
+        names(&farm_files),
+        expected_names(),
+        "files in {}",
+        farm.display()
+    );
+    assert_eq!(
+        names(&single_files),
+        expected_names(),
+        "files in {}",
+        single.display()
+    );
     for ((name, a), (_, b)) in farm_files.iter().zip(&single_files) {
-        assert!(a == b, "{name}: the farm's frame differs from the single-process render");
+        assert!(
+            a == b,
+            "{name}: the farm's frame differs from the single-process render"
+        );
     }
 }
 
@@ -328,7 +358,9 @@ fn job_array_renders_the_same_frames_as_one_process() {
             if std::env::var("CI").as_deref() == Ok("true") {
                 panic!("CI=true but {msg}");
             }
-            println!("skipped: Slurm not installed (apt-get install munge slurmctld slurmd slurm-client)");
+            println!(
+                "skipped: Slurm not installed (apt-get install munge slurmctld slurmd slurm-client)"
+            );
             eprintln!("skipped: {msg}");
             return;
         }
@@ -416,18 +448,28 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
             .arg(format!("--key-file={}", key.display()))
             .arg(format!("--pid-file={}", munge.join("munged.pid").display()))
             .arg(format!("--log-file={}", munge.join("munged.log").display()))
-            .arg(format!("--seed-file={}", munge.join("munged.seed").display())),
+            .arg(format!(
+                "--seed-file={}",
+                munge.join("munged.seed").display()
+            )),
         logs.join("munged.out"),
     ));
     let deadline = Instant::now() + Duration::from_secs(15);
     while !socket.exists() {
         cluster.assert_running();
-        assert!(Instant::now() < deadline, "munged made no socket in 15 s\n{}", cluster.logs());
+        assert!(
+            Instant::now() < deadline,
+            "munged made no socket in 15 s\n{}",
+            cluster.logs()
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     cluster.daemons.push(Daemon::start(
         "slurmctld",
-        Command::new(&tools.slurmctld).arg("-D").arg("-i").env("SLURM_CONF", &conf),
+        Command::new(&tools.slurmctld)
+            .arg("-D")
+            .arg("-i")
+            .env("SLURM_CONF", &conf),
         logs.join("slurmctld.out"),
     ));
     cluster.daemons.push(Daemon::start(
@@ -450,7 +492,10 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
             .expect("run sinfo");
         let state = String::from_utf8_lossy(&out.stdout).trim().to_string();
         if state == "idle" {
-            println!("node localhost idle after {:.1} s", started.elapsed().as_secs_f64());
+            println!(
+                "node localhost idle after {:.1} s",
+                started.elapsed().as_secs_f64()
+            );
             break;
         }
         assert!(
@@ -466,13 +511,22 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
     fs::write(&scene, SHOT).unwrap();
     let check = run(
         Command::new(BIN)
-            .args(["check", "shot.toml", "--chunk-size", &CHUNK_SIZE.to_string()])
+            .args([
+                "check",
+                "shot.toml",
+                "--chunk-size",
+                &CHUNK_SIZE.to_string(),
+            ])
             .current_dir(root),
         &logs,
         "check",
         Duration::from_secs(30),
     );
-    assert!(check.status.success(), "raytrace check failed: {}", check.stderr);
+    assert!(
+        check.status.success(),
+        "raytrace check failed: {}",
+        check.stderr
+    );
     let chunks: usize = check
         .stdout
         .lines()
@@ -535,7 +589,11 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
         "single",
         Duration::from_secs(120),
     );
-    assert!(one.status.success(), "single-process render failed: {}", one.stderr);
+    assert!(
+        one.status.success(),
+        "single-process render failed: {}",
+        one.stderr
+    );
     assert_same_frames(&farm, &single);
 
     // Resume: with two frames gone, resubmitting the same array renders just those two.
@@ -552,7 +610,10 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
     fs::remove_file(farm.join("shot_0011.exr")).unwrap();
     let t = Instant::now();
     submit("sbatch-resume");
-    println!("resubmitted array finished in {:.1} s", t.elapsed().as_secs_f64());
+    println!(
+        "resubmitted array finished in {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
     assert_same_frames(&farm, &single);
     for (p, m) in untouched {
         assert_eq!(
