@@ -10,7 +10,13 @@ use raytrace::app::{self, RenderOptions};
 #[command(
     name = "raytrace",
     version,
-    about = "Render animation sequences of moving spheres with motion and defocus blur"
+    about = "Render animation sequences of moving spheres with motion and defocus blur",
+    after_help = "Examples:
+  raytrace render scenes/quick.toml                 # every frame of the shot
+  raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
+  raytrace check shot.toml                          # validate and summarise a scene
+
+Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
 struct Cli {
     #[command(subcommand)]
