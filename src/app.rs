@@ -37,6 +37,8 @@ pub struct RenderOptions {
     pub skip_existing: bool,
     /// Print nothing but errors.
     pub quiet: bool,
+    /// Print a line of figures per frame: preparation and render time, rays, rates, memory.
+    pub stats: bool,
     /// Render only chunk `chunk` of `chunk_size` consecutive selected frames.
     pub chunk: Option<(usize, usize)>,
 }
@@ -180,6 +182,9 @@ fn render_targets(
             st.dropped,
             path.display()
         ));
+        if opts.stats {
+            progress.line(&stats_line(*frame, st));
+        }
         summary.rendered.push(*frame);
         summary.samples += st.samples;
         summary.dropped += st.dropped;
@@ -195,6 +200,32 @@ fn render_targets(
     ));
     progress.finish();
     Ok(summary)
+}
+
+/// The `--stats` line of a frame.
+fn stats_line(frame: u32, st: &crate::render::FrameStats) -> String {
+    let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
+    let memory = peak_memory_bytes().map_or("unknown".to_string(), |b| {
+        format!("{:.1} MiB", b as f64 / 1048576.0)
+    });
+    format!(
+        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        st.prepare_seconds,
+        st.moving_spheres,
+        st.render_seconds,
+        st.rays,
+        per_s(st.rays),
+        st.samples,
+        per_s(st.samples),
+    )
+}
+
+/// The process's peak resident memory so far (Linux: `VmHWM` in `/proc/self/status`).
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// Progress bars on a terminal's stderr, and one summary line per frame on stdout.

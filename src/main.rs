@@ -65,6 +65,10 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
         /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
+        /// Also print, per frame, the preparation and render times, rays traced, rays and
+        /// samples per second, and peak memory.
+        #[arg(long)]
+        stats: bool,
         /// Split the selected frames into chunks of this many consecutive frames (with --chunk).
         #[arg(long, requires = "chunk")]
         chunk_size: Option<usize>,
@@ -106,6 +110,7 @@ fn main() -> ExitCode {
             threads,
             skip_existing,
             quiet,
+            stats,
             chunk_size,
             chunk,
         } => {
@@ -120,6 +125,7 @@ fn main() -> ExitCode {
                 threads: threads.map(usize::from),
                 skip_existing,
                 quiet,
+                stats,
                 chunk: chunk_size.zip(chunk),
             };
             app::render(&opts).map(|_| ())

@@ -289,6 +289,44 @@ fn bare_frames_means_every_frame_and_lists_select_some() {
 }
 
 #[test]
+fn stats_reports_times_rays_rates_and_memory() {
+    let d = setup(SMALL);
+    let o = run(
+        d.path(),
+        &["render", "shot.toml", "--frames", "2", "--stats"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("frame 2 stats:"))
+        .expect("a stats line");
+    for want in [
+        "prepare",
+        "1 moving spheres",
+        "render",
+        "rays",
+        "M/s",
+        "samples 1536",
+        "peak memory",
+        "MiB",
+    ] {
+        assert!(line.contains(want), "{want:?} missing in {line}");
+    }
+    // At least one ray per camera sample.
+    let rays: u64 = line
+        .split("rays ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(rays >= 1536, "{line}");
+}
+
+#[test]
 fn help_has_examples() {
     let o = Command::new(BIN)
         .args(["render", "--help"])
