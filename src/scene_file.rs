@@ -45,8 +45,8 @@ struct RawScene {
 #[serde(deny_unknown_fields)]
 struct RawShot {
     fps: Option<f64>,
-    frames: Option<i64>,
-    first_frame: Option<i64>,
+    frames: Option<Number>,
+    first_frame: Option<Number>,
     start_time: Option<f64>,
     shutter: Option<f64>,
     shutter_angle: Option<f64>,
@@ -65,16 +65,16 @@ enum RawShutterPosition {
 #[serde(deny_unknown_fields)]
 struct RawOutput {
     path: Option<String>,
-    width: Option<i64>,
-    height: Option<i64>,
+    width: Option<Number>,
+    height: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct RawRender {
-    samples: Option<i64>,
-    max_depth: Option<i64>,
-    seed: Option<i64>,
+    samples: Option<Number>,
+    max_depth: Option<Number>,
+    seed: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
@@ -124,6 +124,36 @@ enum RawMaterial {
     Dielectric {
         ior: f64,
     },
+}
+
+/// A number as written in the file, so that a float where an integer belongs can be reported
+/// with its field's name.
+#[derive(Clone, Copy, Debug)]
+enum Number {
+    Int(i64),
+    Float(f64),
+}
+
+impl<'de> Deserialize<'de> for Number {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Number;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an integer")
+            }
+            fn visit_i64<E: de::Error>(self, x: i64) -> Result<Number, E> {
+                Ok(Number::Int(x))
+            }
+            fn visit_u64<E: de::Error>(self, x: u64) -> Result<Number, E> {
+                Ok(i64::try_from(x).map_or(Number::Float(x as f64), Number::Int))
+            }
+            fn visit_f64<E: de::Error>(self, x: f64) -> Result<Number, E> {
+                Ok(Number::Float(x))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// A sphere's material: a name from `[materials]` or an inline table.
@@ -269,7 +299,21 @@ impl Check<'_> {
         Ok(DVec3::from_array(v))
     }
 
-    fn int(&self, field: &str, x: i64, min: i64, max: i64) -> Result<i64, String> {
+    fn int(
+        &self,
+        field: &str,
+        x: Option<Number>,
+        default: i64,
+        min: i64,
+        max: i64,
+    ) -> Result<i64, String> {
+        let x = match x {
+            None => default,
+            Some(Number::Int(x)) => x,
+            Some(Number::Float(f)) => {
+                return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+            }
+        };
         if x < min || x > max {
             return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
         }
@@ -280,19 +324,15 @@ impl Check<'_> {
         let shot = self.shot(&raw.shot)?;
         let output = self.output(&raw.output, source)?;
         let render = RenderSettings {
-            samples: self.int(
-                "render.samples",
-                raw.render.samples.unwrap_or(16),
-                1,
-                u32::MAX as i64,
-            )? as u32,
+            samples: self.int("render.samples", raw.render.samples, 16, 1, u32::MAX as i64)? as u32,
             max_depth: self.int(
                 "render.max_depth",
-                raw.render.max_depth.unwrap_or(50),
+                raw.render.max_depth,
+                50,
                 1,
                 u32::MAX as i64,
             )? as u32,
-            seed: self.int("render.seed", raw.render.seed.unwrap_or(0), 0, i64::MAX)? as u64,
+            seed: self.int("render.seed", raw.render.seed, 0, 0, i64::MAX)? as u64,
         };
         let camera = self.camera(&raw.camera)?;
         let background = match raw.background {
@@ -348,13 +388,8 @@ impl Check<'_> {
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
         let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
-        let frames = self.int("shot.frames", s.frames.unwrap_or(1), 1, u32::MAX as i64)?;
-        let first_frame = self.int(
-            "shot.first_frame",
-            s.first_frame.unwrap_or(1),
-            0,
-            u32::MAX as i64,
-        )?;
+        let frames = self.int("shot.frames", s.frames, 1, 1, u32::MAX as i64)?;
+        let first_frame = self.int("shot.first_frame", s.first_frame, 1, 0, u32::MAX as i64)?;
         if first_frame + frames - 1 > u32::MAX as i64 {
             return self.err(format_args!(
                 "shot.first_frame + shot.frames - 1 must be at most {}, got {}",
@@ -412,8 +447,8 @@ impl Check<'_> {
         };
         Ok(OutputSettings {
             path,
-            width: self.int("output.width", o.width.unwrap_or(400), 1, MAX_SIDE)? as u32,
-            height: self.int("output.height", o.height.unwrap_or(225), 1, MAX_SIDE)? as u32,
+            width: self.int("output.width", o.width, 400, 1, MAX_SIDE)? as u32,
+            height: self.int("output.height", o.height, 225, 1, MAX_SIDE)? as u32,
         })
     }
 

@@ -1420,34 +1420,25 @@ seed = {{render.seed=0}}
 "#;
 
 #[test]
-fn integer_fields_reject_non_integers_at_their_line_and_column() {
+fn integer_fields_reject_non_integers_by_name() {
     let mut checked = 0;
     parse(&instantiate(TEMPLATE_INT, "", "")).expect("the template must be valid");
     for (field, _) in fields(TEMPLATE_INT) {
-        let key = field.rsplit('.').next().unwrap();
         for bad in ["nan", "inf", "-inf", "1e39", "-0.0", "2.5"] {
             let text = instantiate(TEMPLATE_INT, &field, bad);
-            let (line, col) = text
-                .lines()
-                .enumerate()
-                .find_map(|(i, l)| {
-                    l.strip_prefix(&format!("{key} = "))
-                        .map(|_| (i + 1, key.len() + 4))
-                })
-                .unwrap();
             let e = parse(&text)
                 .err()
                 .unwrap_or_else(|| panic!("{field} = {bad} was accepted"));
             assert_eq!(e.exit_code(), 2);
             let msg = e.to_string();
             assert!(
-                msg.contains(&format!("bad.toml:{line}:{col}:")),
-                "{field} = {bad}: not located at {line}:{col}: {msg}"
+                msg.contains(&format!("{field} must be an integer")),
+                "{field} = {bad}: the message does not name the field: {msg}"
             );
             checked += 1;
         }
     }
-    eprintln!("[stability] integer fields: {checked} scenes rejected at the value's line:column");
+    eprintln!("[stability] integer fields: {checked} scenes rejected, each naming its field");
 }
 
 #[test]
