@@ -215,7 +215,7 @@ fn killed_render_resumes_to_identical_frames() {
     const FRAMES: u32 = 6;
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path();
-    fs::write(root.join("shot.toml"), shot(FRAMES, 1024)).unwrap();
+    fs::write(root.join("shot.toml"), shot(FRAMES, 3072)).unwrap();
     let out = root.join("out");
 
     // Start the render and kill it (SIGKILL) as soon as its first frame is on disk, that is
