@@ -80,7 +80,8 @@ pub fn render_frame(
     // Sample time only when something moves during the shutter; sample the lens only for a
     // lens with an aperture.
     let sample_time = world.has_motion() || camera_moves;
-    let has_lens = scene.camera.aperture > 0.0;
+    // The aperture does not change over time, so the view at any instant answers this.
+    let has_lens = fixed_view.has_lens();
     let prepare_seconds = start.elapsed().as_secs_f64();
 
     let start = Instant::now();
