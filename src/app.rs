@@ -10,7 +10,8 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use crate::error::Error;
 use crate::frames;
 use crate::output::{self, FrameInfo};
-use crate::render::{FrameRequest, render_frame};
+use crate::render::{Budget, FrameRequest, FrameStats, render_frame};
+use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
@@ -41,6 +42,10 @@ pub struct RenderOptions {
     pub stats: bool,
     /// Render only chunk `chunk` of `chunk_size` consecutive selected frames.
     pub chunk: Option<(usize, usize)>,
+    /// The sampler, instead of the scene's.
+    pub sampler: Option<SamplerKind>,
+    /// A time limit or noise threshold per frame, instead of the scene's exact samples.
+    pub budget: Budget,
 }
 
 /// What a render run did.
@@ -53,6 +58,8 @@ pub struct RunSummary {
     pub seconds: f64,
     pub samples: u64,
     pub dropped: u64,
+    /// The estimated relative error of each rendered frame.
+    pub relative_errors: Vec<f64>,
 }
 
 /// Loads the scene and applies the command-line overrides, validating them.
@@ -83,7 +90,34 @@ pub fn load_scene(opts: &RenderOptions) -> Result<Scene, Error> {
     if let Some(path) = &opts.output {
         scene.output.path = path.clone();
     }
+    if let Some(sampler) = opts.sampler {
+        scene.render.sampler = sampler;
+    }
+    check_budget(&opts.budget)?;
     Ok(scene)
+}
+
+/// Rejects budgets that cannot be met or make no sense.
+pub fn check_budget(budget: &Budget) -> Result<(), Error> {
+    for (name, value) in [
+        ("--time-limit", budget.time_limit),
+        ("--noise-threshold", budget.noise_threshold),
+    ] {
+        if let Some(v) = value {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::Usage(format!(
+                    "{name} must be a number > 0, got {v}"
+                )));
+            }
+        }
+    }
+    match budget.max_samples {
+        Some(0) => Err(Error::Usage("--max-samples must be >= 1, got 0".into())),
+        Some(_) if !budget.is_set() => Err(Error::Usage(
+            "--max-samples needs --time-limit or --noise-threshold (without them a frame takes exactly --samples)".into(),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// The frames a run renders: the `--frames` selection (or the whole shot), then the chunk.
@@ -153,19 +187,32 @@ fn render_targets(
             continue;
         }
         let req = FrameRequest::from_scene(scene, *frame);
-        let samples = req.width as u64 * req.height as u64 * req.samples as u64;
-        let bar = progress.start_frame(*frame, samples);
-        let result = render_frame(scene, &statics, &req, &|n| bar.inc(n));
+        let planned = (!opts.budget.is_set())
+            .then(|| req.width as u64 * req.height as u64 * req.samples as u64);
+        let bar = progress.start_frame(*frame, planned);
+        let result = render_frame(scene, &statics, &req, &opts.budget, &|n| bar.inc(n));
         bar.finish_and_clear();
+        let st = &result.stats;
         let interval = scene.shot.interval(*frame);
+        let mut extra = Vec::new();
+        if st.relative_error.is_finite() {
+            extra.push(("estimatedRelativeError".to_string(), st.relative_error));
+        }
+        if let Some(t) = opts.budget.noise_threshold {
+            extra.push(("noiseThreshold".to_string(), t));
+        }
+        if let Some(t) = opts.budget.time_limit {
+            extra.push(("timeLimit".to_string(), t));
+        }
         let info = FrameInfo {
             frame: *frame,
             fps: scene.shot.fps,
             shutter_open: interval.open,
             shutter_close: interval.close,
-            samples: req.samples,
+            samples: st.samples_per_pixel,
             seed: req.seed,
-            extra: Vec::new(),
+            sampler: req.sampler.name().to_string(),
+            extra,
         };
         output::write_frame(
             path,
@@ -174,10 +221,16 @@ fn render_targets(
             &result.film.to_rgb_f32(),
             &info,
         )?;
-        let st = &result.stats;
         let seconds = st.prepare_seconds + st.render_seconds;
+        let stop = if opts.budget.is_set() {
+            format!(" ({})", st.stop.describe())
+        } else {
+            String::new()
+        };
         progress.line(&format!(
-            "frame {frame}: {seconds:.2} s, {:.2} M samples/s, {} dropped, {}",
+            "frame {frame}: {seconds:.2} s, {} spp{stop}, error {}, {:.2} M samples/s, {} dropped, {}",
+            st.samples_per_pixel,
+            percent(st.relative_error),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
             st.dropped,
             path.display()
@@ -185,14 +238,27 @@ fn render_targets(
         if opts.stats {
             progress.line(&stats_line(*frame, st));
         }
+        summary.relative_errors.push(st.relative_error);
         summary.rendered.push(*frame);
         summary.samples += st.samples;
         summary.dropped += st.dropped;
         progress.frame_done();
     }
     summary.seconds = start.elapsed().as_secs_f64();
+    let errors = &summary.relative_errors;
+    let error = if errors.is_empty() {
+        String::new()
+    } else {
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        let max = errors.iter().copied().fold(0.0, f64::max);
+        format!(
+            ", estimated error mean {} max {}",
+            percent(mean),
+            percent(max)
+        )
+    };
     progress.line(&format!(
-        "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s)",
+        "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",
         summary.rendered.len(),
         summary.skipped.len(),
         summary.seconds,
@@ -202,17 +268,31 @@ fn render_targets(
     Ok(summary)
 }
 
+/// An estimated relative error as a percentage, or why there is none.
+fn percent(relative_error: f64) -> String {
+    if relative_error.is_finite() {
+        format!("{:.3}%", relative_error * 100.0)
+    } else {
+        "unknown (1 sample)".to_string()
+    }
+}
+
 /// The `--stats` line of a frame.
-fn stats_line(frame: u32, st: &crate::render::FrameStats) -> String {
+fn stats_line(frame: u32, st: &FrameStats) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), |b| {
         format!("{:.1} MiB", b as f64 / 1048576.0)
     });
+    // The share of the render time the worker threads spent in tiles: what is missing is
+    // time a core sat idle (waiting for the last tile) or spent scheduling.
+    let busy = st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64);
     format!(
-        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} passes, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,
+        st.passes,
+        busy.min(1.0) * 100.0,
         st.rays,
         per_s(st.rays),
         st.samples,
@@ -257,12 +337,20 @@ impl Progress {
         }
     }
 
-    fn start_frame(&self, frame: u32, samples: u64) -> ProgressBar {
-        let bar = self.multi.add(ProgressBar::new(samples));
-        bar.set_style(
-            ProgressStyle::with_template("frame {msg} [{wide_bar}] {percent}% {per_sec} eta {eta}")
-                .expect("valid template"),
-        );
+    /// A bar for one frame's samples; without a planned count (a budget), a spinner.
+    fn start_frame(&self, frame: u32, planned: Option<u64>) -> ProgressBar {
+        let (bar, template) = match planned {
+            Some(samples) => (
+                ProgressBar::new(samples),
+                "frame {msg} [{wide_bar}] {percent}% {per_sec} eta {eta}",
+            ),
+            None => (
+                ProgressBar::no_length(),
+                "frame {msg} {spinner} {human_pos} samples {per_sec} {elapsed}",
+            ),
+        };
+        let bar = self.multi.add(bar);
+        bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
         bar.set_message(frame.to_string());
         bar
     }

@@ -44,11 +44,19 @@ impl Film {
     }
 }
 
-/// The running mean of one pixel's samples, which drops non-finite samples and counts them.
+/// The running estimate of one pixel: the mean of its samples, their variance, and the
+/// samples it dropped because they were not finite.
+///
+/// The mean is the plain sum over the count, so it is the same bits however the samples were
+/// split into passes. The variance uses Welford's update (Welford 1962; Knuth, TAOCP vol. 2,
+/// 4.2.2), which stays accurate where the naive sum of squares cancels.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PixelAccumulator {
     sum: DVec3,
     kept: u32,
+    /// Welford's running mean and sum of squared deviations.
+    w_mean: DVec3,
+    w_m2: DVec3,
     /// Samples dropped because a component was NaN or infinite.
     pub dropped: u32,
 }
@@ -60,6 +68,9 @@ impl PixelAccumulator {
         if v.is_finite() {
             self.sum += v;
             self.kept += 1;
+            let delta = v - self.w_mean;
+            self.w_mean += delta / self.kept as f64;
+            self.w_m2 += delta * (v - self.w_mean);
         } else {
             self.dropped += 1;
         }
@@ -71,6 +82,24 @@ impl PixelAccumulator {
             DVec3::ZERO
         } else {
             self.sum / self.kept as f64
+        }
+    }
+
+    /// Samples kept.
+    pub fn count(&self) -> u32 {
+        self.kept
+    }
+
+    /// The estimated variance of [`mean`](Self::mean) per channel: the unbiased sample
+    /// variance over the count, `s^2 / n`. Exact in expectation for independent samples; for
+    /// stratified (Sobol) samples it overestimates the error. Infinite with fewer than two
+    /// samples (nothing is known).
+    pub fn variance_of_mean(&self) -> DVec3 {
+        if self.kept < 2 {
+            DVec3::INFINITY
+        } else {
+            let n = self.kept as f64;
+            self.w_m2 / ((n - 1.0) * n)
         }
     }
 }
@@ -89,6 +118,24 @@ mod tests {
         assert_eq!(a.mean(), DVec3::splat(2.0));
         assert_eq!(a.dropped, 2);
         assert_eq!(PixelAccumulator::default().mean(), DVec3::ZERO);
+        // The variance ignores the dropped samples: {1, 3} has s^2 = 2, so s^2 / n = 1.
+        assert_eq!(a.variance_of_mean(), DVec3::ONE);
+    }
+
+    #[test]
+    fn variance_matches_the_two_pass_formula_far_from_zero() {
+        // Samples 1e8 + {0, 1, 2, 3, 4} (mean 1e8 + 2, s^2 = 2.5): the naive sum of squares
+        // loses every digit here (1e16 against a spread of 10); Welford's update is exact.
+        let mut a = PixelAccumulator::default();
+        for i in 0..5 {
+            a.add(DVec3::splat(1e8 + i as f64));
+        }
+        assert_eq!(a.count(), 5);
+        assert_eq!(a.mean(), DVec3::splat(1e8 + 2.0));
+        assert_eq!(a.variance_of_mean(), DVec3::splat(2.5 / 5.0));
+        let mut one = PixelAccumulator::default();
+        one.add(DVec3::ONE);
+        assert_eq!(one.variance_of_mean(), DVec3::INFINITY);
     }
 
     #[test]

@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use raytrace::app::{self, RenderOptions};
+use raytrace::converge::{self, ConvergeOptions};
+use raytrace::render::Budget;
+use raytrace::sampler::SamplerKind;
 
 #[derive(Parser)]
 #[command(
@@ -15,6 +18,7 @@ use raytrace::app::{self, RenderOptions};
   raytrace render scenes/quick.toml                 # every frame of the shot
   raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
   raytrace check shot.toml                          # validate and summarise a scene
+  raytrace converge shot.toml --plot error.png      # error against time, per sampler
 
 Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
@@ -32,6 +36,8 @@ enum Command {
   raytrace render shot.toml --frames 12 --samples 256 --width 1920 --height 1080
   raytrace render shot.toml --skip-existing          # resume an interrupted render
   raytrace render shot.toml --chunk-size 5 --chunk 2 # frames 11-15 of a farm job array
+  raytrace render shot.toml --noise-threshold 0.01   # sample each frame to 1% estimated error
+  raytrace render shot.toml --time-limit 60          # at most a minute a frame
 
 Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure.")]
     Render {
@@ -75,6 +81,79 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
         /// Render only this chunk (0-based) of the selected frames (with --chunk-size).
         #[arg(long, requires = "chunk_size")]
         chunk: Option<usize>,
+        /// How samples are placed: `sobol` (default) or `independent`.
+        #[arg(long)]
+        sampler: Option<SamplerKind>,
+        /// Seconds per frame: sample in passes and stop before this time is exceeded.
+        #[arg(long, value_name = "SECONDS")]
+        time_limit: Option<f64>,
+        /// Sample in passes until the estimated relative error of the frame (as printed,
+        /// 0.01 = 1%) is at or below this.
+        #[arg(long, value_name = "E")]
+        noise_threshold: Option<f64>,
+        /// With --time-limit or --noise-threshold: never more than this many samples per pixel.
+        #[arg(long, value_name = "N")]
+        max_samples: Option<u32>,
+    },
+    /// Measure how a frame's error falls with render time, for each sampler.
+    #[command(
+        after_help = "Renders a reference (or reads one), then the frame at 1, 2, 4, ... samples per
+pixel with each sampler, and prints RMSE, relative MSE, the error estimated from the
+samples alone, and efficiency 1/(MSE x seconds); fitted log-log slopes; and the MSE
+ratio at equal time.
+
+Examples:
+  raytrace converge scenes/defocus.toml --max-samples 256 --plot defocus.png --csv defocus.csv
+  raytrace converge shot.toml --frame 12 --reference ref.exr --budget 60
+  raytrace converge shot.toml --sampler independent --reference-samples 16384"
+    )]
+    Converge {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// The frame to measure (default: the shot's first).
+        #[arg(long)]
+        frame: Option<u32>,
+        /// A reference image (EXR) of the frame, instead of rendering one.
+        #[arg(long, value_name = "FILE.exr", conflicts_with = "reference_samples")]
+        reference: Option<PathBuf>,
+        /// Samples per pixel of the reference rendered first (default 4096).
+        #[arg(long, value_name = "N")]
+        reference_samples: Option<u32>,
+        /// Where to write the rendered reference (default: beside --csv or --plot, named
+        /// after the scene).
+        #[arg(long, value_name = "FILE.exr", conflicts_with = "reference")]
+        write_reference: Option<PathBuf>,
+        /// The largest samples per pixel measured (default: the scene's samples, or no limit
+        /// with --budget).
+        #[arg(long, value_name = "N")]
+        max_samples: Option<u32>,
+        /// Seconds of rendering per sampler, at most.
+        #[arg(long, value_name = "SECONDS")]
+        budget: Option<f64>,
+        /// A sampler to measure; repeat for several (default: all).
+        #[arg(long)]
+        sampler: Vec<SamplerKind>,
+        /// Write the measurements as CSV.
+        #[arg(long, value_name = "FILE")]
+        csv: Option<PathBuf>,
+        /// Draw error against time on log-log axes, to a .png or .svg.
+        #[arg(long, value_name = "FILE")]
+        plot: Option<PathBuf>,
+        /// Image width in pixels.
+        #[arg(long)]
+        width: Option<u32>,
+        /// Image height in pixels.
+        #[arg(long)]
+        height: Option<u32>,
+        /// Random seed of the measured renders.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Worker threads (default: one per core).
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+        threads: Option<u16>,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Validate a scene and print a summary of it.
     #[command(after_help = "Examples:
@@ -113,6 +192,10 @@ fn main() -> ExitCode {
             stats,
             chunk_size,
             chunk,
+            sampler,
+            time_limit,
+            noise_threshold,
+            max_samples,
         } => {
             let opts = RenderOptions {
                 scene,
@@ -127,8 +210,53 @@ fn main() -> ExitCode {
                 quiet,
                 stats,
                 chunk: chunk_size.zip(chunk),
+                sampler,
+                budget: Budget {
+                    time_limit,
+                    noise_threshold,
+                    max_samples,
+                },
             };
             app::render(&opts).map(|_| ())
+        }
+        Command::Converge {
+            scene,
+            frame,
+            reference,
+            reference_samples,
+            write_reference,
+            max_samples,
+            budget,
+            sampler,
+            csv,
+            plot,
+            width,
+            height,
+            seed,
+            threads,
+            quiet,
+        } => {
+            let opts = ConvergeOptions {
+                render: RenderOptions {
+                    scene,
+                    width,
+                    height,
+                    seed,
+                    threads: threads.map(usize::from),
+                    quiet,
+                    ..RenderOptions::default()
+                },
+                frame,
+                reference,
+                reference_samples,
+                write_reference,
+                max_samples,
+                budget,
+                samplers: sampler,
+                csv,
+                plot,
+            };
+            converge::converge(&opts).map(|_| ())
         }
         Command::Check { scene, chunk_size } => {
             app::check(&scene, chunk_size).map(|s| print!("{s}"))

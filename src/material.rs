@@ -106,8 +106,8 @@ impl Material {
             Material::Metal { albedo, fuzz } => {
                 let mut dir = reflect(dir_in, n);
                 if fuzz > 0.0 {
-                    let d = sampler.next_2d();
-                    dir += fuzz * in_unit_ball(d, sampler.next_1d());
+                    let (a, b, r) = sampler.next_3d();
+                    dir += fuzz * in_unit_ball((a, b), r);
                 }
                 // Absorbed when scattered below the surface (and when it has no length).
                 if dir.dot(n) <= 0.0 {

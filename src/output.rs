@@ -85,6 +85,8 @@ pub struct FrameInfo {
     pub samples: u32,
     /// The seed of the frame's random numbers.
     pub seed: u64,
+    /// The name of the sampler that placed the samples.
+    pub sampler: String,
     /// Further numeric attributes, stored as doubles under their names. A name must be 1 to
     /// 255 printable Latin-1 characters, must be unique, and must not be one of the names
     /// above nor a standard OpenEXR attribute name.
@@ -103,8 +105,10 @@ pub mod attribute_names {
     pub const SAMPLES: &str = "samples";
     /// The 64-bit seed as decimal text (no EXR attribute type holds a u64).
     pub const SEED: &str = "seed";
+    /// The sampler's name, as text.
+    pub const SAMPLER: &str = "sampler";
     /// All of the above.
-    pub const ALL: &[&str] = &[FRAME, SHUTTER_OPEN, SHUTTER_CLOSE, SAMPLES, SEED];
+    pub const ALL: &[&str] = &[FRAME, SHUTTER_OPEN, SHUTTER_CLOSE, SAMPLES, SEED, SAMPLER];
 }
 
 /// Writes one frame to `path`, in the format its extension names (see [`format_for`]).
@@ -409,6 +413,13 @@ fn exr_attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAttributes
         Text::from(attribute_names::SEED),
         AttributeValue::Text(Text::from(info.seed.to_string().as_str())),
     );
+    other.insert(
+        Text::from(attribute_names::SAMPLER),
+        AttributeValue::Text(
+            Text::new_or_none(&info.sampler)
+                .ok_or_else(|| format!("sampler name \"{}\" is not Latin-1", info.sampler))?,
+        ),
+    );
     for (name, value) in &info.extra {
         let bad = |why: &str| format!("extra attribute name \"{name}\" {why}");
         // Up to 31 characters: longer names need the file's long-name flag.
@@ -608,6 +619,7 @@ mod tests {
             shutter_close: 0.6875000000000001,
             samples: 256,
             seed: u64::MAX - 12345,
+            sampler: "sobol".to_string(),
             extra: vec![
                 ("achievedSamples".to_string(), 211.5),
                 ("error".to_string(), 0.0125),
@@ -767,6 +779,10 @@ mod tests {
         assert_eq!(
             get("seed"),
             Some(AttributeValue::Text(Text::from("18446744073709539270")))
+        );
+        assert_eq!(
+            get("sampler"),
+            Some(AttributeValue::Text(Text::from("sobol")))
         );
         assert_eq!(get("achievedSamples"), Some(AttributeValue::F64(211.5)));
         assert_eq!(get("error"), Some(AttributeValue::F64(0.0125)));

@@ -1,13 +1,19 @@
-//! Rendering one frame: the frame's world, its camera rays, in parallel over tiles.
+//! Rendering one frame: the frame's world, its camera rays, in parallel over tiles, in one
+//! pass of the requested samples or, under a time or noise budget, in passes until the budget
+//! is met.
 
+use std::ops::Range;
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
-use crate::sampler::{IndependentSampler, Sampler};
+use crate::metrics;
+use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
+use crate::shutter::Interval;
 use crate::tracer::{TraceStats, radiance};
 use crate::world::{StaticGeometry, World};
 
@@ -15,15 +21,17 @@ use crate::world::{StaticGeometry, World};
 /// 400x225 frame has hundreds of tiles, so both cores stay busy to the end of a frame.
 pub const TILE: u32 = 16;
 
-/// What to render: a frame of a scene at a size and sample count.
+/// What to render: a frame of a scene at a size, sample count and sampler.
 #[derive(Clone, Debug)]
 pub struct FrameRequest {
     pub frame: u32,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel (without a budget: exactly these).
     pub samples: u32,
     pub max_depth: u32,
     pub seed: u64,
+    pub sampler: SamplerKind,
 }
 
 impl FrameRequest {
@@ -36,6 +44,56 @@ impl FrameRequest {
             samples: scene.render.samples,
             max_depth: scene.render.max_depth,
             seed: scene.render.seed,
+            sampler: scene.render.sampler,
+        }
+    }
+}
+
+/// When to stop sampling a frame, instead of at exactly its requested samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Budget {
+    /// Stop once this many seconds (preparation included) would be exceeded.
+    pub time_limit: Option<f64>,
+    /// Stop once the estimated relative error ([`FrameStats::relative_error`]) is at or below
+    /// this.
+    pub noise_threshold: Option<f64>,
+    /// Never take more samples per pixel than this.
+    pub max_samples: Option<u32>,
+}
+
+impl Budget {
+    /// True when a time limit or noise threshold is set: the frame is rendered in passes.
+    pub fn is_set(&self) -> bool {
+        self.time_limit.is_some() || self.noise_threshold.is_some()
+    }
+}
+
+/// The fewest samples per pixel whose variance estimate may stop a render at its noise
+/// threshold. Below it, a pixel's sample variance misses rare bright paths too often.
+pub const MIN_SAMPLES_FOR_THRESHOLD: u32 = 16;
+
+/// Why a frame stopped sampling.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StopReason {
+    /// It took exactly the requested samples (no budget).
+    #[default]
+    Samples,
+    /// The estimated error reached the noise threshold.
+    NoiseThreshold,
+    /// Another pass would have passed the time limit.
+    TimeLimit,
+    /// It reached the budget's largest sample count.
+    MaxSamples,
+}
+
+impl StopReason {
+    /// A short description for summaries.
+    pub fn describe(self) -> &'static str {
+        match self {
+            StopReason::Samples => "requested samples",
+            StopReason::NoiseThreshold => "noise threshold reached",
+            StopReason::TimeLimit => "time limit",
+            StopReason::MaxSamples => "max samples",
         }
     }
 }
@@ -47,111 +105,347 @@ pub struct FrameStats {
     pub prepare_seconds: f64,
     /// Seconds spent tracing.
     pub render_seconds: f64,
+    /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
+    /// count, how busy the cores were.
+    pub tile_seconds: f64,
     /// Rays intersected with the scene.
     pub rays: u64,
-    /// Camera samples taken.
+    /// Camera samples taken, over the whole frame.
     pub samples: u64,
+    /// Samples per pixel taken.
+    pub samples_per_pixel: u32,
+    /// Passes the samples were taken in.
+    pub passes: u32,
+    /// Why sampling stopped.
+    pub stop: StopReason,
     /// Samples dropped because they were not finite.
     pub dropped: u64,
     /// Spheres moving during the frame's shutter.
     pub moving_spheres: usize,
+    /// The relative error estimated from the pixels' sample variances: the square root of
+    /// the estimated relative mean squared error ([`metrics::estimated_rel_mse`]). Infinite
+    /// with fewer than two samples per pixel.
+    pub relative_error: f64,
 }
 
 /// A rendered frame.
 #[derive(Clone, Debug)]
 pub struct FrameResult {
+    /// The pixels' means.
     pub film: Film,
+    /// Each pixel's estimated variance of its mean, row-major like the film.
+    pub variance: Vec<DVec3>,
     pub stats: FrameStats,
 }
 
-/// Renders one frame. `progress` is called with the number of samples of each finished tile;
-/// it is called from worker threads. Runs on the current rayon pool.
+/// Everything about a frame that is fixed before its first sample.
+struct FrameSetup<'a> {
+    scene: &'a Scene,
+    world: World<'a>,
+    req: &'a FrameRequest,
+    interval: Interval,
+    camera_moves: bool,
+    fixed_view: View,
+    sample_time: bool,
+    has_lens: bool,
+}
+
+/// One tile of the image and its pixels' running estimates.
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+    pixels: Vec<PixelAccumulator>,
+}
+
+impl FrameSetup<'_> {
+    /// Adds samples `range` of every pixel of `tile`; returns the rays traced.
+    fn sample_tile<S: Sampler>(&self, sampler: &mut S, tile: &mut Tile, range: Range<u32>) -> u64 {
+        let req = self.req;
+        let interval = self.interval;
+        let mut stats = TraceStats::default();
+        let mut acc = tile.pixels.iter_mut();
+        for y in tile.y0..tile.y1 {
+            for x in tile.x0..tile.x1 {
+                let acc = acc.next().expect("one accumulator per pixel");
+                for s in range.clone() {
+                    sampler.start_sample(x, y, s);
+                    let jitter = sampler.next_2d();
+                    // The lens position and the time are one joint sample.
+                    let (lens, u) = match (self.has_lens, self.sample_time) {
+                        (true, true) => {
+                            let (a, b, c) = sampler.next_3d();
+                            ((a, b), c)
+                        }
+                        (true, false) => (sampler.next_2d(), 0.0),
+                        (false, true) => ((0.5, 0.5), sampler.next_1d()),
+                        (false, false) => ((0.5, 0.5), 0.0),
+                    };
+                    let time = if self.sample_time {
+                        interval.at(u)
+                    } else {
+                        interval.open
+                    };
+                    let view = if self.camera_moves {
+                        self.scene.camera.view_at(time, req.width, req.height)
+                    } else {
+                        self.fixed_view
+                    };
+                    let ray = view.ray(x, y, jitter, lens, time);
+                    acc.add(radiance(
+                        &self.world,
+                        ray,
+                        req.max_depth,
+                        sampler,
+                        &mut stats,
+                    ));
+                }
+            }
+        }
+        stats.rays
+    }
+
+    /// Adds samples `range` to every tile, in parallel; returns (rays, tile seconds).
+    fn pass(
+        &self,
+        tiles: &mut [Tile],
+        range: Range<u32>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> (u64, f64) {
+        let req = self.req;
+        tiles
+            .par_iter_mut()
+            .map(|tile| {
+                let start = Instant::now();
+                let rays = match req.sampler {
+                    SamplerKind::Independent => self.sample_tile(
+                        &mut IndependentSampler::new(req.seed, req.frame),
+                        tile,
+                        range.clone(),
+                    ),
+                    SamplerKind::Sobol => self.sample_tile(
+                        &mut SobolSampler::new(req.seed, req.frame),
+                        tile,
+                        range.clone(),
+                    ),
+                };
+                progress(tile.pixels.len() as u64 * range.len() as u64);
+                (rays, start.elapsed().as_secs_f64())
+            })
+            .reduce(|| (0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
+    }
+}
+
+/// The samples per pixel of the next pass, or why to stop.
+///
+/// Passes double the samples taken so far (1, 1, 2, 4, ...: totals at powers of two, where
+/// Sobol points are best stratified). Under a time limit, a pass takes at most half of the time
+/// left, at the speed of the previous pass: the passes shrink toward the limit, so a pass that
+/// runs slower than the one before (a busy machine) still ends before it. The last pass is a
+/// single sample when 90 percent of the time left fits one.
+pub fn next_pass(
+    budget: &Budget,
+    done: u32,
+    elapsed: f64,
+    seconds_per_sample: Option<f64>,
+) -> Result<u32, StopReason> {
+    let cap = budget.max_samples.unwrap_or(u32::MAX);
+    if done >= cap {
+        return Err(StopReason::MaxSamples);
+    }
+    let mut size = done.max(1).min(cap - done);
+    if let (Some(limit), Some(per_sample)) = (budget.time_limit, seconds_per_sample) {
+        let left = limit - elapsed;
+        let half = (0.5 * left / per_sample).floor();
+        if half >= 1.0 {
+            size = size.min(half.min(u32::MAX as f64) as u32);
+        } else if 0.9 * left >= per_sample {
+            size = 1;
+        } else {
+            return Err(StopReason::TimeLimit);
+        }
+    }
+    Ok(size)
+}
+
+/// Renders one frame: exactly `req.samples` per pixel in one pass when `budget` is not set,
+/// else in passes until the budget stops it. `progress` is called with the number of samples
+/// of each finished tile, from worker threads. Runs on the current rayon pool.
+///
+/// Sample `i` of a pixel is the same whichever pass takes it, and each pixel's mean is the
+/// plain sum of its samples over their count: a frame that stopped at N samples per pixel
+/// is bit-identical to one rendered with exactly N samples.
 pub fn render_frame(
     scene: &Scene,
     statics: &StaticGeometry,
     req: &FrameRequest,
+    budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
-    let start = Instant::now();
+    let frame_start = Instant::now();
     let interval = scene.shot.interval(req.frame);
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
-    // Sample time only when something moves during the shutter; sample the lens only for a
-    // lens with an aperture.
-    let sample_time = world.has_motion() || camera_moves;
-    // The aperture does not change over time, so the view at any instant answers this.
-    let has_lens = fixed_view.has_lens();
-    let prepare_seconds = start.elapsed().as_secs_f64();
+    let setup = FrameSetup {
+        scene,
+        // Sample time only when something moves during the shutter; sample the lens only for
+        // a lens with an aperture (which does not change over time, so any instant's view
+        // answers).
+        sample_time: world.has_motion() || camera_moves,
+        has_lens: fixed_view.has_lens(),
+        world,
+        req,
+        interval,
+        camera_moves,
+        fixed_view,
+    };
+    let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
-    let start = Instant::now();
+    let render_start = Instant::now();
     let tiles_x = req.width.div_ceil(TILE);
     let tiles_y = req.height.div_ceil(TILE);
-    let tiles: Vec<(Vec<DVec3>, TraceStats, u64)> = (0..tiles_x * tiles_y)
-        .into_par_iter()
-        .map(|tile| {
-            let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+    let mut tiles: Vec<Tile> = (0..tiles_x * tiles_y)
+        .map(|t| {
+            let (x0, y0) = ((t % tiles_x) * TILE, (t / tiles_x) * TILE);
             let (x1, y1) = ((x0 + TILE).min(req.width), (y0 + TILE).min(req.height));
-            let mut sampler = IndependentSampler::new(req.seed, req.frame);
-            let mut stats = TraceStats::default();
-            let mut dropped = 0u64;
-            let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let mut acc = PixelAccumulator::default();
-                    for s in 0..req.samples {
-                        sampler.start_sample(x, y, s);
-                        let jitter = sampler.next_2d();
-                        let lens = if has_lens {
-                            sampler.next_2d()
-                        } else {
-                            (0.5, 0.5)
-                        };
-                        let time = if sample_time {
-                            interval.at(sampler.next_1d())
-                        } else {
-                            interval.open
-                        };
-                        let view = if camera_moves {
-                            scene.camera.view_at(time, req.width, req.height)
-                        } else {
-                            fixed_view
-                        };
-                        let ray = view.ray(x, y, jitter, lens, time);
-                        acc.add(radiance(
-                            &world,
-                            ray,
-                            req.max_depth,
-                            &mut sampler,
-                            &mut stats,
-                        ));
-                    }
-                    dropped += acc.dropped as u64;
-                    out.push(acc.mean());
-                }
+            let n = ((x1 - x0) * (y1 - y0)) as usize;
+            Tile {
+                x0,
+                y0,
+                x1,
+                y1,
+                pixels: vec![PixelAccumulator::default(); n],
             }
-            progress(out.len() as u64 * req.samples as u64);
-            (out, stats, dropped)
         })
         .collect();
 
-    let mut film = Film::new(req.width, req.height);
     let mut stats = FrameStats {
         prepare_seconds,
-        samples: req.width as u64 * req.height as u64 * req.samples as u64,
-        moving_spheres: world.moving,
+        moving_spheres: setup.world.moving,
         ..FrameStats::default()
     };
-    for (tile, (pixels, tstats, dropped)) in tiles.into_iter().enumerate() {
-        let tile = tile as u32;
-        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-        let w = (x0 + TILE).min(req.width) - x0;
-        for (i, p) in pixels.into_iter().enumerate() {
-            film.set(x0 + i as u32 % w, y0 + i as u32 / w, p);
+    let mut done = 0u32;
+    let mut seconds_per_sample = None;
+    loop {
+        let size = if budget.is_set() {
+            match next_pass(
+                budget,
+                done,
+                frame_start.elapsed().as_secs_f64(),
+                seconds_per_sample,
+            ) {
+                Ok(size) => size,
+                Err(reason) => {
+                    stats.stop = reason;
+                    break;
+                }
+            }
+        } else if done < req.samples {
+            req.samples
+        } else {
+            break;
+        };
+        let pass_start = Instant::now();
+        let (rays, tile_seconds) = setup.pass(&mut tiles, done..done + size, progress);
+        seconds_per_sample = Some(pass_start.elapsed().as_secs_f64() / size as f64);
+        done += size;
+        stats.rays += rays;
+        stats.tile_seconds += tile_seconds;
+        stats.passes += 1;
+        if let Some(threshold) = budget.noise_threshold {
+            if done >= MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX))
+                && estimate(&tiles, req).2 <= threshold
+            {
+                stats.stop = StopReason::NoiseThreshold;
+                break;
+            }
         }
-        stats.rays += tstats.rays;
-        stats.dropped += dropped;
     }
-    stats.render_seconds = start.elapsed().as_secs_f64();
-    FrameResult { film, stats }
+
+    let (film, variance, relative_error) = estimate(&tiles, req);
+    stats.relative_error = relative_error;
+    stats.samples_per_pixel = done;
+    stats.samples = req.width as u64 * req.height as u64 * done as u64;
+    stats.dropped = tiles
+        .iter()
+        .flat_map(|t| &t.pixels)
+        .map(|p| p.dropped as u64)
+        .sum();
+    stats.render_seconds = render_start.elapsed().as_secs_f64();
+    FrameResult {
+        film,
+        variance,
+        stats,
+    }
+}
+
+/// The film of the tiles' means, each pixel's variance of its mean, and the estimated
+/// relative error.
+fn estimate(tiles: &[Tile], req: &FrameRequest) -> (Film, Vec<DVec3>, f64) {
+    let mut film = Film::new(req.width, req.height);
+    let mut variance = vec![DVec3::ZERO; req.width as usize * req.height as usize];
+    for tile in tiles {
+        let w = tile.x1 - tile.x0;
+        for (i, p) in tile.pixels.iter().enumerate() {
+            let (x, y) = (tile.x0 + i as u32 % w, tile.y0 + i as u32 / w);
+            film.set(x, y, p.mean());
+            variance[y as usize * req.width as usize + x as usize] = p.variance_of_mean();
+        }
+    }
+    let relative_error = metrics::estimated_rel_mse(film.pixels(), &variance).sqrt();
+    (film, variance, relative_error)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_double_the_samples_taken() {
+        let b = Budget {
+            noise_threshold: Some(0.01),
+            ..Budget::default()
+        };
+        let mut done = 0;
+        let mut totals = vec![];
+        for _ in 0..6 {
+            done += next_pass(&b, done, 0.0, Some(1.0)).unwrap();
+            totals.push(done);
+        }
+        assert_eq!(totals, [1, 2, 4, 8, 16, 32]);
+    }
+
+    #[test]
+    fn passes_stop_at_the_largest_sample_count() {
+        let b = Budget {
+            noise_threshold: Some(0.01),
+            max_samples: Some(12),
+            ..Budget::default()
+        };
+        assert_eq!(next_pass(&b, 8, 0.0, None), Ok(4));
+        assert_eq!(next_pass(&b, 12, 0.0, None), Err(StopReason::MaxSamples));
+    }
+
+    #[test]
+    fn passes_fit_in_half_the_time_left() {
+        let b = Budget {
+            time_limit: Some(10.0),
+            ..Budget::default()
+        };
+        // No speed known yet: the first pass is one sample.
+        assert_eq!(next_pass(&b, 0, 0.5, None), Ok(1));
+        // 16 samples taken by 1 s at 0.05 s a sample: 16 more take 0.8 s, under half of 9 s.
+        assert_eq!(next_pass(&b, 16, 1.0, Some(0.05)), Ok(16));
+        // 64 taken by 4 s: half of the 6 s left fits 60.
+        assert_eq!(next_pass(&b, 64, 4.0, Some(0.05)), Ok(60));
+        // By 9.94 s: half of 0.06 s fits no sample, but 90 percent of it fits one.
+        assert_eq!(next_pass(&b, 200, 9.94, Some(0.05)), Ok(1));
+        // By 9.96 s: not even that.
+        assert_eq!(
+            next_pass(&b, 201, 9.96, Some(0.05)),
+            Err(StopReason::TimeLimit)
+        );
+    }
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use crate::camera::CameraRig;
 use crate::error::Error;
 use crate::material::{Background, Material};
+use crate::sampler::SamplerKind;
 use crate::shutter::Shot;
 use crate::sphere::SphereDesc;
 
@@ -27,6 +28,8 @@ pub struct RenderSettings {
     /// Longest path in bounces; a path that reaches it returns black.
     pub max_depth: u32,
     pub seed: u64,
+    /// How samples are placed (`[render] sampler`).
+    pub sampler: SamplerKind,
 }
 
 /// A validated scene.

@@ -14,6 +14,7 @@ use crate::camera::CameraRig;
 use crate::error::Error;
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
+use crate::sampler::SamplerKind;
 use crate::scene::{OutputSettings, RenderSettings, Scene};
 use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
 use crate::sphere::SphereDesc;
@@ -75,6 +76,14 @@ struct RawRender {
     samples: Option<Number>,
     max_depth: Option<Number>,
     seed: Option<Number>,
+    sampler: Option<RawSampler>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawSampler {
+    Independent,
+    Sobol,
 }
 
 #[derive(Deserialize, Default)]
@@ -333,6 +342,11 @@ impl Check<'_> {
                 u32::MAX as i64,
             )? as u32,
             seed: self.int("render.seed", raw.render.seed, 0, 0, i64::MAX)? as u64,
+            sampler: match raw.render.sampler {
+                None => SamplerKind::default(),
+                Some(RawSampler::Independent) => SamplerKind::Independent,
+                Some(RawSampler::Sobol) => SamplerKind::Sobol,
+            },
         };
         let camera = self.camera(&raw.camera)?;
         let background = match raw.background {
@@ -686,7 +700,8 @@ mod tests {
             RenderSettings {
                 samples: 16,
                 max_depth: 50,
-                seed: 0
+                seed: 0,
+                sampler: SamplerKind::Sobol,
             }
         );
         assert_eq!(s.camera.look_from, Motion::Still(DVec3::ZERO));

@@ -185,7 +185,15 @@ fn exr_has_linear_float_channels_and_frame_attributes() {
     ));
     assert_eq!(layer.attributes.frames_per_second, Some((24, 1)));
     let attrs = format!("{:?}", layer.attributes.other);
-    for key in ["frame", "shutterOpen", "shutterClose", "samples", "seed"] {
+    for key in [
+        "frame",
+        "shutterOpen",
+        "shutterClose",
+        "samples",
+        "seed",
+        "sampler",
+        "estimatedRelativeError",
+    ] {
         assert!(attrs.contains(key), "attribute {key} missing: {attrs}");
     }
 }
@@ -384,6 +392,38 @@ fn bad_input_exits_2_with_a_located_message_and_writes_nothing() {
             "chunk",
         ),
         ("[shot]\nframes = 4\n", &["--bogus"], "--bogus"),
+        ("[render]\nsampler = \"halton\"\n", &[], "shot.toml:2:"),
+        ("[shot]\nframes = 4\n", &["--sampler", "halton"], "halton"),
+        (
+            "[shot]\nframes = 4\n",
+            &["--time-limit", "0"],
+            "--time-limit",
+        ),
+        (
+            "[shot]\nframes = 4\n",
+            &["--time-limit", "inf"],
+            "--time-limit",
+        ),
+        (
+            "[shot]\nframes = 4\n",
+            &["--noise-threshold", "-0.1"],
+            "--noise-threshold",
+        ),
+        (
+            "[shot]\nframes = 4\n",
+            &["--noise-threshold", "NaN"],
+            "--noise-threshold",
+        ),
+        (
+            "[shot]\nframes = 4\n",
+            &["--max-samples", "64"],
+            "--max-samples",
+        ),
+        (
+            "[shot]\nframes = 4\n",
+            &["--noise-threshold", "0.1", "--max-samples", "0"],
+            "--max-samples",
+        ),
     ];
     for (scene, args, want) in cases {
         let d = setup(scene);

@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use raytrace::camera::View;
 use raytrace::material::schlick;
 use raytrace::ray::Ray;
-use raytrace::render::{FrameRequest, FrameResult, render_frame};
+use raytrace::render::{Budget, FrameRequest, FrameResult, render_frame};
 use raytrace::sampler::{IndependentSampler, Sampler};
 use raytrace::scene::Scene;
 use raytrace::sphere::{intersect, surface_point};
@@ -61,6 +61,7 @@ fn render_checked(scene: &Scene, frame: u32, what: &str) -> FrameResult {
         scene,
         &statics,
         &FrameRequest::from_scene(scene, frame),
+        &Budget::default(),
         &|_| {},
     );
     assert_eq!(

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use raytrace::film::Film;
-use raytrace::render::{FrameRequest, render_frame};
+use raytrace::render::{Budget, FrameRequest, render_frame};
 use raytrace::scene::Scene;
 use raytrace::world::StaticGeometry;
 
@@ -21,6 +21,7 @@ pub fn render(scene: &Scene, frame: u32) -> Film {
         scene,
         &statics,
         &FrameRequest::from_scene(scene, frame),
+        &Budget::default(),
         &|_| {},
     )
     .film
@@ -32,7 +33,7 @@ pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
     let mut req = FrameRequest::from_scene(scene, frame);
     req.samples = samples;
     req.seed = seed;
-    render_frame(scene, &statics, &req, &|_| {}).film
+    render_frame(scene, &statics, &req, &Budget::default(), &|_| {}).film
 }
 
 /// Means over square blocks of `block` x `block` pixels (partial blocks dropped).

@@ -1,0 +1,610 @@
+//! `raytrace converge`: how a frame's error falls with run time, per sampler.
+//!
+//! A reference render of many samples (or an EXR the user gives) stands in for the converged
+//! image. The frame is then rendered at 1, 2, 4, ... samples per pixel with each sampler,
+//! timing the rendering alone, and each render is compared with the reference: mean squared
+//! error, relative mean squared error, the error estimated from the pixels' sample variances
+//! (which needs no reference), and the efficiency `1 / (MSE x seconds)`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::DVec3;
+
+use crate::app::{self, RenderOptions};
+use crate::error::Error;
+use crate::metrics;
+use crate::output::{self, FrameInfo};
+use crate::plot;
+use crate::render::{Budget, FrameRequest, FrameResult, render_frame};
+use crate::rng::hash_words;
+use crate::sampler::SamplerKind;
+use crate::scene::Scene;
+use crate::world::StaticGeometry;
+
+/// Default samples per pixel of the reference render.
+pub const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
+
+/// Renders shorter than this are repeated (up to [`MAX_REPEATS`] times) and their median
+/// time taken, because a single short run's time is mostly noise.
+const SHORT_RUN_SECONDS: f64 = 0.25;
+const MAX_REPEATS: usize = 5;
+
+/// Options of `raytrace converge`.
+#[derive(Clone, Debug, Default)]
+pub struct ConvergeOptions {
+    /// The scene and its overrides (`samples`, `output`, `budget` and frame selection are not
+    /// used).
+    pub render: RenderOptions,
+    /// The frame to measure; `None`: the shot's first frame.
+    pub frame: Option<u32>,
+    /// An existing reference image (EXR) of the frame.
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of a reference rendered here ([`DEFAULT_REFERENCE_SAMPLES`]).
+    pub reference_samples: Option<u32>,
+    /// Where a reference rendered here is written; `None`: next to the CSV or plot, or in the
+    /// current folder, named after the scene and frame.
+    pub write_reference: Option<PathBuf>,
+    /// The largest samples per pixel measured.
+    pub max_samples: Option<u32>,
+    /// Stop a sampler's series when its renders would have taken more than this many seconds
+    /// in all.
+    pub budget: Option<f64>,
+    /// The samplers measured; empty: all of them.
+    pub samplers: Vec<SamplerKind>,
+    pub csv: Option<PathBuf>,
+    pub plot: Option<PathBuf>,
+}
+
+/// One measured render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurement {
+    pub sampler: SamplerKind,
+    pub samples: u32,
+    /// Median wall time of the render (preparation and tracing, no file I/O).
+    pub seconds: f64,
+    pub mse: f64,
+    pub rel_mse: f64,
+    /// The mean squared error estimated from the pixels' sample variances.
+    pub estimated_mse: f64,
+    pub estimated_rel_mse: f64,
+}
+
+impl Measurement {
+    /// `1 / (MSE x seconds)`: higher is better; equal for two renders that trade time for
+    /// error at the rate of independent samples.
+    pub fn efficiency(&self) -> f64 {
+        1.0 / (self.mse * self.seconds)
+    }
+}
+
+/// Everything `converge` measured.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// Where the reference came from, and its samples per pixel if known.
+    pub reference: PathBuf,
+    pub runs: Vec<Measurement>,
+}
+
+impl Report {
+    /// The runs of one sampler, in order of samples.
+    pub fn series(&self, kind: SamplerKind) -> Vec<&Measurement> {
+        self.runs.iter().filter(|m| m.sampler == kind).collect()
+    }
+
+    /// The samplers measured, in order.
+    pub fn samplers(&self) -> Vec<SamplerKind> {
+        let mut kinds: Vec<SamplerKind> = Vec::new();
+        for m in &self.runs {
+            if !kinds.contains(&m.sampler) {
+                kinds.push(m.sampler);
+            }
+        }
+        kinds
+    }
+}
+
+/// The fitted log-log slope of MSE against samples and against seconds for `runs`.
+pub fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
+    let by_samples: Vec<(f64, f64)> = runs.iter().map(|m| (m.samples as f64, m.mse)).collect();
+    let by_time: Vec<(f64, f64)> = runs.iter().map(|m| (m.seconds, m.mse)).collect();
+    (
+        metrics::log_log_slope(&by_samples),
+        metrics::log_log_slope(&by_time),
+    )
+}
+
+/// `base`'s MSE over `other`'s at equal time, at each of `other`'s runs whose time lies
+/// within `base`'s range: `base`'s log MSE is interpolated linearly in log time (the curves
+/// are close to straight lines on log-log axes). Pairs of (seconds, factor).
+pub fn equal_time_factors(base: &[&Measurement], other: &[&Measurement]) -> Vec<(f64, f64)> {
+    let mut b: Vec<(f64, f64)> = base
+        .iter()
+        .filter(|m| m.mse > 0.0)
+        .map(|m| (m.seconds.ln(), m.mse.ln()))
+        .collect();
+    b.sort_by(|p, q| p.0.total_cmp(&q.0));
+    other
+        .iter()
+        .filter(|m| m.mse > 0.0)
+        .filter_map(|m| {
+            let t = m.seconds.ln();
+            let i = b.windows(2).position(|w| w[0].0 <= t && t <= w[1].0)?;
+            let (p, q) = (b[i], b[i + 1]);
+            let f = if q.0 > p.0 {
+                (t - p.0) / (q.0 - p.0)
+            } else {
+                0.0
+            };
+            let base_mse = (p.1 + f * (q.1 - p.1)).exp();
+            Some((m.seconds, base_mse / m.mse))
+        })
+        .collect()
+}
+
+/// The samples per pixel of the measured renders: powers of two up to `max_samples`, and
+/// `max_samples` itself.
+pub fn schedule(max_samples: u32) -> Vec<u32> {
+    let mut v: Vec<u32> = (0..32)
+        .map(|k| 1u32 << k)
+        .take_while(|&n| n < max_samples)
+        .collect();
+    v.push(max_samples);
+    v
+}
+
+/// Runs `raytrace converge`, printing its table to stdout unless `quiet`.
+pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
+    let scene = app::load_scene(&opts.render)?;
+    let frame = opts.frame.unwrap_or(scene.shot.first_frame);
+    if frame < scene.shot.first_frame || frame > scene.shot.last_frame() {
+        return Err(Error::Usage(format!(
+            "--frame {frame} is outside the shot's frames {}-{}",
+            scene.shot.first_frame,
+            scene.shot.last_frame()
+        )));
+    }
+    for (name, v) in [
+        ("--max-samples", opts.max_samples),
+        ("--reference-samples", opts.reference_samples),
+    ] {
+        if v == Some(0) {
+            return Err(Error::Usage(format!("{name} must be >= 1, got 0")));
+        }
+    }
+    if let Some(b) = opts.budget {
+        if !(b.is_finite() && b > 0.0) {
+            return Err(Error::Usage(format!(
+                "--budget must be a number > 0, got {b}"
+            )));
+        }
+    }
+    if opts.reference.is_some() && opts.reference_samples.is_some() {
+        return Err(Error::Usage(
+            "give --reference or --reference-samples, not both".into(),
+        ));
+    }
+    if let Some(path) = &opts.plot {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !matches!(ext.as_deref(), Some("png" | "svg")) {
+            return Err(Error::Usage(format!(
+                "--plot {}: the plot is written as .png or .svg",
+                path.display()
+            )));
+        }
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.render.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Error::Usage(format!("--threads: {e}")))?;
+    pool.install(|| measure(&scene, frame, opts))
+}
+
+fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, Error> {
+    let say = |s: &str| {
+        if !opts.render.quiet {
+            println!("{s}");
+        }
+    };
+    let statics = StaticGeometry::new(scene);
+    let base = FrameRequest::from_scene(scene, frame);
+    let (width, height) = (base.width, base.height);
+
+    let (reference, reference_path) = match &opts.reference {
+        Some(path) => (read_reference(path, width, height)?, path.clone()),
+        None => {
+            let samples = opts.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+            let path = opts
+                .write_reference
+                .clone()
+                .unwrap_or_else(|| default_reference_path(scene, frame, samples, opts));
+            output::format_for(&path).map_err(Error::Usage)?;
+            let req = FrameRequest {
+                samples,
+                // A seed of its own, so the reference's noise is independent of every
+                // measured render's.
+                seed: hash_words(&[base.seed, 0x7265_6665_7265_6e63]),
+                sampler: SamplerKind::default(),
+                ..base.clone()
+            };
+            say(&format!(
+                "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
+                req.sampler
+            ));
+            let result = render_frame(scene, &statics, &req, &Budget::default(), &|_| {});
+            let info = FrameInfo {
+                frame,
+                fps: scene.shot.fps,
+                shutter_open: scene.shot.interval(frame).open,
+                shutter_close: scene.shot.interval(frame).close,
+                samples,
+                seed: req.seed,
+                sampler: req.sampler.name().to_string(),
+                extra: Vec::new(),
+            };
+            output::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
+            say(&format!(
+                "reference: {:.2} s, written to {}",
+                result.stats.render_seconds + result.stats.prepare_seconds,
+                path.display()
+            ));
+            // Compare against what was written (f32), as a reused reference would be.
+            (read_reference(&path, width, height)?, path)
+        }
+    };
+
+    let samplers = if opts.samplers.is_empty() {
+        SamplerKind::ALL.to_vec()
+    } else {
+        opts.samplers.clone()
+    };
+    let max_samples = opts.max_samples.unwrap_or(if opts.budget.is_some() {
+        u32::MAX
+    } else {
+        scene.render.samples
+    });
+    // The samplers take turns at each sample count, so that a change in the machine's load
+    // during the measurement falls on all of them alike.
+    let mut runs = Vec::new();
+    let mut spent = vec![0.0; samplers.len()];
+    let mut active = vec![true; samplers.len()];
+    say(&header());
+    for n in schedule(max_samples) {
+        for (i, &kind) in samplers.iter().enumerate() {
+            if !active[i] {
+                continue;
+            }
+            let req = FrameRequest {
+                samples: n,
+                sampler: kind,
+                ..base.clone()
+            };
+            let (result, seconds) = timed_render(scene, &statics, &req);
+            let m = Measurement {
+                sampler: kind,
+                samples: n,
+                seconds,
+                mse: metrics::mse(result.film.pixels(), &reference),
+                rel_mse: metrics::rel_mse(result.film.pixels(), &reference),
+                estimated_mse: metrics::estimated_mse(&result.variance),
+                estimated_rel_mse: metrics::estimated_rel_mse(
+                    result.film.pixels(),
+                    &result.variance,
+                ),
+            };
+            say(&row(&m));
+            runs.push(m);
+            spent[i] += seconds;
+            // The next render takes about twice as long as this one.
+            if opts.budget.is_some_and(|b| spent[i] + 2.0 * seconds > b) {
+                active[i] = false;
+            }
+        }
+        if !active.contains(&true) {
+            break;
+        }
+    }
+    let report = Report {
+        reference: reference_path,
+        runs,
+    };
+    say(&summary(&report));
+    if let Some(path) = &opts.csv {
+        write_atomically(path, csv(&report).as_bytes())?;
+        say(&format!("CSV written to {}", path.display()));
+    }
+    if let Some(path) = &opts.plot {
+        let series: Vec<plot::Series> = report
+            .samplers()
+            .into_iter()
+            .map(|k| {
+                let runs = report.series(k);
+                plot::Series {
+                    name: k.name().to_string(),
+                    points: runs.iter().map(|m| (m.seconds, m.mse)).collect(),
+                    slope: slopes(&runs).1,
+                }
+            })
+            .collect();
+        let title = format!(
+            "{} frame {frame}: error against render time",
+            scene
+                .source
+                .file_name()
+                .map_or("scene".into(), |n| n.to_string_lossy())
+        );
+        plot::write_plot(
+            path,
+            &title,
+            "render time (s)",
+            "MSE against reference",
+            &series,
+        )
+        .map_err(|message| Error::Output {
+            path: path.clone(),
+            message,
+        })?;
+        say(&format!("plot written to {}", path.display()));
+    }
+    Ok(report)
+}
+
+/// Renders `req` with no file I/O and returns it with its wall time: the median of several
+/// runs when one is short (the runs are bit-identical; the repeats only steady the clock).
+fn timed_render(scene: &Scene, statics: &StaticGeometry, req: &FrameRequest) -> (FrameResult, f64) {
+    let mut times = Vec::new();
+    let mut result = None;
+    while times.len() < MAX_REPEATS {
+        let start = Instant::now();
+        let r = render_frame(scene, statics, req, &Budget::default(), &|_| {});
+        times.push(start.elapsed().as_secs_f64());
+        result.get_or_insert(r);
+        if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {
+            break;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    (
+        result.expect("rendered at least once"),
+        times[times.len() / 2],
+    )
+}
+
+fn default_reference_path(
+    scene: &Scene,
+    frame: u32,
+    samples: u32,
+    opts: &ConvergeOptions,
+) -> PathBuf {
+    let stem = scene
+        .source
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let dir = [&opts.csv, &opts.plot]
+        .into_iter()
+        .flatten()
+        .next()
+        .and_then(|p| p.parent())
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    dir.join(format!("{stem}_frame{frame}_reference_{samples}spp.exr"))
+}
+
+/// Reads the RGB channels of an EXR reference of the given size, as linear radiance.
+pub fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
+    use exr::prelude::read_first_rgba_layer_from_file;
+    let bad = |message: String| Error::Usage(format!("reference {}: {message}", path.display()));
+    if !path.exists() {
+        return Err(bad(
+            "no such file (render one with --reference-samples)".into()
+        ));
+    }
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| {
+            (
+                resolution.width(),
+                vec![DVec3::ZERO; resolution.width() * resolution.height()],
+            )
+        },
+        |(w, pixels): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
+        },
+    )
+    .map_err(|e| bad(e.to_string()))?;
+    let size = image.layer_data.size;
+    if (size.width(), size.height()) != (width as usize, height as usize) {
+        return Err(bad(format!(
+            "is {}x{}, the frame is {width}x{height}",
+            size.width(),
+            size.height()
+        )));
+    }
+    let pixels = image.layer_data.channel_data.pixels.1;
+    if pixels.iter().any(|p| !p.is_finite()) {
+        return Err(bad("has pixels that are not finite".into()));
+    }
+    Ok(pixels)
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let name = path
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy());
+    let tmp = dir
+        .unwrap_or(Path::new("."))
+        .join(format!(".{name}.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            Error::io(path, e)
+        })
+}
+
+fn header() -> String {
+    format!(
+        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>11} {:>8} {:>11}",
+        "sampler", "samples", "seconds", "RMSE", "relMSE", "est. RMSE", "est/RMSE", "efficiency"
+    )
+}
+
+fn row(m: &Measurement) -> String {
+    let est = m.estimated_mse.sqrt();
+    let ratio = if est.is_finite() {
+        format!("{:.3}", est / m.mse.sqrt())
+    } else {
+        "-".into()
+    };
+    format!(
+        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>11.4e} {:>8} {:>11.4e}",
+        m.sampler.name(),
+        m.samples,
+        m.seconds,
+        m.mse.sqrt(),
+        m.rel_mse,
+        est,
+        ratio,
+        m.efficiency()
+    )
+}
+
+fn fmt_slope(s: Option<f64>) -> String {
+    s.map_or("-".into(), |s| format!("{s:.3}"))
+}
+
+/// Slopes per sampler and equal-time comparisons with the first sampler.
+pub fn summary(report: &Report) -> String {
+    let mut s = String::new();
+    let kinds = report.samplers();
+    for &k in &kinds {
+        let runs = report.series(k);
+        let (by_samples, by_time) = slopes(&runs);
+        let _ = writeln!(
+            s,
+            "{k}: MSE slope {} against samples, {} against seconds",
+            fmt_slope(by_samples),
+            fmt_slope(by_time)
+        );
+    }
+    if let Some((&first, rest)) = kinds.split_first() {
+        for &k in rest {
+            let f = equal_time_factors(&report.series(first), &report.series(k));
+            if let Some(&(t, last)) = f.last() {
+                let mut all: Vec<f64> = f.iter().map(|p| p.1).collect();
+                all.sort_by(f64::total_cmp);
+                let _ = writeln!(
+                    s,
+                    "equal time: {first} MSE / {k} MSE = {last:.2} at {t:.3} s (median {:.2} over {} times)",
+                    all[all.len() / 2],
+                    all.len()
+                );
+            }
+        }
+    }
+    s.trim_end().to_string()
+}
+
+/// The measurements as CSV, one row per render.
+pub fn csv(report: &Report) -> String {
+    let mut s = String::from(
+        "sampler,samples,seconds,mse,rmse,rel_mse,estimated_mse,estimated_rmse,estimated_rel_mse,efficiency\n",
+    );
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:e}")
+        } else {
+            String::new()
+        }
+    };
+    for m in &report.runs {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{}",
+            m.sampler,
+            m.samples,
+            num(m.seconds),
+            num(m.mse),
+            num(m.mse.sqrt()),
+            num(m.rel_mse),
+            num(m.estimated_mse),
+            num(m.estimated_mse.sqrt()),
+            num(m.estimated_rel_mse),
+            num(m.efficiency())
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn m(sampler: SamplerKind, samples: u32, seconds: f64, mse: f64) -> Measurement {
+        Measurement {
+            sampler,
+            samples,
+            seconds,
+            mse,
+            rel_mse: mse,
+            estimated_mse: mse,
+            estimated_rel_mse: mse,
+        }
+    }
+
+    #[test]
+    fn schedules_are_powers_of_two_then_the_maximum() {
+        assert_eq!(schedule(1), [1]);
+        assert_eq!(schedule(8), [1, 2, 4, 8]);
+        assert_eq!(schedule(12), [1, 2, 4, 8, 12]);
+        assert_eq!(schedule(u32::MAX).len(), 33);
+    }
+
+    #[test]
+    fn equal_time_factor_of_two_power_laws() {
+        // Base: MSE = 1 / t. Other: MSE = 1 / (4 t) at the same times, so 4x lower.
+        use SamplerKind::*;
+        let base: Vec<Measurement> = (0..5)
+            .map(|k| 2f64.powi(k))
+            .map(|t| m(Independent, 1, t, 1.0 / t))
+            .collect();
+        let other: Vec<Measurement> = [1.5, 3.0, 10.0, 100.0]
+            .into_iter()
+            .map(|t| m(Sobol, 1, t, 0.25 / t))
+            .collect();
+        let f = equal_time_factors(
+            &base.iter().collect::<Vec<_>>(),
+            &other.iter().collect::<Vec<_>>(),
+        );
+        // 100 s lies outside the base's times (1..16 s): not compared.
+        assert_eq!(f.len(), 3);
+        for (_, factor) in f {
+            assert!((factor - 4.0).abs() < 1e-9, "{factor}");
+        }
+    }
+
+    #[test]
+    fn efficiency_is_inverse_mse_times_seconds() {
+        assert_eq!(m(SamplerKind::Sobol, 4, 0.5, 0.01).efficiency(), 200.0);
+    }
+
+    #[test]
+    fn csv_has_a_row_per_run_and_leaves_unknowns_empty() {
+        let mut r = m(SamplerKind::Independent, 1, 0.5, 0.04);
+        r.estimated_mse = f64::INFINITY;
+        let report = Report {
+            reference: PathBuf::from("r.exr"),
+            runs: vec![r, m(SamplerKind::Sobol, 2, 1.0, 0.01)],
+        };
+        let text = csv(&report);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3);
+        assert_eq!(lines[1], "independent,1,5e-1,4e-2,2e-1,4e-2,,,4e-2,5e1");
+        assert!(lines[2].starts_with("sobol,2,1e0,1e-2,1e-1,"));
+    }
+}

@@ -1,0 +1,112 @@
+//! Image error metrics: against a reference image, and estimated from the samples alone.
+//!
+//! All are means over every pixel and colour channel, in linear radiance.
+
+use glam::DVec3;
+
+/// The offset in the denominator of the relative error, so that black pixels do not divide
+/// by zero (as pbrt-v4's `imgtool diff --metric relmse`).
+pub const RELATIVE_EPSILON: f64 = 0.01;
+
+fn mean_over(values: impl Iterator<Item = DVec3>, count: usize) -> f64 {
+    let sum: f64 = values.map(|v| v.x + v.y + v.z).sum();
+    sum / (3 * count.max(1)) as f64
+}
+
+/// The mean squared error of `image` against `reference`.
+pub fn mse(image: &[DVec3], reference: &[DVec3]) -> f64 {
+    assert_eq!(image.len(), reference.len(), "images of different sizes");
+    let diffs = image
+        .iter()
+        .zip(reference)
+        .map(|(v, r)| (*v - *r) * (*v - *r));
+    mean_over(diffs, image.len())
+}
+
+/// The relative mean squared error, `mean((v - ref)^2 / (ref + 0.01)^2)`.
+pub fn rel_mse(image: &[DVec3], reference: &[DVec3]) -> f64 {
+    assert_eq!(image.len(), reference.len(), "images of different sizes");
+    let terms = image.iter().zip(reference).map(|(v, r)| {
+        let d = *v - *r;
+        let s = *r + RELATIVE_EPSILON;
+        d * d / (s * s)
+    });
+    mean_over(terms, image.len())
+}
+
+/// The mean squared error estimated from each pixel's variance of its mean (no reference):
+/// the mean of the variances, since `E[(mean - expected)^2]` is the variance of the mean.
+pub fn estimated_mse(variance_of_mean: &[DVec3]) -> f64 {
+    mean_over(variance_of_mean.iter().copied(), variance_of_mean.len())
+}
+
+/// The relative mean squared error estimated from each pixel's variance of its mean, with the
+/// pixel's own mean standing in for the reference.
+pub fn estimated_rel_mse(image: &[DVec3], variance_of_mean: &[DVec3]) -> f64 {
+    assert_eq!(
+        image.len(),
+        variance_of_mean.len(),
+        "images of different sizes"
+    );
+    let terms = image.iter().zip(variance_of_mean).map(|(m, var)| {
+        let s = m.max(DVec3::ZERO) + RELATIVE_EPSILON;
+        *var / (s * s)
+    });
+    mean_over(terms, image.len())
+}
+
+/// Least-squares slope of `ln y` against `ln x` over the points with finite, positive
+/// coordinates; `None` without two distinct `x`.
+pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let logs: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    let n = logs.len() as f64;
+    let mx = logs.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = logs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (logs.len() >= 2 && sxx > 0.0).then(|| sxy / sxx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_of_known_images() {
+        let reference = [DVec3::ZERO, DVec3::ONE];
+        let image = [DVec3::splat(0.1), DVec3::new(1.0, 1.0, 1.3)];
+        // Squared differences: 0.01 x 3, then 0, 0, 0.09: mean 0.12 / 6.
+        assert!((mse(&image, &reference) - 0.02).abs() < 1e-15);
+        // Relative: 0.01 / 0.0001 x 3 = 300, and 0.09 / 1.0201.
+        let expected = (300.0 + 0.09 / 1.0201) / 6.0;
+        assert!((rel_mse(&image, &reference) - expected).abs() < 1e-9);
+        assert_eq!(mse(&reference, &reference), 0.0);
+    }
+
+    #[test]
+    fn estimates_are_means_of_variances() {
+        let var = [DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO];
+        assert_eq!(estimated_mse(&var), 1.0);
+        let image = [DVec3::splat(0.99), DVec3::ONE];
+        assert!((estimated_rel_mse(&image, &var) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slopes_of_power_laws() {
+        let pts: Vec<(f64, f64)> = (0..10)
+            .map(|i| 2f64.powi(i))
+            .map(|x| (x, 3.0 / x))
+            .collect();
+        assert!((log_log_slope(&pts).unwrap() + 1.0).abs() < 1e-12);
+        let mut half: Vec<(f64, f64)> = pts.iter().map(|&(x, _)| (x, x.powf(-0.5))).collect();
+        // Unusable points are skipped.
+        half.extend([(0.0, 1.0), (4.0, f64::NAN), (-1.0, 2.0), (8.0, 0.0)]);
+        assert!((log_log_slope(&half).unwrap() + 0.5).abs() < 1e-12);
+        assert_eq!(log_log_slope(&[(1.0, 1.0), (1.0, 2.0)]), None);
+        assert_eq!(log_log_slope(&[]), None);
+    }
+}

@@ -1,0 +1,221 @@
+//! Rendering under a noise threshold or a time limit, end to end.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use exr::meta::attribute::{AttributeValue, Text};
+
+const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
+
+fn run(dir: &Path, args: &[&str]) -> Output {
+    let o = Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run raytrace");
+    assert!(
+        o.status.success(),
+        "{args:?}: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+const SCENE: &str = r#"
+[shot]
+fps = 24.0
+frames = 2
+shutter_angle = 180.0
+[output]
+path = "f_####.exr"
+width = 40
+height = 24
+[render]
+samples = 4
+max_depth = 10
+seed = 5
+[camera]
+look_from = [0.0, 1.0, 4.0]
+look_at = [0.0, 0.5, 0.0]
+vfov = 45.0
+aperture = 0.05
+[[sphere]]
+center = [0.0, -100.0, 0.0]
+radius = 100.0
+material = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
+[[sphere]]
+center = [0.0, 0.5, 0.0]
+radius = 0.5
+material = { type = "lambertian", albedo = [0.7, 0.2, 0.1] }
+velocity = [0.0, 3.0, 0.0]
+"#;
+
+/// The pixels (as bits) and the custom attributes of an EXR frame.
+fn read(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let mut bits = Vec::new();
+    for c in &layer.channel_data.list {
+        if let exr::image::FlatSamples::F32(v) = &c.sample_data {
+            bits.extend(v.iter().map(|x| x.to_bits()));
+        }
+    }
+    (bits, layer.attributes.clone())
+}
+
+fn attr(a: &exr::meta::header::LayerAttributes, name: &str) -> Option<AttributeValue> {
+    a.other.get(&Text::from(name)).cloned()
+}
+
+fn as_f64(v: Option<AttributeValue>) -> f64 {
+    match v {
+        Some(AttributeValue::F64(x)) => x,
+        Some(AttributeValue::I32(x)) => x as f64,
+        other => panic!("not a number: {other:?}"),
+    }
+}
+
+#[test]
+fn noise_threshold_stops_at_or_below_it_and_matches_a_plain_render_of_as_many_samples() {
+    for sampler in ["independent", "sobol"] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::write(d.join("s.toml"), SCENE).unwrap();
+        let o = run(
+            d,
+            &[
+                "render",
+                "s.toml",
+                "--frames",
+                "1",
+                "--sampler",
+                sampler,
+                "--noise-threshold",
+                "0.03",
+            ],
+        );
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(stdout.contains("noise threshold reached"), "{stdout}");
+        let (pixels, a) = read(&d.join("f_0001.exr"));
+        let error = as_f64(attr(&a, "estimatedRelativeError"));
+        assert!(error <= 0.03, "{error}");
+        assert_eq!(as_f64(attr(&a, "noiseThreshold")), 0.03);
+        let samples = as_f64(attr(&a, "samples")) as u32;
+        // The passes double: the samples are a power of two, and the one before did not
+        // reach the threshold (else it would have stopped there).
+        assert!(samples.is_power_of_two() && samples >= 16, "{samples}");
+        // Exactly those samples, in one pass: the same pixels, bit for bit.
+        let n = samples.to_string();
+        run(
+            d,
+            &[
+                "render",
+                "s.toml",
+                "--frames",
+                "1",
+                "--sampler",
+                sampler,
+                "--samples",
+                &n,
+                "-o",
+                "plain_####.exr",
+            ],
+        );
+        let (plain, b) = read(&d.join("plain_0001.exr"));
+        assert_eq!(plain, pixels, "{sampler}");
+        assert_eq!(as_f64(attr(&b, "estimatedRelativeError")), error);
+        let half = (samples / 2).to_string();
+        run(
+            d,
+            &[
+                "render",
+                "s.toml",
+                "--frames",
+                "1",
+                "--sampler",
+                sampler,
+                "--samples",
+                &half,
+                "-o",
+                "half_####.exr",
+            ],
+        );
+        let (_, h) = read(&d.join("half_0001.exr"));
+        if samples > 16 {
+            assert!(as_f64(attr(&h, "estimatedRelativeError")) > 0.03);
+        }
+        assert_eq!(attr(&h, "noiseThreshold"), None);
+    }
+}
+
+#[test]
+fn max_samples_caps_a_threshold_that_is_not_reached() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), SCENE).unwrap();
+    let o = run(
+        d,
+        &[
+            "render",
+            "s.toml",
+            "--frames",
+            "2",
+            "--noise-threshold",
+            "1e-6",
+            "--max-samples",
+            "24",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("24 spp (max samples)"), "{stdout}");
+    let (_, a) = read(&d.join("f_0002.exr"));
+    assert_eq!(as_f64(attr(&a, "samples")), 24.0);
+    assert!(as_f64(attr(&a, "estimatedRelativeError")) > 1e-6);
+}
+
+/// The seconds a frame took, from its summary line (`frame N: S s, ...`).
+fn frame_seconds(stdout: &str, frame: u32) -> f64 {
+    let prefix = format!("frame {frame}: ");
+    let line = stdout.lines().find(|l| l.starts_with(&prefix)).unwrap();
+    line[prefix.len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn time_limit_stops_within_ten_percent_of_it() {
+    // The frame's own clock, as printed: this checks how the passes are sized, not how fast
+    // the machine is (a sample of this scene takes about a microsecond a pixel, so one pass
+    // of one sample is under 1 percent of the limit on any machine).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), SCENE).unwrap();
+    let o = run(
+        d,
+        &[
+            "render",
+            "s.toml",
+            "--frames",
+            "1-2",
+            "--time-limit",
+            "1.5",
+            "--width",
+            "80",
+            "--height",
+            "48",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for frame in [1, 2] {
+        let t = frame_seconds(&stdout, frame);
+        assert!((1.35..=1.65).contains(&t), "frame {frame}: {t} s\n{stdout}");
+    }
+    assert!(stdout.contains("(time limit)"), "{stdout}");
+    let (_, a) = read(&d.join("f_0002.exr"));
+    assert_eq!(as_f64(attr(&a, "timeLimit")), 1.5);
+    assert!(as_f64(attr(&a, "samples")) > 16.0);
+}
