@@ -17,6 +17,7 @@ pub mod lerp;
 pub mod material;
 pub mod motion;
 pub mod output;
+pub mod plot;
 pub mod ray;
 pub mod render;
 pub mod rng;
