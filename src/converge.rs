@@ -110,8 +110,8 @@ pub fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
     let by_samples: Vec<(f64, f64)> = runs.iter().map(|m| (m.samples as f64, m.mse)).collect();
     let by_time: Vec<(f64, f64)> = runs.iter().map(|m| (m.seconds, m.mse)).collect();
     (
-        metrics::log_log_slope(&by_samples),
-        metrics::log_log_slope(&by_time),
+        plot::log_log_slope(&by_samples),
+        plot::log_log_slope(&by_time),
     )
 }
 

@@ -55,22 +55,6 @@ pub fn estimated_rel_mse(image: &[DVec3], variance_of_mean: &[DVec3]) -> f64 {
     mean_over(terms, image.len())
 }
 
-/// Least-squares slope of `ln y` against `ln x` over the points with finite, positive
-/// coordinates; `None` without two distinct `x`.
-pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
-    let logs: Vec<(f64, f64)> = points
-        .iter()
-        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
-        .map(|(x, y)| (x.ln(), y.ln()))
-        .collect();
-    let n = logs.len() as f64;
-    let mx = logs.iter().map(|p| p.0).sum::<f64>() / n;
-    let my = logs.iter().map(|p| p.1).sum::<f64>() / n;
-    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    (logs.len() >= 2 && sxx > 0.0).then(|| sxy / sxx)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,20 +77,5 @@ mod tests {
         assert_eq!(estimated_mse(&var), 1.0);
         let image = [DVec3::splat(0.99), DVec3::ONE];
         assert!((estimated_rel_mse(&image, &var) - 1.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn slopes_of_power_laws() {
-        let pts: Vec<(f64, f64)> = (0..10)
-            .map(|i| 2f64.powi(i))
-            .map(|x| (x, 3.0 / x))
-            .collect();
-        assert!((log_log_slope(&pts).unwrap() + 1.0).abs() < 1e-12);
-        let mut half: Vec<(f64, f64)> = pts.iter().map(|&(x, _)| (x, x.powf(-0.5))).collect();
-        // Unusable points are skipped.
-        half.extend([(0.0, 1.0), (4.0, f64::NAN), (-1.0, 2.0), (8.0, 0.0)]);
-        assert!((log_log_slope(&half).unwrap() + 0.5).abs() < 1e-12);
-        assert_eq!(log_log_slope(&[(1.0, 1.0), (1.0, 2.0)]), None);
-        assert_eq!(log_log_slope(&[]), None);
     }
 }
