@@ -103,12 +103,12 @@ pub fn check_budget(budget: &Budget) -> Result<(), Error> {
         ("--time-limit", budget.time_limit),
         ("--noise-threshold", budget.noise_threshold),
     ] {
-        if let Some(v) = value {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::Usage(format!(
-                    "{name} must be a number > 0, got {v}"
-                )));
-            }
+        if let Some(v) = value
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(Error::Usage(format!(
+                "{name} must be a number > 0, got {v}"
+            )));
         }
     }
     match budget.max_samples {

@@ -173,12 +173,12 @@ pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
             return Err(Error::Usage(format!("{name} must be >= 1, got 0")));
         }
     }
-    if let Some(b) = opts.budget {
-        if !(b.is_finite() && b > 0.0) {
-            return Err(Error::Usage(format!(
-                "--budget must be a number > 0, got {b}"
-            )));
-        }
+    if let Some(b) = opts.budget
+        && !(b.is_finite() && b > 0.0)
+    {
+        return Err(Error::Usage(format!(
+            "--budget must be a number > 0, got {b}"
+        )));
     }
     if opts.reference.is_some() && opts.reference_samples.is_some() {
         return Err(Error::Usage(

@@ -354,13 +354,12 @@ pub fn render_frame(
         stats.rays += rays;
         stats.tile_seconds += tile_seconds;
         stats.passes += 1;
-        if let Some(threshold) = budget.noise_threshold {
-            if done >= MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX))
-                && estimate(&tiles, req).2 <= threshold
-            {
-                stats.stop = StopReason::NoiseThreshold;
-                break;
-            }
+        if let Some(threshold) = budget.noise_threshold
+            && done >= MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX))
+            && estimate(&tiles, req).2 <= threshold
+        {
+            stats.stop = StopReason::NoiseThreshold;
+            break;
         }
     }
 

@@ -161,7 +161,7 @@ impl SobolSampler {
     pub fn new(seed: u64, frame: u32) -> SobolSampler {
         SobolSampler {
             // Distinct from the independent sampler's key, so the two never share numbers.
-            key: hash_words(&[seed, frame as u64, 0x50b0_1]),
+            key: hash_words(&[seed, frame as u64, 0x0005_0b01]),
             sample_seed: 0,
             index: 0,
             domain: 0,
@@ -253,7 +253,11 @@ mod tests {
         v
     }
 
-    fn both(seed: u64, frame: u32) -> [Box<dyn FnMut(u32, u32, u32) -> Vec<f64>>; 2] {
+    /// Draws the numbers of one sample at (x, y, index).
+    type Draw = Box<dyn FnMut(u32, u32, u32) -> Vec<f64>>;
+
+    /// The two samplers for a seed and frame.
+    fn both(seed: u64, frame: u32) -> [Draw; 2] {
         let mut a = IndependentSampler::new(seed, frame);
         let mut b = SobolSampler::new(seed, frame);
         [
