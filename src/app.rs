@@ -228,7 +228,7 @@ fn render_targets(
             String::new()
         };
         progress.line(&format!(
-            "frame {frame}: {seconds:.2} s, {} spp{stop}, error {}, {:.2} M samples/s, {} dropped, {}",
+            "frame {frame}: {seconds:.2} s, {} spp{stop}, est. error {}, {:.2} M samples/s, {} dropped, {}",
             st.samples_per_pixel,
             percent(st.relative_error),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
@@ -252,7 +252,7 @@ fn render_targets(
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
         let max = errors.iter().copied().fold(0.0, f64::max);
         format!(
-            ", estimated error mean {} max {}",
+            ", est. error mean {} max {}",
             percent(mean),
             percent(max)
         )
