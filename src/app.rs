@@ -251,11 +251,7 @@ fn render_targets(
     } else {
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
         let max = errors.iter().copied().fold(0.0, f64::max);
-        format!(
-            ", est. error mean {} max {}",
-            percent(mean),
-            percent(max)
-        )
+        format!(", est. error mean {} max {}", percent(mean), percent(max))
     };
     progress.line(&format!(
         "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",

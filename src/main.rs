@@ -85,11 +85,11 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
         #[arg(long)]
         sampler: Option<SamplerKind>,
         /// Seconds per frame: sample in passes and stop before this time is exceeded.
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         time_limit: Option<f64>,
         /// Sample in passes until the estimated relative error of the frame (as printed,
         /// 0.01 = 1%) is at or below this.
-        #[arg(long, value_name = "E")]
+        #[arg(long, value_name = "E", allow_negative_numbers = true)]
         noise_threshold: Option<f64>,
         /// With --time-limit or --noise-threshold: never more than this many samples per pixel.
         #[arg(long, value_name = "N")]
@@ -128,7 +128,7 @@ Examples:
         #[arg(long, value_name = "N")]
         max_samples: Option<u32>,
         /// Seconds of rendering per sampler, at most.
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         budget: Option<f64>,
         /// A sampler to measure; repeat for several (default: all).
         #[arg(long)]

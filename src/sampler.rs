@@ -16,6 +16,12 @@
 use std::fmt;
 use std::str::FromStr;
 
+use std::sync::OnceLock;
+
+use sobol_burley::parts::{
+    Int4, hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev, sobol_int4_rev,
+};
+
 use crate::rng::{Pcg32, hash_words, mix64};
 
 /// The interface the tracer draws its random numbers from.
@@ -154,6 +160,11 @@ pub struct SobolSampler {
     domain: u64,
     /// Independent numbers for the domains past [`SOBOL_DOMAINS`].
     rng: Pcg32,
+    /// The scrambles of the current pixel's Sobol domains, which do not depend on the sample
+    /// index: computed once for all of a pixel's samples.
+    scrambles: [Scramble; SOBOL_DOMAINS as usize],
+    /// The (pixel, block) the scrambles are for.
+    scrambles_for: Option<(u64, u64)>,
 }
 
 impl SobolSampler {
@@ -166,13 +177,14 @@ impl SobolSampler {
             index: 0,
             domain: 0,
             rng: Pcg32::new(0, 0),
+            scrambles: [Scramble::new(0, false); SOBOL_DOMAINS as usize],
+            scrambles_for: None,
         }
     }
 
     /// The next domain's first four dimensions, in [0, 1).
     #[inline]
     fn next_domain(&mut self) -> [f64; 4] {
-        use sobol_burley::parts::{Int4, hash_int4, owen_scramble_int4_rev, sobol_int4_rev};
         let d = self.domain;
         self.domain += 1;
         if d >= SOBOL_DOMAINS {
@@ -187,28 +199,77 @@ impl SobolSampler {
                 0.0,
             ];
         }
-        let seed = mix64(self.sample_seed ^ d);
-        let seed = (seed ^ (seed >> 32)) as u32;
-        if d > 0 {
-            // Padding: the first dimensions of the sequence again, with the index shuffled
-            // (a nested uniform scramble) and the points Owen-scrambled, both by the domain's
-            // seed, which makes this domain independent of the others.
-            return sobol_burley::sample_4d(self.index, 0, seed).map(f64::from);
+        self.scrambles[d as usize].point(self.index).map(f64::from)
+    }
+}
+
+/// The first four dimensions of the Sobol sequence for 16-bit indices, as two tables of 256
+/// entries, one per byte of the index: the sequence is linear over GF(2) in the index bits,
+/// so a point is the XOR of its two bytes' entries. Two lookups replace the crate's loop over
+/// the index bits (16 steps for a shuffled index), which halves the cost of a point.
+struct SobolTables {
+    low: [Int4; 256],
+    high: [Int4; 256],
+}
+
+fn sobol_tables() -> &'static SobolTables {
+    static TABLES: OnceLock<SobolTables> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let zero = Int4::from([0u32; 4]);
+        let mut t = SobolTables {
+            low: [zero; 256],
+            high: [zero; 256],
+        };
+        for b in 0..256u32 {
+            t.low[b as usize] = sobol_int4_rev(b.reverse_bits(), 0);
+            t.high[b as usize] = sobol_int4_rev((b << 8).reverse_bits(), 0);
         }
-        // The pixel position: the sequence in its own order (no shuffle needed for the first
-        // domain, which halves its cost), Owen-scrambled as `sample_4d` scrambles.
-        let sobol = sobol_int4_rev(self.index.reverse_bits(), 0);
-        let scramble: Int4 = [
-            seed ^ 0x912f_69ba,
-            seed ^ 0x174f_18ab,
-            seed ^ 0x691e_72ca,
-            seed ^ 0xb40c_c1b8,
+        t
+    })
+}
+
+/// One Owen scramble (and optionally shuffle) of the Sobol sequence, from a 32-bit seed, with
+/// the hashes of the seed done once.
+#[derive(Clone, Copy, Debug)]
+struct Scramble {
+    /// The hashed seed of the index shuffle, if shuffled.
+    shuffle: Option<u32>,
+    /// The hashed seeds of the four dimensions' Owen scrambles.
+    owen: Int4,
+}
+
+impl Scramble {
+    /// The scramble of `seed`: with `shuffle`, the points are exactly
+    /// `sobol_burley::sample_4d(index, 0, seed)` (a test checks every index); without, the same
+    /// scramble of the points in their own order.
+    fn new(seed: u32, shuffle: bool) -> Scramble {
+        // The crate's constants (sobol_burley 0.5, `sample_4d`), so that the points are its own.
+        let scrambled = seed.wrapping_mul(0x9c8f_2d3b);
+        let owen: Int4 = [
+            scrambled ^ 0x912f_69ba,
+            scrambled ^ 0x174f_18ab,
+            scrambled ^ 0x691e_72ca,
+            scrambled ^ 0xb40c_c1b8,
         ]
         .into();
-        owen_scramble_int4_rev(sobol, hash_int4(scramble))
+        Scramble {
+            shuffle: shuffle.then(|| hash(seed ^ 0x79c6_8e4a)),
+            owen: hash_int4(owen),
+        }
+    }
+
+    /// Dimensions 0-3 of point `index` (< 2^16).
+    #[inline]
+    fn point(&self, index: u32) -> [f32; 4] {
+        let index = match self.shuffle {
+            Some(h) => owen_scramble_rev(index.reverse_bits(), h).reverse_bits(),
+            None => index,
+        };
+        let t = sobol_tables();
+        let sobol = t.low[(index & 0xff) as usize] ^ t.high[((index >> 8) & 0xff) as usize];
+        owen_scramble_int4_rev(sobol, self.owen)
             .reverse_bits()
             .to_f32_norm()
-            .map(f64::from)
     }
 }
 
@@ -217,9 +278,20 @@ impl Sampler for SobolSampler {
     fn start_sample(&mut self, x: u32, y: u32, index: u32) {
         let pixel = ((y as u64) << 32) | x as u64;
         let block = (index / SOBOL_SEQUENCE_LENGTH) as u64;
-        self.sample_seed = hash_words(&[self.key, pixel, block]);
         self.index = index % SOBOL_SEQUENCE_LENGTH;
         self.domain = 0;
+        if self.scrambles_for != Some((pixel, block)) {
+            self.scrambles_for = Some((pixel, block));
+            self.sample_seed = hash_words(&[self.key, pixel, block]);
+            for (d, scramble) in self.scrambles.iter_mut().enumerate() {
+                let seed = mix64(self.sample_seed ^ d as u64);
+                // The pixel position takes the sequence in its own order (the first domain
+                // needs no shuffle); later domains are padded: the index shuffled by the
+                // domain's seed (a nested uniform scramble), which makes them independent of
+                // each other.
+                *scramble = Scramble::new((seed ^ (seed >> 32)) as u32, d > 0);
+            }
+        }
     }
 
     #[inline]
@@ -444,6 +516,33 @@ mod tests {
         s.start_sample(2, 2, u32::MAX);
         let (a, b) = s.next_2d();
         assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
+    }
+
+    #[test]
+    fn table_points_are_the_crates_points() {
+        // Two computations of the same numbers: the byte tables against the crate's own
+        // `sample_4d`, at every index of a sequence and several seeds.
+        for seed in [0, 1, 0x9e37_79b9, u32::MAX] {
+            for index in 0..SOBOL_SEQUENCE_LENGTH {
+                let seed = seed ^ index.wrapping_mul(0x85eb_ca6b);
+                assert_eq!(
+                    Scramble::new(seed, true).point(index),
+                    sobol_burley::sample_4d(index, 0, seed),
+                    "index {index}, seed {seed}"
+                );
+            }
+        }
+        // The tables alone against the crate's loop over the index bits, at every index (the
+        // path without the shuffle uses them directly).
+        let t = sobol_tables();
+        for index in 0..SOBOL_SEQUENCE_LENGTH {
+            let table = t.low[(index & 0xff) as usize] ^ t.high[(index >> 8) as usize];
+            let direct = sobol_int4_rev(index.reverse_bits(), 0);
+            assert_eq!(
+                table.reverse_bits().to_f32_norm(),
+                direct.reverse_bits().to_f32_norm()
+            );
+        }
     }
 
     #[test]
