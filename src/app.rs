@@ -296,6 +296,13 @@ fn stats_line(frame: u32, st: &FrameStats) -> String {
     )
 }
 
+/// Prints a line to stdout. A closed stdout (`raytrace render ... | head -1`) is not an error:
+/// the lines are for whoever reads them, and the frames are still rendered and written.
+pub fn print_line(text: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
+}
+
 /// The process's peak resident memory so far (Linux: `VmHWM` in `/proc/self/status`).
 pub fn peak_memory_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -357,7 +364,7 @@ impl Progress {
 
     fn line(&self, text: &str) {
         if !self.quiet {
-            self.multi.suspend(|| println!("{text}"));
+            self.multi.suspend(|| print_line(text));
         }
     }
 

@@ -206,7 +206,7 @@ pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
 fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, Error> {
     let say = |s: &str| {
         if !opts.render.quiet {
-            println!("{s}");
+            app::print_line(s);
         }
     };
     let statics = StaticGeometry::new(scene);

@@ -259,13 +259,14 @@ fn main() -> ExitCode {
             converge::converge(&opts).map(|_| ())
         }
         Command::Check { scene, chunk_size } => {
-            app::check(&scene, chunk_size).map(|s| print!("{s}"))
+            app::check(&scene, chunk_size).map(|s| app::print_line(s.trim_end()))
         }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "error: {e}");
             ExitCode::from(e.exit_code() as u8)
         }
     }

@@ -459,3 +459,22 @@ fn unwritable_output_exits_1_naming_the_path() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("out"), "{}", text(&o));
 }
+
+#[test]
+fn a_closed_stdout_does_not_stop_the_render() {
+    // `raytrace render shot.toml | head -1`: the reader goes away after the first line.
+    let d = setup(SMALL);
+    let mut child = Command::new(BIN)
+        .args(["render", "shot.toml"])
+        .current_dir(d.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(files(&d.path().join("out")).len(), 4);
+}
