@@ -1,26 +1,11 @@
 //! Rendering under a noise threshold or a time limit, end to end.
 
 use std::path::Path;
-use std::process::{Command, Output};
+
+mod common;
+use common::run_ok as run;
 
 use exr::meta::attribute::{AttributeValue, Text};
-
-const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
-
-fn run(dir: &Path, args: &[&str]) -> Output {
-    let o = Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run raytrace");
-    assert!(
-        o.status.success(),
-        "{args:?}: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
 
 const SCENE: &str = r#"
 [shot]
@@ -50,6 +35,16 @@ radius = 0.5
 material = { type = "lambertian", albedo = [0.7, 0.2, 0.1] }
 velocity = [0.0, 3.0, 0.0]
 "#;
+
+/// Renders the scene in a new folder with `args` after `render s.toml`.
+fn render_scene(args: &[&str]) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), SCENE).unwrap();
+    let mut all = vec!["render", "s.toml"];
+    all.extend_from_slice(args);
+    let out = run(dir.path(), &all);
+    (dir, String::from_utf8_lossy(&out.stdout).into_owned())
+}
 
 /// The pixels (as bits) and the custom attributes of an EXR frame.
 fn read(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
@@ -82,19 +77,13 @@ fn noise_threshold_stops_at_or_below_it_and_matches_a_plain_render_of_as_many_sa
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         std::fs::write(d.join("s.toml"), SCENE).unwrap();
-        let o = run(
-            d,
-            &[
-                "render",
-                "s.toml",
-                "--frames",
-                "1",
-                "--sampler",
-                sampler,
-                "--noise-threshold",
-                "0.03",
-            ],
-        );
+        // Frame 1 with this sampler, and `extra` arguments.
+        let render = |extra: &[&str]| {
+            let mut args = vec!["render", "s.toml", "--frames", "1", "--sampler", sampler];
+            args.extend_from_slice(extra);
+            run(d, &args)
+        };
+        let o = render(&["--noise-threshold", "0.03"]);
         let stdout = String::from_utf8_lossy(&o.stdout);
         assert!(stdout.contains("noise threshold reached"), "{stdout}");
         let (pixels, a) = read(&d.join("f_0001.exr"));
@@ -107,40 +96,12 @@ fn noise_threshold_stops_at_or_below_it_and_matches_a_plain_render_of_as_many_sa
         assert!(samples.is_power_of_two() && samples >= 16, "{samples}");
         // Exactly those samples, in one pass: the same pixels, bit for bit.
         let n = samples.to_string();
-        run(
-            d,
-            &[
-                "render",
-                "s.toml",
-                "--frames",
-                "1",
-                "--sampler",
-                sampler,
-                "--samples",
-                &n,
-                "-o",
-                "plain_####.exr",
-            ],
-        );
+        render(&["--samples", &n, "-o", "plain_####.exr"]);
         let (plain, b) = read(&d.join("plain_0001.exr"));
         assert_eq!(plain, pixels, "{sampler}");
         assert_eq!(as_f64(attr(&b, "estimatedRelativeError")), error);
         let half = (samples / 2).to_string();
-        run(
-            d,
-            &[
-                "render",
-                "s.toml",
-                "--frames",
-                "1",
-                "--sampler",
-                sampler,
-                "--samples",
-                &half,
-                "-o",
-                "half_####.exr",
-            ],
-        );
+        render(&["--samples", &half, "-o", "half_####.exr"]);
         let (_, h) = read(&d.join("half_0001.exr"));
         if samples > 16 {
             assert!(as_f64(attr(&h, "estimatedRelativeError")) > 0.03);
@@ -151,23 +112,15 @@ fn noise_threshold_stops_at_or_below_it_and_matches_a_plain_render_of_as_many_sa
 
 #[test]
 fn max_samples_caps_a_threshold_that_is_not_reached() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, stdout) = render_scene(&[
+        "--frames",
+        "2",
+        "--noise-threshold",
+        "1e-6",
+        "--max-samples",
+        "24",
+    ]);
     let d = dir.path();
-    std::fs::write(d.join("s.toml"), SCENE).unwrap();
-    let o = run(
-        d,
-        &[
-            "render",
-            "s.toml",
-            "--frames",
-            "2",
-            "--noise-threshold",
-            "1e-6",
-            "--max-samples",
-            "24",
-        ],
-    );
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("24 spp (max samples)"), "{stdout}");
     let (_, a) = read(&d.join("f_0002.exr"));
     assert_eq!(as_f64(attr(&a, "samples")), 24.0);
@@ -191,25 +144,17 @@ fn time_limit_stops_within_ten_percent_of_it() {
     // The frame's own clock, as printed: this checks how the passes are sized, not how fast
     // the machine is (a sample of this scene takes about a microsecond a pixel, so one pass
     // of one sample is under 1 percent of the limit on any machine).
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, stdout) = render_scene(&[
+        "--frames",
+        "1-2",
+        "--time-limit",
+        "1.5",
+        "--width",
+        "80",
+        "--height",
+        "48",
+    ]);
     let d = dir.path();
-    std::fs::write(d.join("s.toml"), SCENE).unwrap();
-    let o = run(
-        d,
-        &[
-            "render",
-            "s.toml",
-            "--frames",
-            "1-2",
-            "--time-limit",
-            "1.5",
-            "--width",
-            "80",
-            "--height",
-            "48",
-        ],
-    );
-    let stdout = String::from_utf8_lossy(&o.stdout);
     for frame in [1, 2] {
         let t = frame_seconds(&stdout, frame);
         assert!((1.35..=1.65).contains(&t), "frame {frame}: {t} s\n{stdout}");

@@ -3,24 +3,12 @@
 //! reference written once gives the same figures when reused.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
+
+mod common;
+use common::run_ok as run;
 
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
-
-fn run(dir: &Path, args: &[&str]) -> Output {
-    let o = Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run raytrace");
-    assert!(
-        o.status.success(),
-        "{args:?}: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
 
 /// A small scene with what a frame usually holds: a moving sphere, a lens, diffuse, metal and
 /// glass.

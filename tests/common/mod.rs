@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use std::path::Path;
+use std::process::{Command, Output};
 
 use glam::DVec3;
 use raytrace::film::Film;
@@ -66,4 +67,20 @@ pub fn f(x: f64) -> String {
 /// A TOML array of a vector, exact.
 pub fn v(p: DVec3) -> String {
     format!("[{}, {}, {}]", f(p.x), f(p.y), f(p.z))
+}
+
+/// Runs the `raytrace` binary in `dir` and asserts that it succeeds.
+pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_raytrace"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run raytrace");
+    assert!(
+        o.status.success(),
+        "{args:?}: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
 }
