@@ -193,7 +193,6 @@ fn render_targets(
         let result = render_frame(scene, &statics, &req, &opts.budget, &|n| bar.inc(n));
         bar.finish_and_clear();
         let st = &result.stats;
-        let interval = scene.shot.interval(*frame);
         let mut extra = Vec::new();
         if st.relative_error.is_finite() {
             extra.push(("estimatedRelativeError".to_string(), st.relative_error));
@@ -204,16 +203,7 @@ fn render_targets(
         if let Some(t) = opts.budget.time_limit {
             extra.push(("timeLimit".to_string(), t));
         }
-        let info = FrameInfo {
-            frame: *frame,
-            fps: scene.shot.fps,
-            shutter_open: interval.open,
-            shutter_close: interval.close,
-            samples: st.samples_per_pixel,
-            seed: req.seed,
-            sampler: req.sampler.name().to_string(),
-            extra,
-        };
+        let info = frame_info(scene, &req, st.samples_per_pixel, extra);
         output::write_frame(
             path,
             req.width,
@@ -262,6 +252,26 @@ fn render_targets(
     ));
     progress.finish();
     Ok(summary)
+}
+
+/// The attributes of a rendered frame of `scene`: `req` with the samples per pixel it took.
+pub fn frame_info(
+    scene: &Scene,
+    req: &FrameRequest,
+    samples: u32,
+    extra: Vec<(String, f64)>,
+) -> FrameInfo {
+    let interval = scene.shot.interval(req.frame);
+    FrameInfo {
+        frame: req.frame,
+        fps: scene.shot.fps,
+        shutter_open: interval.open,
+        shutter_close: interval.close,
+        samples,
+        seed: req.seed,
+        sampler: req.sampler.name().to_string(),
+        extra,
+    }
 }
 
 /// An estimated relative error as a percentage, or why there is none.

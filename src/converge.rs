@@ -15,7 +15,7 @@ use glam::DVec3;
 use crate::app::{self, RenderOptions};
 use crate::error::Error;
 use crate::metrics;
-use crate::output::{self, FrameInfo};
+use crate::output;
 use crate::plot;
 use crate::render::{Budget, FrameRequest, FrameResult, render_frame};
 use crate::rng::hash_words;
@@ -211,50 +211,8 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
     };
     let statics = StaticGeometry::new(scene);
     let base = FrameRequest::from_scene(scene, frame);
-    let (width, height) = (base.width, base.height);
 
-    let (reference, reference_path) = match &opts.reference {
-        Some(path) => (read_reference(path, width, height)?, path.clone()),
-        None => {
-            let samples = opts.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
-            let path = opts
-                .write_reference
-                .clone()
-                .unwrap_or_else(|| default_reference_path(scene, frame, samples, opts));
-            output::format_for(&path).map_err(Error::Usage)?;
-            let req = FrameRequest {
-                samples,
-                // A seed of its own, so the reference's noise is independent of every
-                // measured render's.
-                seed: hash_words(&[base.seed, 0x7265_6665_7265_6e63]),
-                sampler: SamplerKind::default(),
-                ..base.clone()
-            };
-            say(&format!(
-                "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
-                req.sampler
-            ));
-            let result = render_frame(scene, &statics, &req, &Budget::default(), &|_| {});
-            let info = FrameInfo {
-                frame,
-                fps: scene.shot.fps,
-                shutter_open: scene.shot.interval(frame).open,
-                shutter_close: scene.shot.interval(frame).close,
-                samples,
-                seed: req.seed,
-                sampler: req.sampler.name().to_string(),
-                extra: Vec::new(),
-            };
-            output::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
-            say(&format!(
-                "reference: {:.2} s, written to {}",
-                result.stats.render_seconds + result.stats.prepare_seconds,
-                path.display()
-            ));
-            // Compare against what was written (f32), as a reused reference would be.
-            (read_reference(&path, width, height)?, path)
-        }
-    };
+    let (reference, reference_path) = reference(scene, &statics, &base, opts, &say)?;
 
     let samplers = if opts.samplers.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -350,6 +308,51 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
         say(&format!("plot written to {}", path.display()));
     }
     Ok(report)
+}
+
+/// The reference image of the frame of `base`: read from `--reference`, or rendered with
+/// many samples and a seed of its own, written to EXR, and read back.
+fn reference(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    base: &FrameRequest,
+    opts: &ConvergeOptions,
+    say: &dyn Fn(&str),
+) -> Result<(Vec<DVec3>, PathBuf), Error> {
+    let (width, height) = (base.width, base.height);
+    match &opts.reference {
+        Some(path) => Ok((read_reference(path, width, height)?, path.clone())),
+        None => {
+            let samples = opts.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+            let path = opts
+                .write_reference
+                .clone()
+                .unwrap_or_else(|| default_reference_path(scene, base.frame, samples, opts));
+            output::format_for(&path).map_err(Error::Usage)?;
+            let req = FrameRequest {
+                samples,
+                // A seed of its own, so the reference's noise is independent of every
+                // measured render's.
+                seed: hash_words(&[base.seed, 0x7265_6665_7265_6e63]),
+                sampler: SamplerKind::default(),
+                ..base.clone()
+            };
+            say(&format!(
+                "reference: frame {}, {samples} samples per pixel, {} sampler...",
+                base.frame, req.sampler
+            ));
+            let result = render_frame(scene, statics, &req, &Budget::default(), &|_| {});
+            let info = app::frame_info(scene, &req, samples, Vec::new());
+            output::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
+            say(&format!(
+                "reference: {:.2} s, written to {}",
+                result.stats.render_seconds + result.stats.prepare_seconds,
+                path.display()
+            ));
+            // Compare against what was written (f32), as a reused reference would be.
+            Ok((read_reference(&path, width, height)?, path))
+        }
+    }
 }
 
 /// Renders `req` with no file I/O and returns it with its wall time: the median of several

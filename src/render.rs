@@ -328,6 +328,8 @@ pub fn render_frame(
     };
     let mut done = 0u32;
     let mut seconds_per_sample = None;
+    // The estimate of the samples so far, when the noise threshold needed it.
+    let mut estimated = None;
     loop {
         let size = if budget.is_set() {
             match next_pass(
@@ -347,6 +349,7 @@ pub fn render_frame(
         } else {
             break;
         };
+        estimated = None;
         let pass_start = Instant::now();
         let (rays, tile_seconds) = setup.pass(&mut tiles, done..done + size, progress);
         seconds_per_sample = Some(pass_start.elapsed().as_secs_f64() / size as f64);
@@ -356,14 +359,16 @@ pub fn render_frame(
         stats.passes += 1;
         if let Some(threshold) = budget.noise_threshold
             && done >= MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX))
-            && estimate(&tiles, req).2 <= threshold
         {
-            stats.stop = StopReason::NoiseThreshold;
-            break;
+            let e = estimated.insert(estimate(&tiles, req));
+            if e.2 <= threshold {
+                stats.stop = StopReason::NoiseThreshold;
+                break;
+            }
         }
     }
 
-    let (film, variance, relative_error) = estimate(&tiles, req);
+    let (film, variance, relative_error) = estimated.unwrap_or_else(|| estimate(&tiles, req));
     stats.relative_error = relative_error;
     stats.samples_per_pixel = done;
     stats.samples = req.width as u64 * req.height as u64 * done as u64;
