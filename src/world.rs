@@ -18,6 +18,10 @@ use crate::sphere::{SurfacePoint, intersect, surface_point};
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
 
+/// Scenes with animated spheres and at most this many spheres in all are built into one
+/// hierarchy per frame instead of a static one and a per-frame one.
+const MERGE_LIMIT: usize = 16384;
+
 /// A sphere that never moves, as the tracer sees it.
 #[derive(Clone, Copy, Debug)]
 struct StillPrim {
@@ -70,8 +74,15 @@ impl StaticGeometry {
     /// Collects the spheres of `scene` that never move and builds their hierarchy (in
     /// parallel on the current rayon pool).
     pub fn new(scene: &Scene) -> StaticGeometry {
-        let (still, animated): (Vec<u32>, Vec<u32>) = (0..scene.spheres.len() as u32)
-            .partition(|&i| !scene.spheres[i as usize].motion.is_animated());
+        let n = scene.spheres.len();
+        let any_animated = scene.spheres.iter().any(|s| s.motion.is_animated());
+        let (still, animated): (Vec<u32>, Vec<u32>) = if any_animated && n <= MERGE_LIMIT {
+            // One hierarchy per frame over everything: rebuilding a few thousand boxes costs
+            // well under a millisecond, and one traversal per ray is cheaper than two.
+            (Vec::new(), (0..n as u32).collect())
+        } else {
+            (0..n as u32).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
+        };
         let boxes: Vec<Aabb> = still
             .par_iter()
             .map(|&i| {
