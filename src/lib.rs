@@ -13,6 +13,7 @@ pub mod camera;
 pub mod error;
 pub mod film;
 pub mod frames;
+pub mod generate;
 pub mod lerp;
 pub mod material;
 pub mod motion;

@@ -15,6 +15,7 @@ use raytrace::app::{self, RenderOptions};
   raytrace render scenes/quick.toml                 # every frame of the shot
   raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
   raytrace check shot.toml                          # validate and summarise a scene
+  raytrace generate --spheres 100000 -o big.toml    # a large random test scene
 
 Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
@@ -87,6 +88,27 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
         #[arg(long)]
         chunk_size: Option<usize>,
     },
+    /// Write a large test scene: random spheres in a cube, some of them moving.
+    #[command(after_help = "Examples:
+  raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
+  raytrace generate --spheres 10000 --moving 0 -o still.toml --frames 48")]
+    Generate {
+        /// Number of spheres.
+        #[arg(long, default_value_t = 10000)]
+        spheres: usize,
+        /// Fraction of the spheres that move, 0 to 1.
+        #[arg(long, default_value_t = 0.5)]
+        moving: f64,
+        /// Seed of the spheres' random numbers.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Frames in the shot.
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+        /// The scene file to write.
+        #[arg(long, short)]
+        output: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -133,6 +155,21 @@ fn main() -> ExitCode {
         Command::Check { scene, chunk_size } => {
             app::check(&scene, chunk_size).map(|s| print!("{s}"))
         }
+        Command::Generate {
+            spheres,
+            moving,
+            seed,
+            frames,
+            output,
+        } => raytrace::generate::generate(
+            &raytrace::generate::GenerateOptions {
+                spheres,
+                moving,
+                seed,
+                frames,
+            },
+            &output,
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
