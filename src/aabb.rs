@@ -9,6 +9,13 @@ pub struct Aabb {
     pub max: DVec3,
 }
 
+impl Default for Aabb {
+    /// The empty box.
+    fn default() -> Aabb {
+        Aabb::EMPTY
+    }
+}
+
 impl Aabb {
     /// The empty box: the identity of [`Aabb::union`].
     pub const EMPTY: Aabb = Aabb {

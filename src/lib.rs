@@ -14,6 +14,7 @@ pub mod converge;
 pub mod error;
 pub mod film;
 pub mod frames;
+pub mod generate;
 pub mod lerp;
 pub mod material;
 pub mod metrics;

@@ -19,6 +19,7 @@ use raytrace::sampler::SamplerKind;
   raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
   raytrace check shot.toml                          # validate and summarise a scene
   raytrace converge shot.toml --plot error.png      # error against time, per sampler
+  raytrace generate --spheres 100000 -o big.toml    # a large random test scene
 
 Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
@@ -166,6 +167,27 @@ Examples:
         #[arg(long)]
         chunk_size: Option<usize>,
     },
+    /// Write a large test scene: random spheres in a cube, some of them moving.
+    #[command(after_help = "Examples:
+  raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
+  raytrace generate --spheres 10000 --moving 0 -o still.toml --frames 48")]
+    Generate {
+        /// Number of spheres.
+        #[arg(long, default_value_t = 10000)]
+        spheres: usize,
+        /// Fraction of the spheres that move, 0 to 1.
+        #[arg(long, default_value_t = 0.5)]
+        moving: f64,
+        /// Seed of the spheres' random numbers.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Frames in the shot.
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+        /// The scene file to write.
+        #[arg(long, short)]
+        output: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -261,6 +283,21 @@ fn main() -> ExitCode {
         Command::Check { scene, chunk_size } => {
             app::check(&scene, chunk_size).map(|s| app::print_line(s.trim_end()))
         }
+        Command::Generate {
+            spheres,
+            moving,
+            seed,
+            frames,
+            output,
+        } => raytrace::generate::generate(
+            &raytrace::generate::GenerateOptions {
+                spheres,
+                moving,
+                seed,
+                frames,
+            },
+            &output,
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

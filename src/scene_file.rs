@@ -217,8 +217,27 @@ struct RawOrbit {
     degrees_per_second: f64,
 }
 
+/// Files at least this large are parsed in pieces, in parallel (when their layout allows).
+const PIECES_FROM_BYTES: usize = 1 << 20;
+/// Spheres per piece.
+const PIECE_SPHERES: usize = 4096;
+
 /// Parses and validates scene text; `source` names the file in messages.
+///
+/// A large file is cut at its `[[sphere]]` headers into pieces parsed and validated in
+/// parallel, so the whole document is never held as a TOML tree (a million spheres would take
+/// gigabytes): see [`parse_in_pieces`]. Messages are the same either way.
 pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
+    if text.len() >= PIECES_FROM_BYTES
+        && let Some(result) = parse_in_pieces(text, source, PIECE_SPHERES)
+    {
+        return result;
+    }
+    parse_whole(text, source)
+}
+
+/// Parses the whole document at once.
+fn parse_whole(text: &str, source: &Path) -> Result<Scene, Error> {
     let file = source.display().to_string();
     let raw: RawScene = toml::from_str(text).map_err(|e| {
         let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
@@ -227,6 +246,243 @@ pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
     Check { file: &file }
         .scene(raw, source)
         .map_err(Error::Scene)
+}
+
+/// What a top-level table header opens.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Section {
+    /// Anything but the spheres (and the text before the first header).
+    Other,
+    /// `[[sphere]]`: the next sphere.
+    Sphere,
+    /// A header under `sphere` (`[sphere.orbit]`, `[[sphere.keyframes]]`): part of the last
+    /// sphere.
+    SphereSub,
+}
+
+/// Where each top-level section starts (the offset of its header's `[`) and what it is, found
+/// with the TOML lexer, so brackets inside strings (even multi-line ones), comments and
+/// multi-line arrays are never taken for headers. `None` when the layout is unusual (quoted
+/// header keys, unbalanced brackets): the caller then parses the document whole.
+fn sections(text: &str) -> Option<Vec<(usize, Section)>> {
+    use toml_parser::lexer::TokenKind as K;
+    let mut out = vec![(0, Section::Other)];
+    let mut lexer = toml_parser::Source::new(text).lex();
+    // Nesting of arrays and inline tables in a value; headers only occur outside values, at
+    // the start of a line.
+    let mut depth = 0usize;
+    let mut line_start = true;
+    let mut in_value = false;
+    // Before the first header, where a `sphere` key would clash with `[[sphere]]`.
+    let mut root = true;
+    while let Some(tok) = lexer.next() {
+        if root && depth == 0 && line_start && !in_value {
+            let key = &text[tok.span().start()..tok.span().end()];
+            let quoted = matches!(tok.kind(), K::BasicString | K::LiteralString);
+            if quoted || (tok.kind() == K::Atom && key == "sphere") {
+                return None;
+            }
+        }
+        match tok.kind() {
+            K::Whitespace | K::Comment => {}
+            K::Newline => {
+                if depth == 0 {
+                    line_start = true;
+                    in_value = false;
+                }
+            }
+            K::LeftSquareBracket if depth == 0 && line_start && !in_value => {
+                let start = tok.span().start();
+                let mut next = || lexer.next();
+                let mut t = next()?;
+                let array = t.kind() == K::LeftSquareBracket && t.span().start() == start + 1;
+                if array {
+                    t = next()?;
+                }
+                while t.kind() == K::Whitespace {
+                    t = next()?;
+                }
+                if t.kind() != K::Atom {
+                    return None;
+                }
+                let first = &text[t.span().start()..t.span().end()];
+                let mut single_key = true;
+                loop {
+                    t = next()?;
+                    match t.kind() {
+                        K::RightSquareBracket => break,
+                        K::Whitespace => {}
+                        K::Dot | K::Atom => single_key = false,
+                        _ => return None,
+                    }
+                }
+                if array && next()?.kind() != K::RightSquareBracket {
+                    return None;
+                }
+                let kind = match (first, array && single_key) {
+                    ("sphere", true) => Section::Sphere,
+                    ("sphere", false) => Section::SphereSub,
+                    _ => Section::Other,
+                };
+                out.push((start, kind));
+                line_start = false;
+                root = false;
+            }
+            K::LeftSquareBracket | K::LeftCurlyBracket => {
+                depth += 1;
+                line_start = false;
+            }
+            K::RightSquareBracket | K::RightCurlyBracket => {
+                depth = depth.checked_sub(1)?;
+                line_start = false;
+            }
+            K::Equals => {
+                if depth == 0 {
+                    in_value = true;
+                }
+                line_start = false;
+            }
+            K::Eof => break,
+            _ => line_start = false,
+        }
+    }
+    (depth == 0).then_some(out)
+}
+
+/// The spheres of one piece.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSpheres {
+    #[serde(default)]
+    sphere: Vec<RawSphere>,
+}
+
+/// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
+type Validated = (Vec<SphereDesc>, Vec<Material>);
+
+/// What went wrong in a piece.
+enum PieceError {
+    /// Syntax or type, at this offset of the whole text.
+    Syntax(usize, String),
+    /// A value, with its message.
+    Value(String),
+}
+
+/// Parses `text` cut into pieces of about `per_piece` spheres: every run of `[[sphere]]`
+/// sections (with their sub-tables) becomes pieces parsed and validated in parallel, and the
+/// rest (settings, materials) is parsed as one document. Byte offsets in pieces are mapped
+/// back to the whole text, so errors carry the same line:column as a whole parse, and sphere
+/// indices count from the file's first sphere. The first syntax error in the file wins, then
+/// settings errors, then the first sphere's error, as for a whole parse. `None` when the
+/// layout is unusual (see [`sections`]) or the rest also defines `sphere`.
+fn parse_in_pieces(text: &str, source: &Path, per_piece: usize) -> Option<Result<Scene, Error>> {
+    use rayon::prelude::*;
+    let sections = sections(text)?;
+    // Pieces: (start, end, index of the first sphere); the rest: (start, end) ranges.
+    let mut pieces: Vec<(usize, usize, usize)> = Vec::new();
+    let mut rest: Vec<(usize, usize)> = Vec::new();
+    let mut spheres = 0usize;
+    let mut in_piece = 0usize; // spheres in the last piece, if it is open
+    let mut open = false;
+    for (i, &(start, kind)) in sections.iter().enumerate() {
+        let end = sections.get(i + 1).map_or(text.len(), |s| s.0);
+        match kind {
+            Section::Other => {
+                open = false;
+                rest.push((start, end));
+            }
+            Section::Sphere => {
+                if open && in_piece < per_piece {
+                    pieces.last_mut()?.1 = end;
+                    in_piece += 1;
+                } else {
+                    pieces.push((start, end, spheres));
+                    in_piece = 1;
+                    open = true;
+                }
+                spheres += 1;
+            }
+            // A sub-table right after its sphere; anywhere else the whole parse decides.
+            Section::SphereSub if open => pieces.last_mut()?.1 = end,
+            Section::SphereSub => return None,
+        }
+    }
+    let file = source.display().to_string();
+    let check = Check { file: &file };
+    let syntax = |offset: usize, e: &toml::de::Error| {
+        (
+            offset + e.span().map_or(0, |s| s.start),
+            e.message().trim_end().to_string(),
+        )
+    };
+    // The rest as one document, with a map from its offsets back to the text's.
+    let mut rest_text = String::new();
+    let mut rest_map: Vec<(usize, usize)> = Vec::new();
+    for &(a, b) in &rest {
+        rest_map.push((rest_text.len(), a));
+        rest_text.push_str(&text[a..b]);
+    }
+    let to_text = |off: usize| {
+        let i = rest_map.partition_point(|m| m.0 <= off).max(1) - 1;
+        rest_map.get(i).map_or(off, |&(r, t)| t + (off - r))
+    };
+    let head: Result<RawScene, (usize, String)> = toml::from_str(&rest_text).map_err(|e| {
+        let (off, msg) = syntax(0, &e);
+        (to_text(off), msg)
+    });
+    if let Ok(raw) = &head
+        && !raw.sphere.is_empty()
+        && !pieces.is_empty()
+    {
+        return None;
+    }
+    let checked_head = head.as_ref().ok().map(|raw| check.scene_head(raw, source));
+    let names = match &checked_head {
+        Some(Ok((_, names))) => Some(names),
+        _ => None,
+    };
+    let results: Vec<Result<Validated, PieceError>> = pieces
+        .par_iter()
+        .map(|&(a, b, first)| {
+            let raw: RawSpheres = toml::from_str(&text[a..b]).map_err(|e| {
+                let (off, msg) = syntax(a, &e);
+                PieceError::Syntax(off, msg)
+            })?;
+            match names {
+                Some(names) => check
+                    .spheres(&raw.sphere, first, names)
+                    .map_err(PieceError::Value),
+                None => Ok((Vec::new(), Vec::new())),
+            }
+        })
+        .collect();
+    let fail = |msg: String| Some(Err(Error::Scene(msg)));
+    // The first syntax error in the text.
+    let first_syntax = results
+        .iter()
+        .filter_map(|r| match r {
+            Err(PieceError::Syntax(off, msg)) => Some((*off, msg.clone())),
+            _ => None,
+        })
+        .chain(head.as_ref().err().cloned())
+        .min_by_key(|e| e.0);
+    if let Some((off, msg)) = first_syntax {
+        let (line, col) = line_col(text, off);
+        return fail(format!("{file}:{line}:{col}: {msg}"));
+    }
+    let mut scene = match checked_head? {
+        Ok((scene, _)) => scene,
+        Err(msg) => return fail(msg),
+    };
+    scene.spheres.reserve_exact(spheres);
+    for r in results {
+        match r {
+            Ok((s, inline)) => add_spheres(&mut scene, s, inline),
+            Err(PieceError::Value(msg)) => return fail(msg),
+            Err(PieceError::Syntax(..)) => unreachable!("reported above"),
+        }
+    }
+    Some(Ok(scene))
 }
 
 /// The 1-based line and column of byte `offset` in `text`.
@@ -243,6 +499,25 @@ fn show(x: f64) -> String {
         "nan".into()
     } else {
         format!("{x}")
+    }
+}
+
+/// Marks, in [`Check::spheres`]' output, a material index into that call's inline materials.
+const INLINE: u32 = 1 << 31;
+
+/// Appends validated spheres to `scene`, with their inline materials after its others.
+fn add_spheres(scene: &mut Scene, mut spheres: Vec<SphereDesc>, inline: Vec<Material>) {
+    let base = scene.materials.len() as u32;
+    for s in &mut spheres {
+        if s.material & INLINE != 0 {
+            s.material = base + (s.material & !INLINE);
+        }
+    }
+    scene.materials.extend(inline);
+    if scene.spheres.is_empty() {
+        scene.spheres = spheres;
+    } else {
+        scene.spheres.extend(spheres);
     }
 }
 
@@ -330,6 +605,18 @@ impl Check<'_> {
     }
 
     fn scene(&self, raw: RawScene, source: &Path) -> Result<Scene, String> {
+        let (mut scene, names) = self.scene_head(&raw, source)?;
+        let (spheres, inline) = self.spheres(&raw.sphere, 0, &names)?;
+        add_spheres(&mut scene, spheres, inline);
+        Ok(scene)
+    }
+
+    /// Everything but the spheres, and the material names (indices into `materials`).
+    fn scene_head<'r>(
+        &self,
+        raw: &'r RawScene,
+        source: &Path,
+    ) -> Result<(Scene, BTreeMap<&'r str, u32>), String> {
         let shot = self.shot(&raw.shot)?;
         let output = self.output(&raw.output, source)?;
         let render = RenderSettings {
@@ -349,7 +636,7 @@ impl Check<'_> {
             },
         };
         let camera = self.camera(&raw.camera)?;
-        let background = match raw.background {
+        let background = match &raw.background {
             None => Background::Sky,
             Some(b) => Background::Uniform(self.color("background.color", b.color)?),
         };
@@ -359,9 +646,31 @@ impl Check<'_> {
             materials.push(self.material(&format!("materials.{name}"), m)?);
             names.insert(name.as_str(), (materials.len() - 1) as u32);
         }
-        let mut spheres = Vec::with_capacity(raw.sphere.len());
-        for (i, s) in raw.sphere.iter().enumerate() {
-            let field = format!("sphere[{i}]");
+        let scene = Scene {
+            source: source.to_path_buf(),
+            shot,
+            output,
+            render,
+            camera,
+            background,
+            materials,
+            spheres: Vec::new(),
+        };
+        Ok((scene, names))
+    }
+
+    /// Validates spheres numbered from `first`. Inline materials are returned in sphere order;
+    /// a sphere with one refers to it by `INLINE | its index in that list`.
+    fn spheres(
+        &self,
+        raw: &[RawSphere],
+        first: usize,
+        names: &BTreeMap<&str, u32>,
+    ) -> Result<Validated, String> {
+        let mut spheres = Vec::with_capacity(raw.len());
+        let mut inline = Vec::new();
+        for (i, s) in raw.iter().enumerate() {
+            let field = format!("sphere[{}]", first + i);
             let material = match &s.material {
                 MaterialRef::Name(n) => match names.get(n.as_str()) {
                     Some(&m) => m,
@@ -378,8 +687,8 @@ impl Check<'_> {
                     }
                 },
                 MaterialRef::Inline(m) => {
-                    materials.push(self.material(&format!("{field}.material"), m)?);
-                    (materials.len() - 1) as u32
+                    inline.push(self.material(&format!("{field}.material"), m)?);
+                    INLINE | (inline.len() - 1) as u32
                 }
             };
             spheres.push(SphereDesc {
@@ -388,16 +697,7 @@ impl Check<'_> {
                 material,
             });
         }
-        Ok(Scene {
-            source: source.to_path_buf(),
-            shot,
-            output,
-            render,
-            camera,
-            background,
-            materials,
-            spheres,
-        })
+        Ok((spheres, inline))
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
@@ -919,6 +1219,130 @@ keyframes = [ { time = 0 }, { time = 1, look_from = [5, 0, 0] }, { time = 2, loo
             let e = err(&text);
             assert!(e.contains(want), "{text:?}: {e:?} lacks {want:?}");
             assert!(e.starts_with("s.toml"), "{e}");
+        }
+    }
+
+    /// The parse in pieces agrees with the whole parse: same scene, or the same message.
+    /// Unbalanced brackets make the cut impossible (`must_cut` false): then it is the
+    /// fallback that must agree.
+    fn same_both_ways(text: &str, must_cut: bool) {
+        let whole = parse_whole(text, Path::new("s.toml"));
+        for per_piece in [1, 2, 3, 1000] {
+            let pieces = parse_in_pieces(text, Path::new("s.toml"), per_piece);
+            assert!(
+                pieces.is_some() || !must_cut,
+                "not cut into pieces:\n{text}"
+            );
+            let pieces = pieces.unwrap_or_else(|| parse(text, Path::new("s.toml")));
+            match (&whole, &pieces) {
+                (Ok(a), Ok(b)) => assert_eq!(a, b),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{text}"),
+                _ => panic!("{text}\nwhole: {whole:?}\npieces: {pieces:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn pieces_agree_with_the_whole_parse() {
+        let sphere = |i: usize, extra: &str| {
+            format!(
+                "[[sphere]]\ncenter = [{i}, 0, 0]\nradius = 1\nmaterial = {}\n{extra}",
+                if i.is_multiple_of(2) {
+                    "\"a\"".to_string()
+                } else {
+                    format!("{{ type = \"dielectric\", ior = 1.{i} }}")
+                }
+            )
+        };
+        let spheres = |n: usize, bad: Option<(usize, &str)>| {
+            (0..n)
+                .map(|i| match bad {
+                    Some((j, extra)) if j == i => sphere(i, extra),
+                    _ => sphere(i, "velocity = [0, 1, 0]\n"),
+                })
+                .collect::<String>()
+        };
+        let head = "# [[sphere]] in a comment\n[shot]\nframes = 3\n[materials]\na = { type = \"metal\", albedo = [0.5, 0.5, 0.5] }\n";
+        let cases = [
+            format!("{head}{}", spheres(7, None)),
+            // Settings after the spheres, a multi-line string holding a header, a
+            // multi-line array with brackets at line starts.
+            format!(
+                "{}[output]\npath = \"\"\"\n[[sphere]]\nx_####.png\"\"\"\n[camera]\nlook_from = [\n[0][0],\n1, 2]\n{head}",
+                spheres(5, None)
+            ),
+            format!(
+                "{}[output]\npath = \"\"\"x\n[[sphere]]\n_####.png\"\"\"\n{head}",
+                spheres(5, None)
+            ),
+            // Sub-tables of a sphere.
+            format!(
+                "{head}{}{}",
+                spheres(3, None),
+                sphere(
+                    3,
+                    "[sphere.orbit]\npivot = [0, 0, 0]\naxis = [0, 1, 0]\ndegrees_per_second = 9\n"
+                )
+            ),
+            format!(
+                "{head}{}[[sphere]]\nradius = 1\nmaterial = \"a\"\n[[sphere.keyframes]]\ntime = 0\ncenter = [0, 0, 0]\n[[sphere.keyframes]]\ntime = 1\ncenter = [1, 0, 0]\n",
+                spheres(4, None)
+            ),
+            // Errors: syntax in a late sphere, values in a sphere, settings and a piece both bad.
+            format!("{head}{}", spheres(6, Some((4, "velocity = [0, 1\n")))),
+            format!("{head}{}", spheres(6, Some((5, "radius = 2\n")))),
+            format!("{head}{}", spheres(6, Some((3, "colour = 2\n")))),
+            format!(
+                "{head}{}",
+                spheres(6, Some((4, "velocity = [0, nan, 0]\n")))
+            ),
+            format!("{head}{}", spheres(6, Some((2, "orbit = 1\n")))),
+            format!(
+                "{}{head}[shot]\nfps = 2\n",
+                spheres(6, Some((4, "velocity = [0, 1\n")))
+            ),
+            format!(
+                "{}{head}[camera]\nvfov = 200\n",
+                spheres(6, Some((1, "velocity = [0, nan, 0]\n")))
+            ),
+            format!("{head}{}", spheres(6, Some((2, "material = \"nope\"\n")))),
+            format!("{head}[render]\nsamples = 0\n{}", spheres(3, None)),
+            format!("{head}{}[[sphere]]\ncenter = [0, 0, 0]\n", spheres(3, None)),
+            format!("{head}{}[[sphere]\n", spheres(3, None)),
+            spheres(3, None),
+        ];
+        for (i, text) in cases.iter().enumerate() {
+            same_both_ways(text, ![5, 10, 15].contains(&i));
+        }
+        same_both_ways(
+            &crate::generate::scene_text(&crate::generate::GenerateOptions {
+                spheres: 3000,
+                moving: 0.5,
+                seed: 9,
+                frames: 1,
+            }),
+            true,
+        );
+    }
+
+    /// Layouts the pieces cannot follow are parsed whole.
+    #[test]
+    fn unusual_layouts_are_parsed_whole() {
+        let s = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"a\"\n";
+        for text in [
+            format!(
+                "[materials]\na = {{ type = \"dielectric\", ior = 1 }}\n[\"sphere\"]\nx = 1\n{s}"
+            ),
+            format!(
+                "{s}[materials]\na = {{ type = \"dielectric\", ior = 1 }}\n[sphere.orbit]\nx = 1\n"
+            ),
+            format!("sphere = []\n{s}"),
+        ] {
+            assert!(
+                parse_in_pieces(&text, Path::new("s.toml"), 1).is_none(),
+                "{text}"
+            );
+            assert!(parse(&text, Path::new("s.toml")).is_err());
         }
     }
 

@@ -30,9 +30,29 @@ pub struct SphereDesc {
 pub fn intersect(center: DVec3, radius: f64, ray: &Ray, t_max: f64) -> Option<f64> {
     let f = ray.origin - center;
     let b = f.dot(ray.dir);
+    // Early outs for the common misses, taken only where the exact test below certainly
+    // misses too, so results are the same bits. r^2 rounded to nearest is within half an ulp
+    // of the true square, so `x > rr (1 + 4 eps)` for a computed square `x` means the true
+    // x > r^2, hence sqrt(x) rounded (monotone, r representable) is >= r. This needs rr
+    // normal (no underflow) and is skipped otherwise; a NaN fails every comparison and falls
+    // through.
+    let rr = radius * radius;
+    let rr_up = rr * (1.0 + 4.0 * f64::EPSILON);
+    let checked = rr >= f64::MIN_POSITIVE;
+    // The ray starts outside (|f| >= r, so c >= 0) and points away (b > 0): both roots are
+    // <= 0 (q < 0, t0 = c/q <= 0).
+    if checked && b > 0.0 && f.length_squared() > rr_up {
+        return None;
+    }
     // Closest approach of the ray's line to the centre: l = f - (f.d) d.
     let l = f - b * ray.dir;
-    let l_len = l.length();
+    let l2 = l.length_squared();
+    // The line passes farther than r from the centre: disc <= 0 below.
+    if checked && l2 > rr_up {
+        return None;
+    }
+    // `l.length()` exactly (glam computes it as the square root of this dot product).
+    let l_len = l2.sqrt();
     // r^2 - |l|^2, factored so the difference of nearly equal squares does not cancel.
     let disc = (radius - l_len) * (radius + l_len);
     // Zero is a ray tangent to the sphere to the precision of |l|. Its double root cannot be
