@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use raytrace::app::{self, RenderOptions};
 use raytrace::converge::{self, ConvergeOptions};
 use raytrace::render::Budget;
@@ -26,6 +26,38 @@ Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 struct Cli {
     #[command(subcommand)]
     command: Command,
+}
+
+/// Settings of the scene that `render` and `converge` can override, and the thread count.
+#[derive(Args)]
+struct Overrides {
+    /// Image width in pixels.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels.
+    #[arg(long)]
+    height: Option<u32>,
+    /// Random seed (for `converge`: of the measured renders).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
+}
+
+impl Overrides {
+    /// Render options for `scene` with these overrides.
+    fn options(self, scene: PathBuf, quiet: bool) -> RenderOptions {
+        RenderOptions {
+            scene,
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            threads: self.threads.map(usize::from),
+            quiet,
+            ..RenderOptions::default()
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -54,18 +86,8 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
         /// Samples per pixel.
         #[arg(long)]
         samples: Option<u32>,
-        /// Image width in pixels.
-        #[arg(long)]
-        width: Option<u32>,
-        /// Image height in pixels.
-        #[arg(long)]
-        height: Option<u32>,
-        /// Random seed.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Worker threads (default: one per core).
-        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-        threads: Option<u16>,
+        #[command(flatten)]
+        overrides: Overrides,
         /// Leave frames whose file already exists untouched (resume).
         #[arg(long)]
         skip_existing: bool,
@@ -140,18 +162,8 @@ Examples:
         /// Draw error against time on log-log axes, to a .png or .svg.
         #[arg(long, value_name = "FILE")]
         plot: Option<PathBuf>,
-        /// Image width in pixels.
-        #[arg(long)]
-        width: Option<u32>,
-        /// Image height in pixels.
-        #[arg(long)]
-        height: Option<u32>,
-        /// Random seed of the measured renders.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Worker threads (default: one per core).
-        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-        threads: Option<u16>,
+        #[command(flatten)]
+        overrides: Overrides,
         /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
@@ -205,10 +217,7 @@ fn main() -> ExitCode {
             frames,
             output,
             samples,
-            width,
-            height,
-            seed,
-            threads,
+            overrides,
             skip_existing,
             quiet,
             stats,
@@ -220,16 +229,10 @@ fn main() -> ExitCode {
             max_samples,
         } => {
             let opts = RenderOptions {
-                scene,
                 frames,
                 output,
                 samples,
-                width,
-                height,
-                seed,
-                threads: threads.map(usize::from),
                 skip_existing,
-                quiet,
                 stats,
                 chunk: chunk_size.zip(chunk),
                 sampler,
@@ -238,6 +241,7 @@ fn main() -> ExitCode {
                     noise_threshold,
                     max_samples,
                 },
+                ..overrides.options(scene, quiet)
             };
             app::render(&opts).map(|_| ())
         }
@@ -252,22 +256,11 @@ fn main() -> ExitCode {
             sampler,
             csv,
             plot,
-            width,
-            height,
-            seed,
-            threads,
+            overrides,
             quiet,
         } => {
             let opts = ConvergeOptions {
-                render: RenderOptions {
-                    scene,
-                    width,
-                    height,
-                    seed,
-                    threads: threads.map(usize::from),
-                    quiet,
-                    ..RenderOptions::default()
-                },
+                render: overrides.options(scene, quiet),
                 frame,
                 reference,
                 reference_samples,
