@@ -82,7 +82,7 @@ impl Measurement {
 /// Everything `converge` measured.
 #[derive(Clone, Debug)]
 pub struct Report {
-    /// Where the reference came from, and its samples per pixel if known.
+    /// The reference image file (given, or rendered and written).
     pub reference: PathBuf,
     pub runs: Vec<Measurement>,
 }
