@@ -220,6 +220,74 @@ impl Bvh {
         bvh
     }
 
+    /// Moves a moving hierarchy's primitives to new boxes, keeping its tree (refitting):
+    /// every node's boxes become the unions of its children's, bottom up. The hierarchy stays
+    /// exact for the new boxes; only its quality depends on how far they moved from those it
+    /// was built on. Returns [`Bvh::area`] after the refit. Panics on a still hierarchy.
+    pub fn refit_moving(&mut self, open: &[Aabb], close: &[Aabb]) -> f64 {
+        assert!(
+            !self.deltas.is_empty() || self.nodes.is_empty(),
+            "refit needs a moving hierarchy"
+        );
+        assert!(open.len() == self.order.len() && close.len() == self.order.len());
+        // Nodes are in depth-first order, so every child comes after its parent: in reverse
+        // order, a node's children are done before it.
+        let mut unions = vec![(Aabb::EMPTY, Aabb::EMPTY); self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            let mut all = (Aabb::EMPTY, Aabb::EMPTY);
+            for k in 0..4 {
+                let (child, count) = (self.nodes[i].child[k], self.nodes[i].count[k]);
+                let (o, c) = if count > 0 {
+                    (child..child + count as u32).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
+                        let p = self.order[pos as usize] as usize;
+                        (o.union(&open[p]), c.union(&close[p]))
+                    })
+                } else if child > 0 {
+                    unions[child as usize]
+                } else {
+                    // An empty slot (the root is nobody's child): it stays empty.
+                    continue;
+                };
+                set_moving(&mut self.nodes[i].boxes, &mut self.deltas[i], k, &o, &c);
+                all = (all.0.union(&o), all.1.union(&c));
+            }
+            unions[i] = all;
+        }
+        if let Some(&(o, c)) = unions.first() {
+            self.bounds = o.union(&c);
+        }
+        self.area()
+    }
+
+    /// The summed surface areas of every child box of every node, over the whole shutter: the
+    /// cost a ray pays to traverse the hierarchy, up to a constant. It grows as a refitted
+    /// hierarchy's primitives move away from where it was built.
+    pub fn area(&self) -> f64 {
+        let mut sum = 0.0;
+        for (i, node) in self.nodes.iter().enumerate() {
+            for k in 0..4 {
+                let mut b = Aabb::EMPTY;
+                let mut e = Aabb::EMPTY;
+                for a in 0..3 {
+                    b.min[a] = node.boxes.planes[a][k];
+                    b.max[a] = node.boxes.planes[3 + a][k];
+                }
+                if !b.min.x.is_finite() {
+                    continue;
+                }
+                if let Some(d) = self.deltas.get(i) {
+                    for a in 0..3 {
+                        e.min[a] = b.min[a] + d.planes[a][k];
+                        e.max[a] = b.max[a] + d.planes[3 + a][k];
+                    }
+                    b = b.union(&e);
+                }
+                sum += b.surface_area();
+            }
+        }
+        sum
+    }
+
     /// Number of primitives.
     pub fn len(&self) -> usize {
         self.order.len()
@@ -479,18 +547,28 @@ fn collapse(t: &Build, moving: bool, nodes: &mut Vec<Node>, deltas: &mut Vec<Box
         nodes[index].count[k] = count;
         let b = &c.boxes;
         if moving {
-            nodes[index].boxes.set(k, &b.open);
-            // An empty slot's infinities would give inf - inf = NaN: it does not move.
-            let delta = |close: f64, open: f64| {
-                if open.is_finite() { close - open } else { 0.0 }
-            };
-            for a in 0..3 {
-                deltas[index].planes[a][k] = delta(b.close.min[a], b.open.min[a]);
-                deltas[index].planes[3 + a][k] = delta(b.close.max[a], b.open.max[a]);
-            }
+            set_moving(
+                &mut nodes[index].boxes,
+                &mut deltas[index],
+                k,
+                &b.open,
+                &b.close,
+            );
         } else {
             nodes[index].boxes.set(k, &b.whole);
         }
+    }
+}
+
+/// Sets child slot `k` of a moving node to the box `open` at the shutter's opening and `close`
+/// at its closing (stored as `open` and the change `close - open`).
+fn set_moving(boxes: &mut Boxes4, delta: &mut Boxes4, k: usize, open: &Aabb, close: &Aabb) {
+    boxes.set(k, open);
+    // An empty slot's infinities would give inf - inf = NaN: it does not move.
+    let change = |close: f64, open: f64| if open.is_finite() { close - open } else { 0.0 };
+    for a in 0..3 {
+        delta.planes[a][k] = change(close.min[a], open.min[a]);
+        delta.planes[3 + a][k] = change(close.max[a], open.max[a]);
     }
 }
 
@@ -637,25 +715,71 @@ mod tests {
         let mut r = Pcg32::new(12, 3);
         let mut stack = TraversalStack::default();
         for &n in &[1usize, 3, 40, 700, 6000] {
-            let spheres: Vec<(DVec3, DVec3, f64)> = (0..n)
-                .map(|i| {
-                    let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
-                    // A third still, the others slow or fast.
-                    let speed = [0.0, 0.5, 8.0][i % 3];
-                    let v = (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * speed;
-                    (c, v, 0.05 + r.next_f64() * 0.5)
-                })
-                .collect();
-            let open: Vec<Aabb> = spheres
-                .iter()
-                .map(|(c, _, rad)| Aabb::point(*c).grow(*rad).pad_for_rounding())
-                .collect();
-            let close: Vec<Aabb> = spheres
-                .iter()
-                .map(|(c, v, rad)| Aabb::point(*c + *v).grow(*rad).pad_for_rounding())
-                .collect();
+            // A third still, the others slow or fast.
+            let (spheres, open, close) = moving_spheres(&mut r, n);
             let bvh = Bvh::build_moving(&open, &close);
             for ray in random_rays(&mut r, 400) {
+                let s = ray.time;
+                let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
+                let got = bvh.closest_hit(
+                    ray.origin,
+                    ray.dir,
+                    s,
+                    f64::INFINITY,
+                    &mut stack,
+                    |p, tmax| {
+                        let (c, rad) = at(bvh.order()[p as usize] as usize);
+                        crate::sphere::intersect(c, rad, &ray, tmax)
+                    },
+                );
+                let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
+                let now: Vec<(DVec3, f64)> = (0..n).map(at).collect();
+                assert_eq!(got, brute(&now, &ray), "n {n}");
+            }
+        }
+    }
+
+    /// Spheres `(centre at s = 0, velocity, radius)`, and their boxes at s = 0 and at s = 1.
+    type MovingSpheres = (Vec<(DVec3, DVec3, f64)>, Vec<Aabb>, Vec<Aabb>);
+
+    fn moving_spheres(r: &mut Pcg32, n: usize) -> MovingSpheres {
+        let spheres: Vec<(DVec3, DVec3, f64)> = (0..n)
+            .map(|i| {
+                let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
+                let speed = [0.0, 0.5, 8.0][i % 3];
+                let v = (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * speed;
+                (c, v, 0.05 + r.next_f64() * 0.5)
+            })
+            .collect();
+        let open = spheres
+            .iter()
+            .map(|(c, _, rad)| Aabb::point(*c).grow(*rad).pad_for_rounding())
+            .collect();
+        let close = spheres
+            .iter()
+            .map(|(c, v, rad)| Aabb::point(*c + *v).grow(*rad).pad_for_rounding())
+            .collect();
+        (spheres, open, close)
+    }
+
+    #[test]
+    fn refitted_hierarchies_agree_with_brute_force() {
+        let mut r = Pcg32::new(21, 5);
+        let mut stack = TraversalStack::default();
+        for &n in &[1usize, 3, 40, 700, 6000] {
+            // Built on one set of spheres, refitted to another: the tree is the first's.
+            let (_, open0, close0) = moving_spheres(&mut r, n);
+            let mut bvh = Bvh::build_moving(&open0, &close0);
+            let built_area = bvh.area();
+            // Refitting to the boxes it was built on gives the same hierarchy.
+            assert_eq!(bvh.refit_moving(&open0, &close0), built_area);
+            let (spheres, open, close) = moving_spheres(&mut r, n);
+            let area = bvh.refit_moving(&open, &close);
+            // Unrelated positions: a much worse tree, but exact.
+            if n > 100 {
+                assert!(area > 2.0 * built_area, "{area} {built_area}");
+            }
+            for ray in random_rays(&mut r, 300) {
                 let s = ray.time;
                 let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
                 let got = bvh.closest_hit(

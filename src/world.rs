@@ -1,7 +1,16 @@
-//! The world of one frame: every sphere prepared for the frame's shutter interval, in two
-//! hierarchies. Spheres that never move in the shot are built into a [`StaticGeometry`] once
-//! per sequence; the others are prepared and built per frame, with boxes over that frame's
-//! shutter only. A sphere that does not move during a frame is traced as a static sphere.
+//! The world of one frame: every sphere prepared for the frame's shutter interval, in one or
+//! two hierarchies. Spheres that never move in the shot are built into a [`StaticGeometry`]
+//! once per sequence; the others are prepared per frame, with boxes at that frame's shutter
+//! opening and closing, and built into a hierarchy per frame. A sphere that does not move
+//! during a frame is traced as a fixed sphere.
+//!
+//! Where one hierarchy over everything is cheaper, every sphere is treated as animated: in
+//! scenes of at most [`MERGE_LIMIT`] spheres it is built per frame; in larger scenes where at
+//! least [`SHARED_FRACTION`] of the spheres are animated it is built once, on the shot's first
+//! frame, and refitted to each frame's boxes, unless it has degraded too far
+//! ([`REBUILD_AREA`]), when the frame gets a hierarchy of its own.
+
+use std::sync::{Mutex, MutexGuard};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -21,6 +30,16 @@ const LINEAR: u32 = u32::MAX;
 /// Scenes with animated spheres and at most this many spheres in all are built into one
 /// hierarchy per frame instead of a static one and a per-frame one.
 const MERGE_LIMIT: usize = 16384;
+
+/// Larger scenes in which at least this share of the spheres is animated get one hierarchy
+/// over every sphere, built once for the shot and refitted per frame ([`Shared`]): one
+/// traversal per ray instead of two, without a build per frame. With fewer animated spheres,
+/// the static hierarchy plus a small per-frame one cost less to prepare.
+const SHARED_FRACTION: f64 = 0.25;
+
+/// A refitted hierarchy whose summed box areas ([`Bvh::area`]) grew past this factor of
+/// those it was built with is replaced by a hierarchy built for the frame.
+const REBUILD_AREA: f64 = 2.0;
 
 /// A sphere that never moves, as the tracer sees it.
 #[derive(Clone, Copy, Debug)]
@@ -61,13 +80,43 @@ impl MovingPrim {
 }
 
 /// The spheres that never move during the shot, with their hierarchy: built once per sequence.
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct StaticGeometry {
     /// In the hierarchy's leaf order.
     prims: Vec<StillPrim>,
     bvh: Bvh,
     /// Indices of the scene's animated spheres, prepared per frame.
     animated: Vec<u32>,
+    /// For a large scene with many animated spheres: one hierarchy over all of them (then
+    /// `animated` holds every sphere and `prims` none), to be refitted per frame.
+    shared: Option<Mutex<Shared>>,
+}
+
+/// The hierarchy of a frame's animated spheres: its own, or the shared one refitted to it (and
+/// locked while the frame renders).
+#[derive(Debug)]
+enum FrameBvh<'a> {
+    Own(Bvh),
+    Shared(MutexGuard<'a, Shared>),
+}
+
+impl FrameBvh<'_> {
+    #[inline]
+    fn get(&self) -> &Bvh {
+        match self {
+            FrameBvh::Own(b) => b,
+            FrameBvh::Shared(s) => &s.bvh,
+        }
+    }
+}
+
+/// A hierarchy over the animated spheres built once, on their boxes in the shot's first
+/// frame, to be refitted to each frame's boxes.
+#[derive(Clone, Debug)]
+struct Shared {
+    bvh: Bvh,
+    /// Its [`Bvh::area`] as built.
+    area: f64,
 }
 
 impl StaticGeometry {
@@ -75,14 +124,29 @@ impl StaticGeometry {
     /// parallel on the current rayon pool).
     pub fn new(scene: &Scene) -> StaticGeometry {
         let n = scene.spheres.len();
-        let any_animated = scene.spheres.iter().any(|s| s.motion.is_animated());
-        let (still, animated): (Vec<u32>, Vec<u32>) = if any_animated && n <= MERGE_LIMIT {
-            // One hierarchy per frame over everything: rebuilding a few thousand boxes costs
-            // well under a millisecond, and one traversal per ray is cheaper than two.
+        let animated_count = scene
+            .spheres
+            .iter()
+            .filter(|s| s.motion.is_animated())
+            .count();
+        let one_hierarchy = animated_count > 0
+            && (n <= MERGE_LIMIT || animated_count as f64 >= SHARED_FRACTION * n as f64);
+        let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy {
+            // One hierarchy over everything, one traversal per ray: rebuilt per frame for a
+            // few thousand spheres (well under a millisecond), refitted for more.
             (Vec::new(), (0..n as u32).collect())
         } else {
             (0..n as u32).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
         };
+        let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
+            let first = scene.shot.interval(scene.shot.first_frame);
+            let (_, open, close) = prepare_spheres(scene, &animated, first);
+            let bvh = Bvh::build_moving(&open, &close);
+            Mutex::new(Shared {
+                area: bvh.area(),
+                bvh,
+            })
+        });
         let boxes: Vec<Aabb> = still
             .par_iter()
             .map(|&i| {
@@ -112,6 +176,7 @@ impl StaticGeometry {
             prims,
             bvh,
             animated,
+            shared,
         }
     }
 
@@ -130,6 +195,12 @@ impl StaticGeometry {
         self.prims.capacity() * std::mem::size_of::<StillPrim>()
             + self.bvh.memory_bytes()
             + self.animated.capacity() * 4
+            + self.shared.as_ref().map_or(0, |s| {
+                s.lock()
+                    .unwrap_or_else(|poisoned| poisoned.into_inner())
+                    .bvh
+                    .memory_bytes()
+            })
     }
 
     #[inline]
@@ -167,7 +238,7 @@ pub struct World<'a> {
     statics: &'a StaticGeometry,
     /// The animated spheres, in the order of their hierarchy's leaves.
     animated: Vec<MovingPrim>,
-    animated_bvh: Bvh,
+    animated_bvh: FrameBvh<'a>,
     /// The curved paths of this frame (circles, several keyframe segments).
     motions: Vec<FrameMotion>,
     materials: &'a [Material],
@@ -184,61 +255,30 @@ impl<'a> World<'a> {
     /// the current rayon pool); the static ones come from `statics`, built once for the
     /// sequence.
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
-        let duration = interval.close - interval.open;
-        // Per animated sphere: the prim (with a curved path's motion), and its boxes at the
-        // shutter's opening and closing.
-        let prepared: Vec<(MovingPrim, Option<FrameMotion>, Aabb, Aabb)> = statics
-            .animated
-            .par_iter()
-            .map(|&id| {
-                let s = &scene.spheres[id as usize];
-                let motion = s.motion.prepare(interval);
-                let mut prim = MovingPrim {
-                    center: DVec3::ZERO,
-                    velocity: DVec3::ZERO,
-                    radius: s.radius,
-                    material: s.material,
-                    id,
-                    general: LINEAR,
-                };
-                let (open, close, general) = match motion {
-                    FrameMotion::Fixed(c) => {
-                        prim.center = c;
-                        let b = Aabb::point(c).grow(s.radius);
-                        (b, b, None)
-                    }
-                    FrameMotion::Linear {
-                        start, velocity, ..
-                    } => {
-                        prim.center = start;
-                        prim.velocity = velocity;
-                        // The end exactly as `center_at` computes it at the closing.
-                        let end = start + velocity * duration;
-                        (
-                            Aabb::point(start).grow(s.radius),
-                            Aabb::point(end).grow(s.radius),
-                            None,
-                        )
-                    }
-                    m => {
-                        // A curved path: the box over the whole shutter at both ends.
-                        let b = m.bounds(interval, s.radius);
-                        (b, b, Some(m))
-                    }
-                };
-                let (open, close) = pad_for_interpolation(open, close);
-                (prim, general, open, close)
-            })
-            .collect();
-        let open: Vec<Aabb> = prepared.iter().map(|p| p.2).collect();
-        let close: Vec<Aabb> = prepared.iter().map(|p| p.3).collect();
-        let animated_bvh = Bvh::build_moving(&open, &close);
+        let (prepared, open, close) = prepare_spheres(scene, &statics.animated, interval);
+        let animated_bvh = match &statics.shared {
+            Some(shared) => {
+                // Frames are prepared one at a time; the lock is held while this one renders.
+                let mut shared = shared
+                    .lock()
+                    .unwrap_or_else(|poisoned| poisoned.into_inner());
+                // Refitted boxes that have moved far from those the tree was built on make a
+                // slow tree: then build this frame's own.
+                let built = shared.area;
+                if shared.bvh.refit_moving(&open, &close) > REBUILD_AREA * built {
+                    FrameBvh::Own(Bvh::build_moving(&open, &close))
+                } else {
+                    FrameBvh::Shared(shared)
+                }
+            }
+            None => FrameBvh::Own(Bvh::build_moving(&open, &close)),
+        };
         drop((open, close));
         let mut motions = Vec::new();
         let mut moving = 0;
         let mut animated = Vec::with_capacity(prepared.len());
-        for &k in animated_bvh.order() {
-            let (mut prim, general, _, _) = prepared[k as usize].clone();
+        for &k in animated_bvh.get().order() {
+            let (mut prim, general) = prepared[k as usize].clone();
             if let Some(m) = general {
                 prim.general = motions.len() as u32;
                 motions.push(m);
@@ -268,7 +308,7 @@ impl<'a> World<'a> {
     /// Bytes held by this frame's animated spheres and their hierarchy.
     pub fn memory_bytes(&self) -> usize {
         self.animated.capacity() * std::mem::size_of::<MovingPrim>()
-            + self.animated_bvh.memory_bytes()
+            + self.animated_bvh.get().memory_bytes()
             + self.motions.capacity() * std::mem::size_of::<FrameMotion>()
     }
 
@@ -288,20 +328,25 @@ impl<'a> World<'a> {
             } else {
                 0.0
             };
-            found =
-                self.animated_bvh
-                    .closest_hit(ray.origin, ray.dir, s, t_max, stack, |i, t_max| {
-                        let p = &self.animated[i as usize];
-                        if p.id == skip {
-                            return None;
-                        }
-                        intersect(
-                            p.center_at(&self.motions, dt, ray.time),
-                            p.radius,
-                            ray,
-                            t_max,
-                        )
-                    });
+            found = self.animated_bvh.get().closest_hit(
+                ray.origin,
+                ray.dir,
+                s,
+                t_max,
+                stack,
+                |i, t_max| {
+                    let p = &self.animated[i as usize];
+                    if p.id == skip {
+                        return None;
+                    }
+                    intersect(
+                        p.center_at(&self.motions, dt, ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
         }
         let (t, center, radius, material, id) = if let Some((t, i)) = found {
             let p = &self.animated[i as usize];
@@ -321,6 +366,72 @@ impl<'a> World<'a> {
     }
 }
 
+/// Prepared spheres: each one's prim and curved path, if any; their boxes at the shutter's
+/// opening; their boxes at its closing.
+type Prepared = (Vec<(MovingPrim, Option<FrameMotion>)>, Vec<Aabb>, Vec<Aabb>);
+
+/// Prepares the spheres `ids` of `scene` for the shutter `interval` (in parallel on the
+/// current rayon pool): per sphere, its prim (with a curved path's motion), and its boxes at
+/// the shutter's opening and closing, padded for their interpolation.
+fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Prepared {
+    let duration = interval.close - interval.open;
+    let prims: Vec<(MovingPrim, Option<FrameMotion>)> = ids
+        .par_iter()
+        .map(|&id| {
+            let s = &scene.spheres[id as usize];
+            let mut prim = MovingPrim {
+                center: DVec3::ZERO,
+                velocity: DVec3::ZERO,
+                radius: s.radius,
+                material: s.material,
+                id,
+                general: LINEAR,
+            };
+            let general = match s.motion.prepare(interval) {
+                FrameMotion::Fixed(c) => {
+                    prim.center = c;
+                    None
+                }
+                FrameMotion::Linear {
+                    start, velocity, ..
+                } => {
+                    prim.center = start;
+                    prim.velocity = velocity;
+                    None
+                }
+                m => Some(m),
+            };
+            (prim, general)
+        })
+        .collect();
+    // The boxes, one pass each, rather than one array of everything and two copies (at a
+    // million spheres the difference is a few hundred megabytes at the peak).
+    let boxes = |at_close: bool| -> Vec<Aabb> {
+        prims
+            .par_iter()
+            .map(|(prim, general)| {
+                let (open, close) = match general {
+                    // A curved path: the box over the whole shutter at both ends.
+                    Some(m) => {
+                        let b = m.bounds(interval, prim.radius);
+                        (b, b)
+                    }
+                    // The end exactly as `center_at` computes it at the closing.
+                    None => (
+                        Aabb::point(prim.center).grow(prim.radius),
+                        Aabb::point(prim.center + prim.velocity * duration).grow(prim.radius),
+                    ),
+                };
+                let (open, close) = pad_for_interpolation(open, close);
+                if at_close { close } else { open }
+            })
+            .collect()
+    };
+    let open = boxes(false);
+    let close = boxes(true);
+    (prims, open, close)
+}
+
 /// Grows the boxes a sphere has at the shutter's opening and closing so that their linear
 /// interpolation at any time, as the traversal rounds it, still contains the sphere as
 /// `center_at` rounds it: by 64 units in the last place of their largest coordinate, which is
@@ -335,4 +446,78 @@ fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
         .max_element();
     let pad = m * 64.0 * f64::EPSILON;
     (open.grow(pad), close.grow(pad))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::generate::{CUBE, GenerateOptions, scene_text};
+    use crate::rng::Pcg32;
+
+    /// The nearest sphere along `ray`, by testing every one.
+    fn brute(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
+        let mut best: Option<(f64, u32)> = None;
+        for (i, s) in scene.spheres.iter().enumerate() {
+            let t_max = best.map_or(f64::INFINITY, |b| b.0);
+            if let Some(t) = intersect(s.motion.at(ray.time), s.radius, ray, t_max) {
+                best = Some((t, i as u32));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn every_layout_finds_the_nearest_sphere() {
+        let mut r = Pcg32::new(8, 8);
+        let mut stack = TraversalStack::default();
+        // Per frame, one hierarchy built per frame; one built once and refitted; a static
+        // hierarchy and a per-frame one.
+        for (n, moving, shared) in [
+            (2000, 0.5, false),
+            (20_000, 0.5, true),
+            (20_000, 0.1, false),
+        ] {
+            let text = scene_text(&GenerateOptions {
+                spheres: n,
+                moving,
+                seed: 3,
+                frames: 40,
+            });
+            let scene = Scene::parse(&text, Path::new("g.toml")).unwrap();
+            let statics = StaticGeometry::new(&scene);
+            assert_eq!(statics.shared.is_some(), shared, "{n} {moving}");
+            // The first frame (the refitted hierarchy's own) and a later one.
+            for frame in [scene.shot.first_frame, scene.shot.last_frame()] {
+                let interval = scene.shot.interval(frame);
+                let world = World::prepare(&scene, &statics, interval);
+                let mut hits = 0;
+                for _ in 0..400 {
+                    let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
+                    let origin = (v() - 0.5) * 1.2 * CUBE;
+                    let dir = (v() - 0.5).normalize();
+                    let ray = Ray {
+                        origin,
+                        dir,
+                        time: interval.at(r.next_f64()),
+                    };
+                    let got = world
+                        .hit(&ray, u32::MAX, &mut stack)
+                        .map(|h| (h.t, h.sphere));
+                    let want = brute(&scene, &ray);
+                    // The same sphere at the same distance, up to the rounding of the two
+                    // ways of placing a moving centre.
+                    match (got, want) {
+                        (Some((t, i)), Some((u, j))) => {
+                            assert!(i == j && (t - u).abs() <= 1e-9 * u, "{got:?} {want:?}");
+                            hits += 1;
+                        }
+                        _ => assert_eq!(got, want),
+                    }
+                }
+                assert!(hits > 100, "{hits}");
+            }
+        }
+    }
 }
