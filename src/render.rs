@@ -216,6 +216,9 @@ impl FrameSetup<'_> {
         let req = self.req;
         tiles
             .par_iter_mut()
+            // One tile at a time: rayon otherwise hands out runs of tiles, and a run of
+            // costly ones left a core idle for up to a tenth of a short frame.
+            .with_max_len(1)
             .map(|tile| {
                 let start = Instant::now();
                 let rays = match req.sampler {
