@@ -719,24 +719,28 @@ mod tests {
             let (spheres, open, close) = moving_spheres(&mut r, n);
             let bvh = Bvh::build_moving(&open, &close);
             for ray in random_rays(&mut r, 400) {
-                let s = ray.time;
-                let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
-                let got = bvh.closest_hit(
-                    ray.origin,
-                    ray.dir,
-                    s,
-                    f64::INFINITY,
-                    &mut stack,
-                    |p, tmax| {
-                        let (c, rad) = at(bvh.order()[p as usize] as usize);
-                        crate::sphere::intersect(c, rad, &ray, tmax)
-                    },
-                );
-                let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
-                let now: Vec<(DVec3, f64)> = (0..n).map(at).collect();
-                assert_eq!(got, brute(&now, &ray), "n {n}");
+                assert_moving_hit_is_brute(&bvh, &spheres, &ray, &mut stack);
             }
         }
+    }
+
+    /// Asserts that `bvh` over the moving `spheres` finds what testing every sphere at the
+    /// ray's time finds (the ray's time is its shutter time `s`).
+    fn assert_moving_hit_is_brute(
+        bvh: &Bvh,
+        spheres: &[(DVec3, DVec3, f64)],
+        ray: &crate::ray::Ray,
+        stack: &mut TraversalStack,
+    ) {
+        let s = ray.time;
+        let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
+        let got = bvh.closest_hit(ray.origin, ray.dir, s, f64::INFINITY, stack, |p, tmax| {
+            let (c, rad) = at(bvh.order()[p as usize] as usize);
+            crate::sphere::intersect(c, rad, ray, tmax)
+        });
+        let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
+        let now: Vec<(DVec3, f64)> = (0..spheres.len()).map(at).collect();
+        assert_eq!(got, brute(&now, ray), "n {}", spheres.len());
     }
 
     /// Spheres `(centre at s = 0, velocity, radius)`, and their boxes at s = 0 and at s = 1.
@@ -780,22 +784,7 @@ mod tests {
                 assert!(area > 2.0 * built_area, "{area} {built_area}");
             }
             for ray in random_rays(&mut r, 300) {
-                let s = ray.time;
-                let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
-                let got = bvh.closest_hit(
-                    ray.origin,
-                    ray.dir,
-                    s,
-                    f64::INFINITY,
-                    &mut stack,
-                    |p, tmax| {
-                        let (c, rad) = at(bvh.order()[p as usize] as usize);
-                        crate::sphere::intersect(c, rad, &ray, tmax)
-                    },
-                );
-                let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
-                let now: Vec<(DVec3, f64)> = (0..n).map(at).collect();
-                assert_eq!(got, brute(&now, &ray), "n {n}");
+                assert_moving_hit_is_brute(&bvh, &spheres, &ray, &mut stack);
             }
         }
     }
