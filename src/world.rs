@@ -10,7 +10,7 @@
 //! frame, and refitted to each frame's boxes, unless it has degraded too far
 //! ([`REBUILD_AREA`]), when the frame gets a hierarchy of its own.
 
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard, TryLockError};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -79,7 +79,9 @@ impl MovingPrim {
     }
 }
 
-/// The spheres that never move during the shot, with their hierarchy: built once per sequence.
+/// What is built once per sequence: the spheres that never move during the shot, with their
+/// hierarchy, and, for a large scene with many animated spheres, the hierarchy over every
+/// sphere that each frame refits.
 #[derive(Debug, Default)]
 pub struct StaticGeometry {
     /// In the hierarchy's leaf order.
@@ -256,22 +258,27 @@ impl<'a> World<'a> {
     /// sequence.
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
         let (prepared, open, close) = prepare_spheres(scene, &statics.animated, interval);
-        let animated_bvh = match &statics.shared {
-            Some(shared) => {
-                // Frames are prepared one at a time; the lock is held while this one renders.
-                let mut shared = shared
-                    .lock()
-                    .unwrap_or_else(|poisoned| poisoned.into_inner());
+        let own = || FrameBvh::Own(Bvh::build_moving(&open, &close));
+        // Frames are prepared one at a time, and this one keeps the shared hierarchy locked
+        // while it renders. Were another world holding it, this one builds its own (the same
+        // hits, never a deadlock). A lock poisoned by a panic is refitted like any other.
+        let shared = statics.shared.as_ref().and_then(|m| match m.try_lock() {
+            Ok(guard) => Some(guard),
+            Err(TryLockError::Poisoned(poisoned)) => Some(poisoned.into_inner()),
+            Err(TryLockError::WouldBlock) => None,
+        });
+        let animated_bvh = match shared {
+            Some(mut shared) => {
                 // Refitted boxes that have moved far from those the tree was built on make a
                 // slow tree: then build this frame's own.
                 let built = shared.area;
                 if shared.bvh.refit_moving(&open, &close) > REBUILD_AREA * built {
-                    FrameBvh::Own(Bvh::build_moving(&open, &close))
+                    own()
                 } else {
                     FrameBvh::Shared(shared)
                 }
             }
-            None => FrameBvh::Own(Bvh::build_moving(&open, &close)),
+            None => own(),
         };
         drop((open, close));
         let mut motions = Vec::new();
@@ -517,6 +524,39 @@ mod tests {
                     }
                 }
                 assert!(hits > 100, "{hits}");
+            }
+        }
+    }
+
+    #[test]
+    fn two_worlds_of_one_shared_hierarchy_at_once() {
+        // The first world holds the shared hierarchy; the second builds its own, and both
+        // find the nearest sphere.
+        let text = scene_text(&GenerateOptions {
+            spheres: 20_000,
+            moving: 0.5,
+            seed: 4,
+            frames: 10,
+        });
+        let scene = Scene::parse(&text, Path::new("g.toml")).unwrap();
+        let statics = StaticGeometry::new(&scene);
+        let (a, b) = (scene.shot.interval(1), scene.shot.interval(10));
+        let first = World::prepare(&scene, &statics, a);
+        let second = World::prepare(&scene, &statics, b);
+        assert!(matches!(first.animated_bvh, FrameBvh::Shared(_)));
+        assert!(matches!(second.animated_bvh, FrameBvh::Own(_)));
+        let mut stack = TraversalStack::default();
+        let mut r = Pcg32::new(2, 2);
+        for (world, interval) in [(&first, a), (&second, b)] {
+            for _ in 0..100 {
+                let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
+                let ray = Ray {
+                    origin: (v() - 0.5) * CUBE,
+                    dir: (v() - 0.5).normalize(),
+                    time: interval.at(r.next_f64()),
+                };
+                let got = world.hit(&ray, u32::MAX, &mut stack).map(|h| h.sphere);
+                assert_eq!(got, brute(&scene, &ray).map(|h| h.1));
             }
         }
     }
