@@ -331,8 +331,6 @@ pub fn render_frame(
     };
     let mut done = 0u32;
     let mut seconds_per_sample = None;
-    // The estimate of the samples so far, when the noise threshold needed it.
-    let mut estimated = None;
     loop {
         let size = if budget.is_set() {
             match next_pass(
@@ -352,7 +350,6 @@ pub fn render_frame(
         } else {
             break;
         };
-        estimated = None;
         let pass_start = Instant::now();
         let (rays, tile_seconds) = setup.pass(&mut tiles, done..done + size, progress);
         seconds_per_sample = Some(pass_start.elapsed().as_secs_f64() / size as f64);
@@ -362,17 +359,15 @@ pub fn render_frame(
         stats.passes += 1;
         if let Some(threshold) = budget.noise_threshold
             && done >= MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX))
+            && relative_error(&tiles) <= threshold
         {
-            let e = estimated.insert(estimate(&tiles, req));
-            if e.2 <= threshold {
-                stats.stop = StopReason::NoiseThreshold;
-                break;
-            }
+            stats.stop = StopReason::NoiseThreshold;
+            break;
         }
     }
 
-    let (film, variance, relative_error) = estimated.unwrap_or_else(|| estimate(&tiles, req));
-    stats.relative_error = relative_error;
+    let (film, variance) = assemble(&tiles, req);
+    stats.relative_error = relative_error(&tiles);
     stats.samples_per_pixel = done;
     stats.samples = req.width as u64 * req.height as u64 * done as u64;
     stats.dropped = tiles
@@ -388,9 +383,8 @@ pub fn render_frame(
     }
 }
 
-/// The film of the tiles' means, each pixel's variance of its mean, and the estimated
-/// relative error.
-fn estimate(tiles: &[Tile], req: &FrameRequest) -> (Film, Vec<DVec3>, f64) {
+/// The film of the tiles' means, and each pixel's variance of its mean.
+fn assemble(tiles: &[Tile], req: &FrameRequest) -> (Film, Vec<DVec3>) {
     let mut film = Film::new(req.width, req.height);
     let mut variance = vec![DVec3::ZERO; req.width as usize * req.height as usize];
     for tile in tiles {
@@ -401,8 +395,13 @@ fn estimate(tiles: &[Tile], req: &FrameRequest) -> (Film, Vec<DVec3>, f64) {
             variance[y as usize * req.width as usize + x as usize] = p.variance_of_mean();
         }
     }
-    let relative_error = metrics::estimated_rel_mse(film.pixels(), &variance).sqrt();
-    (film, variance, relative_error)
+    (film, variance)
+}
+
+/// The relative error estimated from the tiles' pixels ([`FrameStats::relative_error`]).
+fn relative_error(tiles: &[Tile]) -> f64 {
+    let pixels = tiles.iter().flat_map(|t| &t.pixels);
+    metrics::estimated_rel_mse(pixels.map(|p| (p.mean(), p.variance_of_mean()))).sqrt()
 }
 
 #[cfg(test)]
