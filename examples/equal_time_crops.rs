@@ -10,9 +10,12 @@
 
 use std::process::ExitCode;
 
-use exr::prelude::read_first_rgba_layer_from_file;
+use std::path::Path;
+
+use glam::DVec3;
 use image::{Rgb, RgbImage};
-use raytrace::output::linear_to_srgb8;
+use raytrace::metrics::mse;
+use raytrace::output::{linear_to_srgb8, read_exr_rgb};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -30,44 +33,31 @@ fn main() -> ExitCode {
     let gap = 8;
     let n = inputs.len() as u32;
     let mut out = RgbImage::from_pixel(n * w * zoom + (n - 1) * gap, h * zoom, Rgb([255; 3]));
-    let mut reference: Option<(usize, Vec<[f32; 3]>)> = None;
+    // The crop's pixels of an image `width` wide.
+    let crop = |width: usize, pixels: &[DVec3]| -> Vec<DVec3> {
+        (y0..y0 + h)
+            .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+            .map(|(x, y)| pixels[y as usize * width + x as usize])
+            .collect()
+    };
+    let mut reference: Option<Vec<DVec3>> = None;
     for (k, path) in inputs.iter().enumerate() {
-        let image = read_first_rgba_layer_from_file(
-            path,
-            |size, _| (size.width(), vec![[0f32; 3]; size.width() * size.height()]),
-            |(width, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *width + pos.x()] = [r, g, b];
-            },
-        )
-        .unwrap_or_else(|e| panic!("{path}: {e}"));
-        let (width, pixels) = &image.layer_data.channel_data.pixels;
-        let in_crop = |i: usize| {
-            let (x, y) = ((i % width) as u32, (i / width) as u32);
-            (x0..x0 + w).contains(&x) && (y0..y0 + h).contains(&y)
-        };
+        let (width, _, pixels) =
+            read_exr_rgb(Path::new(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
         match &reference {
-            None => reference = Some((*width, pixels.clone())),
-            Some((_, r)) => {
-                let se = |i: usize| -> f64 {
-                    (0..3)
-                        .map(|c| (pixels[i][c] as f64 - r[i][c] as f64).powi(2))
-                        .sum::<f64>()
-                        / 3.0
-                };
-                let all = (0..pixels.len()).map(se).sum::<f64>() / pixels.len() as f64;
-                let crop = (0..pixels.len())
-                    .filter(|&i| in_crop(i))
-                    .map(se)
-                    .sum::<f64>()
-                    / (w * h) as f64;
-                println!("{path}: MSE {all:.4e} (crop {crop:.4e})");
-            }
+            None => reference = Some(pixels.clone()),
+            Some(r) => println!(
+                "{path}: MSE {:.4e} (crop {:.4e})",
+                mse(&pixels, r),
+                mse(&crop(width, &pixels), &crop(width, r))
+            ),
         }
         let left = k as u32 * (w * zoom + gap);
         for y in 0..h * zoom {
             for x in 0..w * zoom {
                 let p = pixels[(y0 + y / zoom) as usize * width + (x0 + x / zoom) as usize];
-                out.put_pixel(left + x, y, Rgb(p.map(linear_to_srgb8)));
+                let srgb = p.to_array().map(|c| linear_to_srgb8(c as f32));
+                out.put_pixel(left + x, y, Rgb(srgb));
             }
         }
     }

@@ -97,20 +97,20 @@ pub fn load_scene(opts: &RenderOptions) -> Result<Scene, Error> {
     Ok(scene)
 }
 
+/// Rejects an option's value that is not a finite number above zero.
+pub fn check_positive(name: &str, value: Option<f64>) -> Result<(), Error> {
+    match value {
+        Some(v) if !(v.is_finite() && v > 0.0) => Err(Error::Usage(format!(
+            "{name} must be a number > 0, got {v}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// Rejects budgets that cannot be met or make no sense.
 pub fn check_budget(budget: &Budget) -> Result<(), Error> {
-    for (name, value) in [
-        ("--time-limit", budget.time_limit),
-        ("--noise-threshold", budget.noise_threshold),
-    ] {
-        if let Some(v) = value
-            && !(v.is_finite() && v > 0.0)
-        {
-            return Err(Error::Usage(format!(
-                "{name} must be a number > 0, got {v}"
-            )));
-        }
-    }
+    check_positive("--time-limit", budget.time_limit)?;
+    check_positive("--noise-threshold", budget.noise_threshold)?;
     match budget.max_samples {
         Some(0) => Err(Error::Usage("--max-samples must be >= 1, got 0".into())),
         Some(_) if !budget.is_set() => Err(Error::Usage(

@@ -173,28 +173,14 @@ pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
             return Err(Error::Usage(format!("{name} must be >= 1, got 0")));
         }
     }
-    if let Some(b) = opts.budget
-        && !(b.is_finite() && b > 0.0)
-    {
-        return Err(Error::Usage(format!(
-            "--budget must be a number > 0, got {b}"
-        )));
-    }
+    app::check_positive("--budget", opts.budget)?;
     if opts.reference.is_some() && opts.reference_samples.is_some() {
         return Err(Error::Usage(
             "give --reference or --reference-samples, not both".into(),
         ));
     }
     if let Some(path) = &opts.plot {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if !matches!(ext.as_deref(), Some("png" | "svg")) {
-            return Err(Error::Usage(format!(
-                "--plot {}: the plot is written as .png or .svg",
-                path.display()
-            )));
-        }
+        plot::check_path(path).map_err(Error::Usage)?;
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.render.threads.unwrap_or(0))
@@ -269,7 +255,7 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
     };
     say(&summary(&report));
     if let Some(path) = &opts.csv {
-        write_atomically(path, csv(&report).as_bytes())?;
+        output::write_file(path, csv(&report).as_bytes())?;
         say(&format!("CSV written to {}", path.display()));
     }
     if let Some(path) = &opts.plot {
@@ -396,56 +382,20 @@ fn default_reference_path(
 
 /// Reads the RGB channels of an EXR reference of the given size, as linear radiance.
 pub fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
-    use exr::prelude::read_first_rgba_layer_from_file;
     let bad = |message: String| Error::Usage(format!("reference {}: {message}", path.display()));
     if !path.exists() {
         return Err(bad(
             "no such file (render one with --reference-samples)".into()
         ));
     }
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |resolution, _| {
-            (
-                resolution.width(),
-                vec![DVec3::ZERO; resolution.width() * resolution.height()],
-            )
-        },
-        |(w, pixels): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            pixels[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
-        },
-    )
-    .map_err(|e| bad(e.to_string()))?;
-    let size = image.layer_data.size;
-    if (size.width(), size.height()) != (width as usize, height as usize) {
-        return Err(bad(format!(
-            "is {}x{}, the frame is {width}x{height}",
-            size.width(),
-            size.height()
-        )));
+    let (w, h, pixels) = output::read_exr_rgb(path).map_err(bad)?;
+    if (w, h) != (width as usize, height as usize) {
+        return Err(bad(format!("is {w}x{h}, the frame is {width}x{height}")));
     }
-    let pixels = image.layer_data.channel_data.pixels.1;
     if pixels.iter().any(|p| !p.is_finite()) {
         return Err(bad("has pixels that are not finite".into()));
     }
     Ok(pixels)
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
-    let name = path
-        .file_name()
-        .map_or("out".into(), |n| n.to_string_lossy());
-    let tmp = dir
-        .unwrap_or(Path::new("."))
-        .join(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, bytes)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            Error::io(path, e)
-        })
 }
 
 fn header() -> String {

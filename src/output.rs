@@ -149,15 +149,32 @@ pub fn write_frame(
         Format::Exr => Some(exr_attributes(info).map_err(output_error)?),
         Format::Png => None,
     };
+    write_atomically(path, |writer| match exr_attributes {
+        Some(attributes) => write_exr(writer, path, width, height, rgb, attributes),
+        None => write_png(writer, path, width, height, rgb),
+    })
+}
+
+/// Writes `bytes` to `path` as [`write_frame`] writes a frame: through a temporary file beside
+/// it, renamed into place, so readers never see a partial file.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    write_atomically(path, |writer| {
+        writer.write_all(bytes).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Creates `path`'s folder, has `write` fill a new temporary file beside `path`, syncs it and
+/// renames it into place. The temporary file is removed on any failure.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), Error>,
+) -> Result<(), Error> {
     let (dir, file_name) = split_target(path)?;
     fs::create_dir_all(&dir).map_err(|e| Error::io(path, e))?;
 
     let (mut temp, file) = TempFile::create(&dir, file_name).map_err(|e| Error::io(path, e))?;
     let mut writer = BufWriter::new(file);
-    match exr_attributes {
-        Some(attributes) => write_exr(&mut writer, path, width, height, rgb, attributes)?,
-        None => write_png(&mut writer, path, width, height, rgb)?,
-    }
+    write(&mut writer)?;
     let file = writer
         .into_inner()
         .map_err(|e| Error::io(path, e.into_error()))?;
@@ -167,6 +184,29 @@ pub fn write_frame(
     temp.armed = false;
     sync_dir(&dir);
     Ok(())
+}
+
+/// Reads the RGB channels of an EXR file as linear radiance: (width, height, pixels
+/// row-major, top row first). Errors are the decoder's message.
+pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<glam::DVec3>), String> {
+    use exr::prelude::read_first_rgba_layer_from_file;
+    use glam::DVec3;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |size, _| {
+            (
+                size.width(),
+                vec![DVec3::ZERO; size.width() * size.height()],
+            )
+        },
+        |(w, pixels): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let size = image.layer_data.size;
+    let (_, pixels) = image.layer_data.channel_data.pixels;
+    Ok((size.width(), size.height(), pixels))
 }
 
 /// The folder (`.` for a bare file name) and file name of a target path.

@@ -53,20 +53,7 @@ pub fn write_plot(
     y_label: &str,
     series: &[Series],
 ) -> Result<(), String> {
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let format = match extension.as_deref() {
-        Some("png") => Format::Png,
-        Some("svg") => Format::Svg,
-        _ => {
-            return Err(format!(
-                "cannot write plot {}: unknown extension (expected .png or .svg)",
-                path.display()
-            ));
-        }
-    };
+    let format = format_of(path)?;
     register_embedded_font().map_err(|e| format!("cannot write plot {}: {e}", path.display()))?;
     let labels = Labels {
         title,
@@ -127,6 +114,28 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
     });
     let slope = sxy / sxx;
     (sxx > 0.0 && slope.is_finite()).then_some(slope)
+}
+
+/// Checks that a plot can be written to `path` in a format its extension names, before
+/// anything is measured or drawn: an `Err(String)` naming the path otherwise.
+pub fn check_path(path: &Path) -> Result<(), String> {
+    format_of(path).map(|_| ())
+}
+
+/// The format `path`'s extension names (`.png` or `.svg`, in any letter case).
+fn format_of(path: &Path) -> Result<Format, String> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("png") => Ok(Format::Png),
+        Some("svg") => Ok(Format::Svg),
+        _ => Err(format!(
+            "cannot write plot {}: unknown extension (expected .png or .svg)",
+            path.display()
+        )),
+    }
 }
 
 /// Output file format, from the extension.
