@@ -13,10 +13,10 @@ use glam::DVec3;
 use raytrace::aabb::Aabb;
 use raytrace::bvh::{Bvh, TraversalStack};
 use raytrace::ray::Ray;
-use raytrace::render::{Budget, FrameRequest, render_frame};
+use raytrace::render::{Budget, render_frame};
 use raytrace::rng::Pcg32;
 use raytrace::sampler::SamplerKind;
-use raytrace::scene::Scene;
+use raytrace::scene::{Overrides, Scene};
 use raytrace::sphere::intersect;
 use raytrace::world::StaticGeometry;
 
@@ -115,21 +115,21 @@ fn hierarchy(c: &mut Criterion) {
 
 fn small_render(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bouncing_spheres.toml");
-    let scene = Scene::load(&path).expect("scene");
-    let statics = StaticGeometry::new(&scene);
     for sampler in SamplerKind::ALL {
-        let req = FrameRequest {
-            frame: scene.shot.first_frame,
-            width: 64,
-            height: 36,
-            samples: 4,
-            max_depth: 50,
-            seed: 1,
-            sampler,
+        let overrides = Overrides {
+            width: Some(64),
+            height: Some(36),
+            samples: Some(4),
+            seed: Some(1),
+            sampler: Some(sampler),
+            ..Overrides::default()
         };
+        let scene = Scene::load_with(&path, &overrides).expect("scene");
+        let statics = StaticGeometry::new(&scene);
+        let frame = scene.shot.first_frame;
         let name = format!("render bouncing_spheres 64x36 4 spp {sampler}");
         c.bench_function(&name, |b| {
-            b.iter(|| render_frame(&scene, &statics, &req, &Budget::default(), &|_| {}))
+            b.iter(|| render_frame(&scene, &statics, frame, &Budget::default(), &|_| {}))
         });
     }
 }

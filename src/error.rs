@@ -18,6 +18,8 @@ pub enum Error {
     },
     /// Any other failure while producing output (an encoder error, for example).
     Output { path: PathBuf, message: String },
+    /// The machine could not give what a run needs (worker threads, for example).
+    Resource(String),
 }
 
 impl Error {
@@ -26,7 +28,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Scene(_) | Error::Usage(_) => 2,
-            Error::Io { .. } | Error::Output { .. } => 1,
+            Error::Io { .. } | Error::Output { .. } | Error::Resource(_) => 1,
         }
     }
 
@@ -43,7 +45,7 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Scene(m) => write!(f, "{m}"),
-            Error::Usage(m) => write!(f, "{m}"),
+            Error::Usage(m) | Error::Resource(m) => write!(f, "{m}"),
             Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
             Error::Output { path, message } => write!(f, "{}: {message}", path.display()),
         }

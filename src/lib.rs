@@ -2,31 +2,30 @@
 //! defocus blur, written as EXR or PNG frame sequences.
 //!
 //! Data flows one way:
-//! scene file ([`scene_file`]) → validated [`scene::Scene`] → per-frame [`world::World`]
-//! → [`tracer`] → [`film::Film`] → [`output`] file.
+//! scene file ([`scene`]: schema → validation) → validated [`scene::Scene`] → per-frame
+//! [`world::World`] → [`tracer`] → [`film::Film`] → [`io`] file.
+//!
+//! The rendering core is flat, one concept per module; around it, [`scene`] reads scene
+//! files, [`io`] writes and reads files, [`analysis`] measures images, and [`cli`] is the
+//! command line.
 #![forbid(unsafe_code)]
 
 pub mod aabb;
-pub mod app;
+pub mod analysis;
 pub mod bvh;
 pub mod camera;
-pub mod converge;
+pub mod cli;
 pub mod error;
 pub mod film;
-pub mod frames;
-pub mod generate;
+pub mod io;
 pub mod lerp;
 pub mod material;
-pub mod metrics;
 pub mod motion;
-pub mod output;
-pub mod plot;
 pub mod ray;
 pub mod render;
 pub mod rng;
 pub mod sampler;
 pub mod scene;
-pub mod scene_file;
 pub mod shutter;
 pub mod sphere;
 pub mod tracer;

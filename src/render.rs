@@ -8,9 +8,9 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::analysis::metrics;
 use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
-use crate::metrics;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::shutter::Interval;
@@ -21,22 +21,23 @@ use crate::world::{StaticGeometry, World};
 /// 400x225 frame has hundreds of tiles, so both cores stay busy to the end of a frame.
 pub const TILE: u32 = 16;
 
-/// What to render: a frame of a scene at a size, sample count and sampler.
+/// The settings of one frame, copied from the scene's (`[output]` size, `[render]`) so the
+/// per-sample loop reads them from one small struct.
 #[derive(Clone, Debug)]
-pub struct FrameRequest {
-    pub frame: u32,
-    pub width: u32,
-    pub height: u32,
+struct FrameRequest {
+    frame: u32,
+    width: u32,
+    height: u32,
     /// Samples per pixel (without a budget: exactly these).
-    pub samples: u32,
-    pub max_depth: u32,
-    pub seed: u64,
-    pub sampler: SamplerKind,
+    samples: u32,
+    max_depth: u32,
+    seed: u64,
+    sampler: SamplerKind,
 }
 
 impl FrameRequest {
-    /// The frame `frame` with the scene's own settings.
-    pub fn from_scene(scene: &Scene, frame: u32) -> FrameRequest {
+    /// The frame `frame` with the scene's settings.
+    fn from_scene(scene: &Scene, frame: u32) -> FrameRequest {
         FrameRequest {
             frame,
             width: scene.output.width,
@@ -272,8 +273,9 @@ pub fn next_pass(
     Ok(size)
 }
 
-/// Renders one frame: exactly `req.samples` per pixel in one pass when `budget` is not set,
-/// else in passes until the budget stops it. `progress` is called with the number of samples
+/// Renders frame `frame` of `scene` with the scene's settings (`[output]` size, `[render]`
+/// samples, depth, seed and sampler): exactly its samples per pixel in one pass when `budget`
+/// is not set, else in passes until the budget stops it. `progress` is called with the number of samples
 /// of each finished tile, from worker threads. Runs on the current rayon pool.
 ///
 /// Sample `i` of a pixel is the same whichever pass takes it, and each pixel's mean is the
@@ -282,11 +284,12 @@ pub fn next_pass(
 pub fn render_frame(
     scene: &Scene,
     statics: &StaticGeometry,
-    req: &FrameRequest,
+    frame: u32,
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
     let frame_start = Instant::now();
+    let req = &FrameRequest::from_scene(scene, frame);
     let interval = scene.shot.interval(req.frame);
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);

@@ -460,8 +460,8 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::generate::{CUBE, GenerateOptions, scene_text};
     use crate::rng::Pcg32;
+    use crate::scene::generate::{CUBE, RandomScene, scene_text};
 
     /// The nearest sphere along `ray`, by testing every one.
     fn brute(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
@@ -486,7 +486,7 @@ mod tests {
             (20_000, 0.5, true),
             (20_000, 0.1, false),
         ] {
-            let text = scene_text(&GenerateOptions {
+            let text = scene_text(&RandomScene {
                 spheres: n,
                 moving,
                 seed: 3,
@@ -532,7 +532,7 @@ mod tests {
     fn two_worlds_of_one_shared_hierarchy_at_once() {
         // The first world holds the shared hierarchy; the second builds its own, and both
         // find the nearest sphere.
-        let text = scene_text(&GenerateOptions {
+        let text = scene_text(&RandomScene {
             spheres: 20_000,
             moving: 0.5,
             seed: 4,

@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use raytrace::camera::View;
 use raytrace::material::schlick;
 use raytrace::ray::Ray;
-use raytrace::render::{Budget, FrameRequest, FrameResult, render_frame};
+use raytrace::render::{Budget, FrameResult, render_frame};
 use raytrace::sampler::{IndependentSampler, Sampler};
 use raytrace::scene::Scene;
 use raytrace::sphere::{intersect, surface_point};
@@ -57,13 +57,7 @@ const GLASS_DEPTH: u32 = 128;
 /// Renders `frame` with the scene's own settings; asserts that no sample was dropped.
 fn render_checked(scene: &Scene, frame: u32, what: &str) -> FrameResult {
     let statics = StaticGeometry::new(scene);
-    let result = render_frame(
-        scene,
-        &statics,
-        &FrameRequest::from_scene(scene, frame),
-        &Budget::default(),
-        &|_| {},
-    );
+    let result = render_frame(scene, &statics, frame, &Budget::default(), &|_| {});
     assert_eq!(
         result.stats.dropped, 0,
         "{what}: {} non-finite samples",

@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 
 use glam::DVec3;
 use raytrace::film::Film;
-use raytrace::render::{Budget, FrameRequest, render_frame};
+use raytrace::render::{Budget, render_frame};
 use raytrace::scene::Scene;
 use raytrace::world::StaticGeometry;
 
@@ -18,23 +18,15 @@ pub fn scene(toml: &str) -> Scene {
 /// Renders frame `frame` of `scene` with its own settings.
 pub fn render(scene: &Scene, frame: u32) -> Film {
     let statics = StaticGeometry::new(scene);
-    render_frame(
-        scene,
-        &statics,
-        &FrameRequest::from_scene(scene, frame),
-        &Budget::default(),
-        &|_| {},
-    )
-    .film
+    render_frame(scene, &statics, frame, &Budget::default(), &|_| {}).film
 }
 
 /// Renders with a given seed and sample count.
 pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
-    let statics = StaticGeometry::new(scene);
-    let mut req = FrameRequest::from_scene(scene, frame);
-    req.samples = samples;
-    req.seed = seed;
-    render_frame(scene, &statics, &req, &Budget::default(), &|_| {}).film
+    let mut scene = scene.clone();
+    scene.render.samples = samples;
+    scene.render.seed = seed;
+    render(&scene, frame)
 }
 
 /// Means over square blocks of `block` x `block` pixels (partial blocks dropped).

@@ -1,7 +1,7 @@
 //! Log-log convergence plots: error against run time, one line per sampler.
 //!
-//! [`write_plot`] draws the plot as PNG or SVG with the `plotters` crate;
-//! [`log_log_slope`] fits the convergence rate shown in the legend.
+//! [`write_plot`] draws the plot as PNG or SVG with the `plotters` crate; the slope shown in
+//! the legend comes from [`super::fit::log_log_slope`].
 //!
 //! Text in PNG output is rasterised with a font compiled into the binary (a
 //! subset of DejaVu Sans, see `assets/fonts/`), so plotting needs no system
@@ -17,6 +17,12 @@ use plotters::element::ComposedElement;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, TextStyle, register_font};
 
+use super::fit::usable;
+use crate::io::{self, Format};
+
+/// The formats a plot can be written in.
+const PLOT_FORMATS: &[Format] = &[Format::Png, Format::Svg];
+
 /// One line of the plot.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
@@ -26,7 +32,7 @@ pub struct Series {
     /// Points that cannot be shown on log axes (non-positive or non-finite)
     /// are skipped.
     pub points: Vec<(f64, f64)>,
-    /// Fitted log-log slope shown in the legend, as from [`log_log_slope`];
+    /// Fitted log-log slope shown in the legend, as from [`super::fit::log_log_slope`];
     /// a non-finite slope is not shown.
     pub slope: Option<f64>,
 }
@@ -53,7 +59,7 @@ pub fn write_plot(
     y_label: &str,
     series: &[Series],
 ) -> Result<(), String> {
-    let format = format_of(path)?;
+    let format = Format::of(path, PLOT_FORMATS, "plot")?;
     register_embedded_font().map_err(|e| format!("cannot write plot {}: {e}", path.display()))?;
     let labels = Labels {
         title,
@@ -72,76 +78,33 @@ pub fn write_plot(
             }
             let image = image::RgbImage::from_raw(width, height, pixels)
                 .ok_or_else(|| drawing_error("pixel buffer has the wrong size".to_string()))?;
+            let mut png = std::io::Cursor::new(Vec::new());
             image
-                .save_with_format(path, image::ImageFormat::Png)
-                .map_err(|e| format!("cannot write plot {}: {e}", path.display()))
+                .write_to(&mut png, image::ImageFormat::Png)
+                .map_err(|e| drawing_error(e.to_string()))?;
+            write(path, &png.into_inner())
         }
-        Format::Svg => {
+        _ => {
             let mut svg = String::new();
             {
                 let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
                 draw(&root, &labels, series).map_err(drawing_error)?;
                 root.present().map_err(|e| drawing_error(e.to_string()))?;
             }
-            std::fs::write(path, svg)
-                .map_err(|e| format!("cannot write plot {}: {e}", path.display()))
+            write(path, svg.as_bytes())
         }
     }
 }
 
-/// Least-squares slope of log(error) against log(seconds) over the finite positive points;
-/// `None` with fewer than two distinct x.
-///
-/// For a power law `error = c · seconds^k` this is `k`: about -0.5 for plain Monte Carlo
-/// convergence, steeper for better samplers. Also `None` when the logarithms of the distinct
-/// x are too close to tell apart in floating point.
-pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
-    let logs: Vec<(f64, f64)> = points
-        .iter()
-        .filter(|&&p| usable(p))
-        .map(|&(x, y)| (x.ln(), y.ln()))
-        .collect();
-    let first_x = logs.first()?.0;
-    if logs.iter().all(|&(lx, _)| lx == first_x) {
-        return None;
-    }
-    let n = logs.len() as f64;
-    let mean_x = logs.iter().map(|p| p.0).sum::<f64>() / n;
-    let mean_y = logs.iter().map(|p| p.1).sum::<f64>() / n;
-    let (sxx, sxy) = logs.iter().fold((0.0, 0.0), |(sxx, sxy), &(lx, ly)| {
-        let dx = lx - mean_x;
-        (sxx + dx * dx, sxy + dx * (ly - mean_y))
-    });
-    let slope = sxy / sxx;
-    (sxx > 0.0 && slope.is_finite()).then_some(slope)
-}
-
 /// Checks that a plot can be written to `path` in a format its extension names, before
-/// anything is measured or drawn: an `Err(String)` naming the path otherwise.
+/// anything is measured or drawn.
 pub fn check_path(path: &Path) -> Result<(), String> {
-    format_of(path).map(|_| ())
+    Format::of(path, PLOT_FORMATS, "plot").map(|_| ())
 }
 
-/// The format `path`'s extension names (`.png` or `.svg`, in any letter case).
-fn format_of(path: &Path) -> Result<Format, String> {
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match extension.as_deref() {
-        Some("png") => Ok(Format::Png),
-        Some("svg") => Ok(Format::Svg),
-        _ => Err(format!(
-            "cannot write plot {}: unknown extension (expected .png or .svg)",
-            path.display()
-        )),
-    }
-}
-
-/// Output file format, from the extension.
-enum Format {
-    Png,
-    Svg,
+/// Writes the plot's bytes atomically.
+fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    io::write_file(path, bytes).map_err(|e| format!("cannot write plot {e}"))
 }
 
 /// The texts around the plot.
@@ -152,7 +115,7 @@ struct Labels<'a> {
 }
 
 /// The embedded font: DejaVu Sans, subset (see `assets/fonts/README.md`).
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
 
 /// Font family name used for all text; the embedded font is registered under it.
 const FAMILY: &str = "sans-serif";
@@ -244,11 +207,6 @@ fn marker<C, DB: DrawingBackend>(
     EmptyElement::at(at)
         + Polygon::new(outline, colour.filled())
         + PathElement::new(rim, WHITE.stroke_width(1))
-}
-
-/// Whether a point can be drawn on log-log axes.
-fn usable((x, y): (f64, f64)) -> bool {
-    x.is_finite() && y.is_finite() && x > 0.0 && y > 0.0
 }
 
 /// Exponent bounds of the axes, well inside the range of `f64`.
@@ -613,61 +571,11 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::fit::log_log_slope;
 
+    /// Points of the power law `c x^k`.
     fn power_law(c: f64, k: f64, xs: &[f64]) -> Vec<(f64, f64)> {
         xs.iter().map(|&x| (x, c * x.powf(k))).collect()
-    }
-
-    #[test]
-    fn slope_of_an_exact_power_law() {
-        let xs = [0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 100.0];
-        let slope = log_log_slope(&power_law(3.0, -1.0, &xs)).unwrap();
-        assert!((slope + 1.0).abs() < 1e-12, "{slope}");
-        let slope = log_log_slope(&power_law(0.2, -0.5, &xs)).unwrap();
-        assert!((slope + 0.5).abs() < 1e-12, "{slope}");
-        let slope = log_log_slope(&power_law(7.0, 2.0, &[1e-3, 1e3])).unwrap();
-        assert!((slope - 2.0).abs() < 1e-12, "{slope}");
-    }
-
-    #[test]
-    fn slope_ignores_unusable_points() {
-        let mut points = power_law(3.0, -1.0, &[1.0, 2.0, 4.0, 8.0]);
-        points.extend([
-            (0.0, 1.0),
-            (-2.0, 5.0),
-            (3.0, 0.0),
-            (3.0, -1.0),
-            (f64::NAN, 1.0),
-            (1.0, f64::NAN),
-            (f64::INFINITY, 1.0),
-            (5.0, f64::INFINITY),
-            (f64::NEG_INFINITY, 2.0),
-        ]);
-        let slope = log_log_slope(&points).unwrap();
-        assert!((slope + 1.0).abs() < 1e-12, "{slope}");
-    }
-
-    #[test]
-    fn slope_needs_two_distinct_x() {
-        assert_eq!(log_log_slope(&[]), None);
-        assert_eq!(log_log_slope(&[(1.0, 1.0)]), None);
-        assert_eq!(log_log_slope(&[(2.0, 1.0), (2.0, 5.0), (2.0, 0.1)]), None);
-        // Only one usable x once the others are skipped.
-        assert_eq!(
-            log_log_slope(&[(2.0, 1.0), (0.0, 5.0), (f64::NAN, 0.1), (3.0, -1.0)]),
-            None
-        );
-        assert!(log_log_slope(&[(2.0, 1.0), (2.0, 5.0), (3.0, 0.1)]).is_some());
-    }
-
-    #[test]
-    fn slope_of_repeated_measurements_is_the_least_squares_fit() {
-        // ln-ln points (0, 0), (0, 2), (ln 10, ln 10 - 1 ... ): built so the answer is known:
-        // two y per x, symmetric about the power law y = x^-1, so the fit is exactly -1.
-        let e = std::f64::consts::E;
-        let points = [(1.0, e), (1.0, 1.0 / e), (10.0, e / 10.0), (10.0, 0.1 / e)];
-        let slope = log_log_slope(&points).unwrap();
-        assert!((slope + 1.0).abs() < 1e-12, "{slope}");
     }
 
     #[test]
@@ -898,7 +806,9 @@ mod tests {
     #[test]
     fn io_errors_name_the_path() {
         let dir = tempfile::tempdir().unwrap();
-        for name in ["missing/plot.png", "missing/plot.svg"] {
+        // A folder that cannot be made: its name is taken by a file.
+        std::fs::write(dir.path().join("blocker"), b"a file").unwrap();
+        for name in ["blocker/plot.png", "blocker/plot.svg"] {
             let path = dir.path().join(name);
             let err = write_plot(&path, "t", "x", "y", &two_series()).unwrap_err();
             assert!(err.contains(&path.display().to_string()), "{err}");

@@ -12,12 +12,14 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use crate::app::{self, RenderOptions};
+use super::ConvergeArgs;
+use super::progress::print_line;
+use super::render::frame_info;
+use crate::analysis::fit::log_log_slope;
+use crate::analysis::{metrics, plot};
 use crate::error::Error;
-use crate::metrics;
-use crate::output;
-use crate::plot;
-use crate::render::{Budget, FrameRequest, FrameResult, render_frame};
+use crate::io::{self, FRAME_FORMATS, Format};
+use crate::render::{Budget, FrameResult, render_frame};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
@@ -30,32 +32,6 @@ pub const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
 /// time taken, because a single short run's time is mostly noise.
 const SHORT_RUN_SECONDS: f64 = 0.25;
 const MAX_REPEATS: usize = 5;
-
-/// Options of `raytrace converge`.
-#[derive(Clone, Debug, Default)]
-pub struct ConvergeOptions {
-    /// The scene and its overrides (`samples`, `output`, `budget` and frame selection are not
-    /// used).
-    pub render: RenderOptions,
-    /// The frame to measure; `None`: the shot's first frame.
-    pub frame: Option<u32>,
-    /// An existing reference image (EXR) of the frame.
-    pub reference: Option<PathBuf>,
-    /// Samples per pixel of a reference rendered here ([`DEFAULT_REFERENCE_SAMPLES`]).
-    pub reference_samples: Option<u32>,
-    /// Where a reference rendered here is written; `None`: next to the CSV or plot, or in the
-    /// current folder, named after the scene and frame.
-    pub write_reference: Option<PathBuf>,
-    /// The largest samples per pixel measured.
-    pub max_samples: Option<u32>,
-    /// Stop a sampler's series when its renders would have taken more than this many seconds
-    /// in all.
-    pub budget: Option<f64>,
-    /// The samplers measured; empty: all of them.
-    pub samplers: Vec<SamplerKind>,
-    pub csv: Option<PathBuf>,
-    pub plot: Option<PathBuf>,
-}
 
 /// One measured render.
 #[derive(Clone, Debug, PartialEq)]
@@ -109,10 +85,7 @@ impl Report {
 pub fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
     let by_samples: Vec<(f64, f64)> = runs.iter().map(|m| (m.samples as f64, m.mse)).collect();
     let by_time: Vec<(f64, f64)> = runs.iter().map(|m| (m.seconds, m.mse)).collect();
-    (
-        plot::log_log_slope(&by_samples),
-        plot::log_log_slope(&by_time),
-    )
+    (log_log_slope(&by_samples), log_log_slope(&by_time))
 }
 
 /// `base`'s MSE over `other`'s at equal time, at each of `other`'s runs whose time lies
@@ -154,10 +127,10 @@ pub fn schedule(max_samples: u32) -> Vec<u32> {
     v
 }
 
-/// Runs `raytrace converge`, printing its table to stdout unless `quiet`.
-pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
-    let scene = app::load_scene(&opts.render)?;
-    let frame = opts.frame.unwrap_or(scene.shot.first_frame);
+/// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
+pub fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
+    let mut scene = Scene::load_with(&args.scene, &args.scene_args.overrides())?;
+    let frame = args.frame.unwrap_or(scene.shot.first_frame);
     if frame < scene.shot.first_frame || frame > scene.shot.last_frame() {
         return Err(Error::Usage(format!(
             "--frame {frame} is outside the shot's frames {}-{}",
@@ -165,47 +138,32 @@ pub fn converge(opts: &ConvergeOptions) -> Result<Report, Error> {
             scene.shot.last_frame()
         )));
     }
-    for (name, v) in [
-        ("--max-samples", opts.max_samples),
-        ("--reference-samples", opts.reference_samples),
-    ] {
-        if v == Some(0) {
-            return Err(Error::Usage(format!("{name} must be >= 1, got 0")));
-        }
-    }
-    app::check_positive("--budget", opts.budget)?;
-    if opts.reference.is_some() && opts.reference_samples.is_some() {
-        return Err(Error::Usage(
-            "give --reference or --reference-samples, not both".into(),
-        ));
-    }
-    if let Some(path) = &opts.plot {
+    if let Some(path) = &args.plot {
         plot::check_path(path).map_err(Error::Usage)?;
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.render.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| Error::Usage(format!("--threads: {e}")))?;
-    pool.install(|| measure(&scene, frame, opts))
+    if let Some(path) = &args.csv {
+        Format::of(path, &[Format::Csv], "measurements").map_err(Error::Usage)?;
+    }
+    super::thread_pool(args.scene_args.threads)?.install(|| measure(&mut scene, frame, args))
 }
 
-fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, Error> {
+/// Measures `frame` of `scene`; `scene.render`'s samples, seed and sampler are set for each
+/// render in turn.
+fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report, Error> {
     let say = |s: &str| {
-        if !opts.render.quiet {
-            app::print_line(s);
+        if !args.scene_args.quiet {
+            print_line(s);
         }
     };
     let statics = StaticGeometry::new(scene);
-    let base = FrameRequest::from_scene(scene, frame);
+    let (reference, reference_path) = reference(scene, &statics, frame, args, &say)?;
 
-    let (reference, reference_path) = reference(scene, &statics, &base, opts, &say)?;
-
-    let samplers = if opts.samplers.is_empty() {
+    let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
     } else {
-        opts.samplers.clone()
+        args.sampler.clone()
     };
-    let max_samples = opts.max_samples.unwrap_or(if opts.budget.is_some() {
+    let max_samples = args.max_samples.unwrap_or(if args.budget.is_some() {
         u32::MAX
     } else {
         scene.render.samples
@@ -221,12 +179,9 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
             if !active[i] {
                 continue;
             }
-            let req = FrameRequest {
-                samples: n,
-                sampler: kind,
-                ..base.clone()
-            };
-            let (result, seconds) = timed_render(scene, &statics, &req);
+            scene.render.samples = n;
+            scene.render.sampler = kind;
+            let (result, seconds) = timed_render(scene, &statics, frame);
             let m = Measurement {
                 sampler: kind,
                 samples: n,
@@ -241,7 +196,7 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
             runs.push(m);
             spent[i] += seconds;
             // The next render takes about twice as long as this one.
-            if opts.budget.is_some_and(|b| spent[i] + 2.0 * seconds > b) {
+            if args.budget.is_some_and(|b| spent[i] + 2.0 * seconds > b) {
                 active[i] = false;
             }
         }
@@ -254,11 +209,11 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
         runs,
     };
     say(&summary(&report));
-    if let Some(path) = &opts.csv {
-        output::write_file(path, csv(&report).as_bytes())?;
+    if let Some(path) = &args.csv {
+        io::write_file(path, csv(&report).as_bytes())?;
         say(&format!("CSV written to {}", path.display()));
     }
-    if let Some(path) = &opts.plot {
+    if let Some(path) = &args.plot {
         let series: Vec<plot::Series> = report
             .samplers()
             .into_iter()
@@ -294,59 +249,55 @@ fn measure(scene: &Scene, frame: u32, opts: &ConvergeOptions) -> Result<Report, 
     Ok(report)
 }
 
-/// The reference image of the frame of `base`: read from `--reference`, or rendered with
-/// many samples and a seed of its own, written to EXR, and read back.
+/// The reference image of `frame`: read from `--reference`, or rendered with many samples
+/// and a seed of its own, written to EXR, and read back.
 fn reference(
-    scene: &Scene,
+    scene: &mut Scene,
     statics: &StaticGeometry,
-    base: &FrameRequest,
-    opts: &ConvergeOptions,
+    frame: u32,
+    args: &ConvergeArgs,
     say: &dyn Fn(&str),
 ) -> Result<(Vec<DVec3>, PathBuf), Error> {
-    let (width, height) = (base.width, base.height);
-    match &opts.reference {
-        Some(path) => Ok((read_reference(path, width, height)?, path.clone())),
-        None => {
-            let samples = opts.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
-            let path = opts
-                .write_reference
-                .clone()
-                .unwrap_or_else(|| default_reference_path(scene, base.frame, samples, opts));
-            output::format_for(&path).map_err(Error::Usage)?;
-            let req = FrameRequest {
-                samples,
-                // A seed of its own, so the reference's noise is independent of every
-                // measured render's.
-                seed: hash_words(&[base.seed, 0x7265_6665_7265_6e63]),
-                sampler: SamplerKind::default(),
-                ..base.clone()
-            };
-            say(&format!(
-                "reference: frame {}, {samples} samples per pixel, {} sampler...",
-                base.frame, req.sampler
-            ));
-            let result = render_frame(scene, statics, &req, &Budget::default(), &|_| {});
-            let info = app::frame_info(scene, &req, samples, Vec::new());
-            output::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
-            say(&format!(
-                "reference: {:.2} s, written to {}",
-                result.stats.render_seconds + result.stats.prepare_seconds,
-                path.display()
-            ));
-            // Compare against what was written (f32), as a reused reference would be.
-            Ok((read_reference(&path, width, height)?, path))
-        }
+    let (width, height) = (scene.output.width, scene.output.height);
+    if let Some(path) = &args.reference {
+        return Ok((read_reference(path, width, height)?, path.clone()));
     }
+    let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+    let path = args
+        .write_reference
+        .clone()
+        .unwrap_or_else(|| default_reference_path(scene, frame, samples, args));
+    Format::of(&path, FRAME_FORMATS, "reference").map_err(Error::Usage)?;
+    let mut reference = scene.clone();
+    reference.render.samples = samples;
+    // A seed of its own, so the reference's noise is independent of every measured render's.
+    reference.render.seed = hash_words(&[scene.render.seed, 0x7265_6665_7265_6e63]);
+    reference.render.sampler = SamplerKind::default();
+    say(&format!(
+        "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
+        reference.render.sampler
+    ));
+    let result = render_frame(&reference, statics, frame, &Budget::default(), &|_| {});
+    let info = frame_info(&reference, frame, samples);
+    io::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
+    say(&format!(
+        "reference: {:.2} s, written to {}",
+        result.stats.render_seconds + result.stats.prepare_seconds,
+        path.display()
+    ));
+    // Compare against what was written (f32), as a reused reference would be.
+    Ok((read_reference(&path, width, height)?, path))
 }
 
-/// Renders `req` with no file I/O and returns it with its wall time: the median of several
-/// runs when one is short (the runs are bit-identical; the repeats only steady the clock).
-fn timed_render(scene: &Scene, statics: &StaticGeometry, req: &FrameRequest) -> (FrameResult, f64) {
+/// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
+/// of several runs when one is short (the runs are bit-identical; the repeats only steady
+/// the clock).
+fn timed_render(scene: &Scene, statics: &StaticGeometry, frame: u32) -> (FrameResult, f64) {
     let mut times = Vec::new();
     let mut result = None;
     while times.len() < MAX_REPEATS {
         let start = Instant::now();
-        let r = render_frame(scene, statics, req, &Budget::default(), &|_| {});
+        let r = render_frame(scene, statics, frame, &Budget::default(), &|_| {});
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);
         if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {
@@ -360,17 +311,12 @@ fn timed_render(scene: &Scene, statics: &StaticGeometry, req: &FrameRequest) -> 
     )
 }
 
-fn default_reference_path(
-    scene: &Scene,
-    frame: u32,
-    samples: u32,
-    opts: &ConvergeOptions,
-) -> PathBuf {
+fn default_reference_path(scene: &Scene, frame: u32, samples: u32, args: &ConvergeArgs) -> PathBuf {
     let stem = scene
         .source
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let dir = [&opts.csv, &opts.plot]
+    let dir = [&args.csv, &args.plot]
         .into_iter()
         .flatten()
         .next()
@@ -388,7 +334,7 @@ pub fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>
             "no such file (render one with --reference-samples)".into()
         ));
     }
-    let (w, h, pixels) = output::read_exr_rgb(path).map_err(bad)?;
+    let (w, h, pixels) = io::read_exr_rgb(path).map_err(bad)?;
     if (w, h) != (width as usize, height as usize) {
         return Err(bad(format!("is {w}x{h}, the frame is {width}x{height}")));
     }

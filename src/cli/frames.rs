@@ -107,7 +107,7 @@ fn parse_number(text: &str, what: &str) -> Result<u32, String> {
 
 /// The number of chunks of `chunk_size` consecutive frames that `n_frames` frames make, the
 /// last one possibly shorter. Zero when there are no frames or when `chunk_size` is 0.
-pub fn chunk_count(n_frames: usize, chunk_size: usize) -> usize {
+pub fn chunk_count(n_frames: u64, chunk_size: u64) -> u64 {
     if chunk_size == 0 {
         0
     } else {
@@ -118,11 +118,11 @@ pub fn chunk_count(n_frames: usize, chunk_size: usize) -> usize {
 /// The `index`-th (from 0) chunk of `chunk_size` consecutive frames of the selection
 /// `frames`; the last chunk may be shorter. Errors on a chunk size of 0 and on an index past
 /// the last chunk (the message says how many chunks there are).
-pub fn chunk(frames: &[u32], chunk_size: usize, index: usize) -> Result<&[u32], String> {
+pub fn chunk(frames: &[u32], chunk_size: u64, index: u64) -> Result<&[u32], String> {
     if chunk_size == 0 {
         return Err("the chunk size must be at least 1".to_string());
     }
-    let count = chunk_count(frames.len(), chunk_size);
+    let count = chunk_count(frames.len() as u64, chunk_size);
     if index >= count {
         let n = frames.len();
         let frames_word = if n == 1 { "frame" } else { "frames" };
@@ -137,8 +137,9 @@ pub fn chunk(frames: &[u32], chunk_size: usize, index: usize) -> Result<&[u32], 
              {make} {chunks}"
         ));
     }
-    let start = index * chunk_size;
-    let end = frames.len().min(start + chunk_size);
+    // index < count, so start < frames.len() and both fit a usize.
+    let start = (index * chunk_size) as usize;
+    let end = frames.len().min(start.saturating_add(chunk_size as usize));
     Ok(&frames[start..end])
 }
 

@@ -1,0 +1,113 @@
+//! `raytrace check`: validates a scene, and everything a render of it would check, and
+//! describes it.
+
+use std::fmt::Write;
+
+use super::CheckArgs;
+use super::frames;
+use crate::error::Error;
+use crate::motion::Motion;
+use crate::scene::Scene;
+
+/// `raytrace check`: validates a scene and describes it.
+pub fn check(args: &CheckArgs) -> Result<String, Error> {
+    let scene_path = &args.scene;
+    let scene = Scene::load(scene_path)?;
+    let shot = &scene.shot;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}: ok", scene_path.display());
+    let _ = writeln!(
+        s,
+        "shot: {} frames ({}-{}) at {} fps, shutter {} s ({}), start time {} s",
+        shot.frames,
+        shot.first_frame,
+        shot.last_frame(),
+        shot.fps,
+        shot.shutter,
+        shot.position.name(),
+        shot.start_time
+    );
+    let moving = scene
+        .spheres
+        .iter()
+        .filter(|s| s.motion.is_animated())
+        .count();
+    let _ = writeln!(
+        s,
+        "spheres: {} ({} moving, {} static)",
+        scene.spheres.len(),
+        moving,
+        scene.spheres.len() - moving
+    );
+    let cam = match (&scene.camera.look_from, &scene.camera.look_at) {
+        (Motion::Orbit { orbit, .. }, _) => {
+            format!("orbit at {} degrees/s", orbit.degrees_per_second)
+        }
+        (Motion::Keyframes(k), _) | (_, Motion::Keyframes(k)) => format!("{} keyframes", k.len()),
+        _ => "still".to_string(),
+    };
+    let lens = if scene.camera.aperture > 0.0 {
+        format!("thin lens, aperture {}", scene.camera.aperture)
+    } else {
+        "pinhole".to_string()
+    };
+    let _ = writeln!(s, "camera: {cam}, {lens}, vfov {}", scene.camera.vfov);
+    let per_frame =
+        scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64;
+    let _ = writeln!(
+        s,
+        "image: {}x{}, {} samples/pixel, max depth {}, seed {}, output {}",
+        scene.output.width,
+        scene.output.height,
+        scene.render.samples,
+        scene.render.max_depth,
+        scene.render.seed,
+        scene.output.path
+    );
+    let _ = writeln!(
+        s,
+        "total samples: {} ({} per frame)",
+        per_frame * shot.frames as u64,
+        per_frame
+    );
+    if let Some(size) = args.chunk_size {
+        let _ = writeln!(
+            s,
+            "chunks: {} of up to {size} frames",
+            frames::chunk_count(shot.frames.into(), size)
+        );
+    }
+    let _ = writeln!(s, "frames:");
+    // Every frame of a short shot; the first 20 and the last 5 of a long one.
+    let (first, last) = (shot.first_frame, shot.last_frame());
+    let listed: Vec<Option<u32>> = if shot.frames <= 50 {
+        (first..=last).map(Some).collect()
+    } else {
+        (first..first + 20)
+            .map(Some)
+            .chain([None])
+            .chain((last - 4..=last).map(Some))
+            .collect()
+    };
+    for f in listed {
+        match f {
+            Some(f) => {
+                let i = shot.interval(f);
+                let moving_now = scene
+                    .spheres
+                    .iter()
+                    .filter(|s| s.prepare(i).motion.is_moving())
+                    .count();
+                let _ = writeln!(
+                    s,
+                    "  {f}: shutter [{}, {}] s, {moving_now} moving",
+                    i.open, i.close
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  ...");
+            }
+        }
+    }
+    Ok(s)
+}

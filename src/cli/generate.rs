@@ -1,0 +1,19 @@
+//! `raytrace generate`: writes a large random test scene (see [`crate::scene::generate`]).
+
+use super::GenerateArgs;
+use crate::error::Error;
+use crate::io::{self, Format};
+use crate::scene::generate::{RandomScene, scene_text};
+
+/// Writes the scene to its `.toml` file, atomically. The argument ranges were checked by the
+/// command line's parsers.
+pub fn generate(args: &GenerateArgs) -> Result<(), Error> {
+    Format::of(&args.output, &[Format::Toml], "scene").map_err(Error::Usage)?;
+    let scene = RandomScene {
+        spheres: args.spheres,
+        moving: args.moving,
+        seed: args.seed,
+        frames: args.frames,
+    };
+    io::write_file(&args.output, scene_text(&scene).as_bytes())
+}

@@ -1,0 +1,298 @@
+//! The command line: its arguments (clap) and one module per command. `main.rs` parses the
+//! arguments into [`Cli`] and calls [`run`]; the commands use the parsed argument structs as
+//! they are.
+//!
+//! Ranges of flags that do not come from the scene are checked by clap's value parsers here;
+//! flags that replace scene values become [`Overrides`] and are checked by the scene's
+//! validator, with the file's values.
+
+pub mod check;
+pub mod converge;
+pub mod frames;
+pub mod generate;
+pub mod progress;
+pub mod render;
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::error::Error;
+use crate::render::Budget;
+use crate::sampler::SamplerKind;
+use crate::scene::Overrides;
+
+/// The `raytrace` command line.
+#[derive(Parser, Debug)]
+#[command(
+    name = "raytrace",
+    version,
+    about = "Render animation sequences of moving spheres with motion and defocus blur",
+    after_help = "Examples:
+  raytrace render scenes/quick.toml                 # every frame of the shot
+  raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
+  raytrace check shot.toml                          # validate and summarise a scene
+  raytrace converge shot.toml --plot error.png      # error against time, per sampler
+  raytrace generate --spheres 100000 -o big.toml    # a large random test scene
+
+Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render frames of a scene to EXR or PNG files.
+    #[command(after_help = "Examples:
+  raytrace render scenes/quick.toml
+  raytrace render shot.toml --frames 1-48:4 --output renders/shot_####.exr
+  raytrace render shot.toml --frames 12 --samples 256 --width 1920 --height 1080
+  raytrace render shot.toml --skip-existing          # resume an interrupted render
+  raytrace render shot.toml --chunk-size 5 --chunk 2 # frames 11-15 of a farm job array
+  raytrace render shot.toml --noise-threshold 0.01   # sample each frame to 1% estimated error
+  raytrace render shot.toml --time-limit 60          # at most a minute a frame
+
+Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure.")]
+    Render(RenderArgs),
+    /// Measure how a frame's error falls with render time, for each sampler.
+    #[command(
+        after_help = "Renders a reference (or reads one), then the frame at 1, 2, 4, ... samples per
+pixel with each sampler, and prints RMSE, relative MSE, the error estimated from the
+samples alone, and efficiency 1/(MSE x seconds); fitted log-log slopes; and the MSE
+ratio at equal time.
+
+Examples:
+  raytrace converge scenes/defocus.toml --max-samples 256 --plot defocus.png --csv defocus.csv
+  raytrace converge shot.toml --frame 12 --reference ref.exr --budget 60
+  raytrace converge shot.toml --sampler independent --reference-samples 16384"
+    )]
+    Converge(ConvergeArgs),
+    /// Validate a scene and print a summary of it.
+    #[command(after_help = "Examples:
+  raytrace check scenes/turntable.toml
+  raytrace check shot.toml --chunk-size 5   # prints the chunk count for a job array")]
+    Check(CheckArgs),
+    /// Write a large test scene: random spheres in a cube, some of them moving.
+    #[command(after_help = "Examples:
+  raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
+  raytrace generate --spheres 10000 --moving 0 -o still.toml --frames 48")]
+    Generate(GenerateArgs),
+}
+
+/// Scene settings that `render` and `converge` can replace, and the thread count.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SceneArgs {
+    /// Image width in pixels.
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels.
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Random seed (for `converge`: of the measured renders).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Arguments of `raytrace render`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Frames to render: `12`, `1-48`, `1-48:4` (every 4th) or a comma list of those.
+    /// Without a value, or absent: every frame of the shot.
+    #[arg(long, num_args = 0..=1, default_missing_value = "")]
+    pub frames: Option<String>,
+    /// Output path pattern; runs of `#` become the zero-padded frame number; `.exr` or `.png`.
+    #[arg(long, short)]
+    pub output: Option<String>,
+    /// Samples per pixel.
+    #[arg(long)]
+    pub samples: Option<u32>,
+    /// How samples are placed: `sobol` (default) or `independent`.
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+    /// Leave frames whose file already exists untouched (resume).
+    #[arg(long)]
+    pub skip_existing: bool,
+    /// Also print, per frame, the preparation and render times, rays traced, rays and
+    /// samples per second, and peak memory.
+    #[arg(long)]
+    pub stats: bool,
+    /// Split the selected frames into chunks of this many consecutive frames (with --chunk).
+    #[arg(long, requires = "chunk", value_parser = clap::value_parser!(u64).range(1..))]
+    pub chunk_size: Option<u64>,
+    /// Render only this chunk (0-based) of the selected frames (with --chunk-size).
+    #[arg(long, requires = "chunk_size")]
+    pub chunk: Option<u64>,
+    #[command(flatten)]
+    pub budget: BudgetArgs,
+}
+
+/// When to stop sampling a frame, instead of at exactly its samples.
+#[derive(Args, Clone, Debug, Default)]
+#[group(skip)]
+#[command(group(clap::ArgGroup::new("limit").args(["time_limit", "noise_threshold"]).multiple(true)))]
+pub struct BudgetArgs {
+    /// Seconds per frame: sample in passes and stop before this time is exceeded.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
+    pub time_limit: Option<f64>,
+    /// Sample in passes until the estimated relative error of the frame (as printed,
+    /// 0.01 = 1%) is at or below this.
+    #[arg(long, value_name = "E", allow_negative_numbers = true, value_parser = positive)]
+    pub noise_threshold: Option<f64>,
+    /// With --time-limit or --noise-threshold: never more than this many samples per pixel.
+    #[arg(long, value_name = "N", requires = "limit",
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_samples: Option<u32>,
+}
+
+/// Arguments of `raytrace converge`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ConvergeArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The frame to measure (default: the shot's first).
+    #[arg(long)]
+    pub frame: Option<u32>,
+    /// A reference image (EXR) of the frame, instead of rendering one.
+    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference_samples")]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of the reference rendered first (default 4096).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub reference_samples: Option<u32>,
+    /// Where to write the rendered reference (default: beside --csv or --plot, named
+    /// after the scene).
+    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference")]
+    pub write_reference: Option<PathBuf>,
+    /// The largest samples per pixel measured (default: the scene's samples, or no limit
+    /// with --budget).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_samples: Option<u32>,
+    /// Seconds of rendering per sampler, at most.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
+    pub budget: Option<f64>,
+    /// A sampler to measure; repeat for several (default: all).
+    #[arg(long)]
+    pub sampler: Vec<SamplerKind>,
+    /// Write the measurements as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Draw error against time on log-log axes, to a .png or .svg.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+}
+
+/// Arguments of `raytrace check`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct CheckArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Also print how many chunks of this many frames the shot makes.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    pub chunk_size: Option<u64>,
+}
+
+/// Arguments of `raytrace generate`.
+#[derive(Args, Clone, Debug)]
+pub struct GenerateArgs {
+    /// Number of spheres.
+    #[arg(long, default_value_t = 10000,
+          value_parser = clap::value_parser!(u64).range(1..=crate::scene::generate::MAX_SPHERES))]
+    pub spheres: u64,
+    /// Fraction of the spheres that move, 0 to 1.
+    #[arg(long, default_value_t = 0.5, value_parser = fraction)]
+    pub moving: f64,
+    /// Seed of the spheres' random numbers.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Frames in the shot.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: u32,
+    /// The scene file to write (.toml).
+    #[arg(long, short)]
+    pub output: PathBuf,
+}
+
+impl SceneArgs {
+    /// The scene values these arguments replace.
+    fn overrides(&self) -> Overrides {
+        Overrides {
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            ..Overrides::default()
+        }
+    }
+}
+
+impl RenderArgs {
+    /// The scene values these arguments replace.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            output: self.output.clone(),
+            samples: self.samples,
+            sampler: self.sampler,
+            ..self.scene_args.overrides()
+        }
+    }
+}
+
+impl BudgetArgs {
+    /// The budget these arguments give.
+    pub fn budget(&self) -> Budget {
+        Budget {
+            time_limit: self.time_limit,
+            noise_threshold: self.noise_threshold,
+            max_samples: self.max_samples,
+        }
+    }
+}
+
+/// Runs a parsed command line.
+pub fn run(cli: &Cli) -> Result<(), Error> {
+    match &cli.command {
+        Command::Render(args) => render::render(args).map(|_| ()),
+        Command::Converge(args) => converge::converge(args).map(|_| ()),
+        Command::Check(args) => check::check(args).map(|s| progress::print_line(s.trim_end())),
+        Command::Generate(args) => generate::generate(args),
+    }
+}
+
+/// A thread pool of `threads` workers (`None`: one per core) for a command to run in.
+pub fn thread_pool(threads: Option<u16>) -> Result<rayon::ThreadPool, Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.map_or(0, usize::from))
+        .build()
+        .map_err(|e| Error::Resource(format!("cannot start worker threads: {e}")))
+}
+
+/// Clap's value parser of a finite number above zero.
+fn positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(v) => Err(format!("must be a number > 0, got {v}")),
+        Err(_) => Err(format!("must be a number > 0, got \"{text}\"")),
+    }
+}
+
+/// Clap's value parser of a number from 0 to 1.
+fn fraction(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("must be in [0, 1], got {v}")),
+        Err(_) => Err(format!("must be a number in [0, 1], got \"{text}\"")),
+    }
+}

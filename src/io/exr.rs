@@ -1,0 +1,309 @@
+//! OpenEXR frames: linear 32-bit float RGB, ZIP compressed, with the frame's metadata as
+//! header attributes written in a fixed order; and reading RGB back.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use crate::error::Error;
+
+/// The metadata stored with a frame (in EXR headers; PNG files carry none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameInfo {
+    /// The frame number.
+    pub frame: u32,
+    /// Frames per second of the shot, > 0.
+    pub fps: f64,
+    /// Absolute time in seconds the shutter opens.
+    pub shutter_open: f64,
+    /// Absolute time in seconds the shutter closes.
+    pub shutter_close: f64,
+    /// Samples per pixel requested.
+    pub samples: u32,
+    /// The seed of the frame's random numbers.
+    pub seed: u64,
+    /// The name of the sampler that placed the samples.
+    pub sampler: String,
+    /// Further numeric attributes, stored as doubles under their names. A name must be 1 to
+    /// 255 printable Latin-1 characters, must be unique, and must not be one of the names
+    /// above nor a standard OpenEXR attribute name.
+    pub extra: Vec<(String, f64)>,
+}
+
+/// Names of the custom EXR attributes written from [`FrameInfo`].
+pub mod attribute_names {
+    /// The frame number: an int, or a double above `i32::MAX`.
+    pub const FRAME: &str = "frame";
+    /// Shutter opening time in seconds, a double.
+    pub const SHUTTER_OPEN: &str = "shutterOpen";
+    /// Shutter closing time in seconds, a double.
+    pub const SHUTTER_CLOSE: &str = "shutterClose";
+    /// Samples per pixel: an int, or a double above `i32::MAX`.
+    pub const SAMPLES: &str = "samples";
+    /// The 64-bit seed as decimal text (no EXR attribute type holds a u64).
+    pub const SEED: &str = "seed";
+    /// The sampler's name, as text.
+    pub const SAMPLER: &str = "sampler";
+    /// All of the above.
+    pub const ALL: &[&str] = &[FRAME, SHUTTER_OPEN, SHUTTER_CLOSE, SAMPLES, SEED, SAMPLER];
+}
+
+/// Reads the RGB channels of an EXR file as linear radiance: (width, height, pixels
+/// row-major, top row first). Errors are the decoder's message.
+pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<glam::DVec3>), String> {
+    use exr::prelude::read_first_rgba_layer_from_file;
+    use glam::DVec3;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |size, _| {
+            (
+                size.width(),
+                vec![DVec3::ZERO; size.width() * size.height()],
+            )
+        },
+        |(w, pixels): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let size = image.layer_data.size;
+    let (_, pixels) = image.layer_data.channel_data.pixels;
+    Ok((size.width(), size.height(), pixels))
+}
+
+/// A frame rate as the rational of the standard `framesPerSecond` attribute.
+///
+/// Whole numbers are exact (`24` → 24/1); the NTSC rates `n * 1000/1001` written to a few
+/// decimals are recognised (`23.976` → 24000/1001, `29.97` → 30000/1001); anything else is
+/// the closest continued-fraction convergent with a denominator of at most 1,000,000.
+/// `None` for rates that are not finite and positive or do not fit.
+pub(super) fn fps_rational(fps: f64) -> Option<(i32, u32)> {
+    if !fps.is_finite() || fps <= 0.0 || fps > i32::MAX as f64 {
+        return None;
+    }
+    if fps.fract() == 0.0 {
+        return Some((fps as i32, 1));
+    }
+    let ntsc = (fps * 1.001).round();
+    if ntsc >= 1.0 && (fps * 1.001 - ntsc).abs() <= 1e-5 * ntsc && ntsc * 1000.0 <= i32::MAX as f64
+    {
+        return Some(((ntsc as i32) * 1000, 1001));
+    }
+    const MAX_DENOMINATOR: f64 = 1_000_000.0;
+    // Convergents h/k of the continued fraction of fps.
+    let (mut h_prev, mut h) = (1.0_f64, fps.floor());
+    let (mut k_prev, mut k) = (0.0_f64, 1.0_f64);
+    let mut x = fps - fps.floor();
+    while x > 1e-12 && (h / k - fps).abs() > 1e-12 * fps {
+        let y = 1.0 / x;
+        let a = y.floor();
+        x = y - a;
+        let (h_next, k_next) = (a * h + h_prev, a * k + k_prev);
+        if k_next > MAX_DENOMINATOR || h_next > i32::MAX as f64 {
+            break;
+        }
+        (h_prev, h, k_prev, k) = (h, h_next, k, k_next);
+    }
+    if h < 1.0 {
+        return None;
+    }
+    Some((h as i32, k as u32))
+}
+
+/// An integer attribute, or a double when the value does not fit an `i32`.
+fn int_attribute(value: u32) -> exr::meta::attribute::AttributeValue {
+    use exr::meta::attribute::AttributeValue;
+    match i32::try_from(value) {
+        Ok(v) => AttributeValue::I32(v),
+        Err(_) => AttributeValue::F64(value as f64),
+    }
+}
+
+/// The layer attributes of a frame, or a message saying what is wrong with `info`.
+pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAttributes, String> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    use exr::meta::header::{LayerAttributes, standard_names};
+
+    let mut attributes = LayerAttributes {
+        frames_per_second: Some(
+            fps_rational(info.fps)
+                .ok_or_else(|| format!("invalid frame rate {} for the EXR header", info.fps))?,
+        ),
+        software_name: Some(Text::from(concat!("raytrace ", env!("CARGO_PKG_VERSION")))),
+        ..LayerAttributes::default()
+    };
+    let other = &mut attributes.other;
+    other.insert(
+        Text::from(attribute_names::FRAME),
+        int_attribute(info.frame),
+    );
+    other.insert(
+        Text::from(attribute_names::SHUTTER_OPEN),
+        AttributeValue::F64(info.shutter_open),
+    );
+    other.insert(
+        Text::from(attribute_names::SHUTTER_CLOSE),
+        AttributeValue::F64(info.shutter_close),
+    );
+    other.insert(
+        Text::from(attribute_names::SAMPLES),
+        int_attribute(info.samples),
+    );
+    other.insert(
+        Text::from(attribute_names::SEED),
+        AttributeValue::Text(Text::from(info.seed.to_string().as_str())),
+    );
+    other.insert(
+        Text::from(attribute_names::SAMPLER),
+        AttributeValue::Text(
+            Text::new_or_none(&info.sampler)
+                .ok_or_else(|| format!("sampler name \"{}\" is not Latin-1", info.sampler))?,
+        ),
+    );
+    for (name, value) in &info.extra {
+        let bad = |why: &str| format!("extra attribute name \"{name}\" {why}");
+        // Up to 31 characters: longer names need the file's long-name flag.
+        if name.is_empty() || name.len() > 31 {
+            return Err(bad("must have 1 to 31 characters"));
+        }
+        if name.chars().any(char::is_control) {
+            return Err(bad("contains a control character"));
+        }
+        let text = Text::new_or_none(name).ok_or_else(|| bad("has characters outside Latin-1"))?;
+        if attribute_names::ALL.contains(&name.as_str())
+            || standard_names::ALL.contains(&name.as_bytes())
+        {
+            return Err(bad("is reserved"));
+        }
+        if other.insert(text, AttributeValue::F64(*value)).is_some() {
+            return Err(bad("appears twice"));
+        }
+    }
+    Ok(attributes)
+}
+
+/// Writes the frame as EXR into `writer`, with `attributes` spliced into the header in name
+/// order.
+pub(super) fn write(
+    writer: &mut BufWriter<File>,
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    attributes: exr::meta::header::LayerAttributes,
+) -> Result<(), Error> {
+    use exr::prelude::{
+        Blocks, Compression, Encoding, Image, Layer, LineOrder, SpecificChannels, Vec2,
+        WritableImage,
+    };
+
+    let w = width as usize;
+    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let i = 3 * (p.y() * w + p.x());
+        (rgb[i], rgb[i + 1], rgb[i + 2])
+    });
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    // The exr crate writes custom attributes in the iteration order of a randomly seeded
+    // HashMap, so the same frame would get different bytes in different processes. Write the
+    // image without them, then splice them into the header in name order.
+    let mut attributes = attributes;
+    let mut custom: Vec<_> = attributes.other.drain().collect();
+    custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
+    let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut bytes)
+        .map_err(|e| match e {
+            exr::error::Error::Io(e) => Error::io(path, e),
+            other => Error::Output {
+                path: path.to_path_buf(),
+                message: format!("EXR encoder: {other}"),
+            },
+        })?;
+    let chunks = (height as usize).div_ceil(16);
+    let bytes = splice_exr_attributes(bytes.into_inner(), &custom, chunks).map_err(|message| {
+        Error::Output {
+            path: path.to_path_buf(),
+            message,
+        }
+    })?;
+    writer.write_all(&bytes).map_err(|e| Error::io(path, e))
+}
+
+/// Inserts `attributes` at the end of the header of a single-part scanline EXR file with
+/// `chunks` chunks, and moves the offset table's entries by the inserted length. (OpenEXR file
+/// layout: magic and version, attributes as `name\0 type\0 size value`, a null byte, the offset
+/// table of u64 file positions, the chunks.)
+fn splice_exr_attributes(
+    file: Vec<u8>,
+    attributes: &[(
+        exr::meta::attribute::Text,
+        exr::meta::attribute::AttributeValue,
+    )],
+    chunks: usize,
+) -> Result<Vec<u8>, String> {
+    use exr::meta::attribute::AttributeValue;
+    let malformed = || "EXR encoder produced an unexpected header".to_string();
+    // Find the null byte that ends the header.
+    let mut pos = 8;
+    loop {
+        let name_end = pos
+            + file
+                .get(pos..)
+                .and_then(|r| r.iter().position(|&b| b == 0))
+                .ok_or_else(malformed)?;
+        if name_end == pos {
+            break;
+        }
+        let type_end = name_end
+            + 1
+            + file
+                .get(name_end + 1..)
+                .and_then(|r| r.iter().position(|&b| b == 0))
+                .ok_or_else(malformed)?;
+        let size_bytes: [u8; 4] = file
+            .get(type_end + 1..type_end + 5)
+            .ok_or_else(malformed)?
+            .try_into()
+            .unwrap();
+        pos = type_end + 5 + u32::from_le_bytes(size_bytes) as usize;
+    }
+    let mut inserted = Vec::new();
+    for (name, value) in attributes {
+        let (kind, data): (&str, Vec<u8>) = match value {
+            AttributeValue::I32(v) => ("int", v.to_le_bytes().to_vec()),
+            AttributeValue::F64(v) => ("double", v.to_le_bytes().to_vec()),
+            AttributeValue::Text(t) => ("string", t.as_slice().to_vec()),
+            other => return Err(format!("unsupported custom attribute {other:?}")),
+        };
+        inserted.extend_from_slice(name.as_slice());
+        inserted.push(0);
+        inserted.extend_from_slice(kind.as_bytes());
+        inserted.push(0);
+        inserted.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        inserted.extend_from_slice(&data);
+    }
+    let delta = inserted.len() as u64;
+    let table = pos + 1;
+    let mut out = Vec::with_capacity(file.len() + inserted.len());
+    out.extend_from_slice(&file[..pos]);
+    out.extend_from_slice(&inserted);
+    out.push(0);
+    for i in 0..chunks {
+        let at = table + 8 * i;
+        let entry: [u8; 8] = file
+            .get(at..at + 8)
+            .ok_or_else(malformed)?
+            .try_into()
+            .unwrap();
+        out.extend_from_slice(&(u64::from_le_bytes(entry) + delta).to_le_bytes());
+    }
+    out.extend_from_slice(&file[table + 8 * chunks..]);
+    Ok(out)
+}

@@ -1,0 +1,34 @@
+//! Frame file names from a path pattern.
+
+use std::path::PathBuf;
+
+/// The output path of `frame` for a file name pattern.
+///
+/// Every run of `#` in the pattern becomes the frame number, zero-padded to the length of the
+/// run (`render.####.exr` → `render.0001.exr`). A number with more digits than the run is
+/// written in full, never truncated (frame 12345 with `##` → `12345`).
+///
+/// A pattern without any `#` is returned unchanged, so every frame then writes the same
+/// file; callers rendering more than one frame should check [`pattern_has_frame_number`].
+pub fn frame_path(pattern: &str, frame: u32) -> PathBuf {
+    let mut out = String::with_capacity(pattern.len() + 8);
+    let mut chars = pattern.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '#' {
+            let mut width = 1;
+            while chars.next_if_eq(&'#').is_some() {
+                width += 1;
+            }
+            out.push_str(&format!("{frame:0width$}"));
+        } else {
+            out.push(c);
+        }
+    }
+    PathBuf::from(out)
+}
+
+/// Whether the pattern contains a `#` run, that is, whether different frames get different
+/// paths from [`frame_path`].
+pub fn pattern_has_frame_number(pattern: &str) -> bool {
+    pattern.contains('#')
+}

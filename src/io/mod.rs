@@ -1,0 +1,129 @@
+//! Files in and out: frame paths from patterns, atomic writes (every file the renderer writes
+//! goes through [`atomic`]), EXR and PNG frames, and the one place that tells a file's format
+//! from its extension.
+
+pub mod atomic;
+pub mod exr;
+pub mod frame_path;
+pub mod png;
+
+#[cfg(test)]
+mod tests;
+
+use std::ffi::OsStr;
+use std::path::Path;
+
+use crate::error::Error;
+
+pub use atomic::{remove_stale_temp_files, write_file};
+pub use exr::{FrameInfo, read_exr_rgb};
+pub use frame_path::{frame_path, pattern_has_frame_number};
+pub use png::linear_to_srgb8;
+
+/// A file format the renderer writes, named by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// OpenEXR: linear 32-bit float RGB, ZIP compressed, with the frame's metadata.
+    Exr,
+    /// PNG: 8-bit sRGB, clamped to [0, 1]. No metadata.
+    Png,
+    /// SVG (plots).
+    Svg,
+    /// Comma-separated values (measurements).
+    Csv,
+    /// TOML (generated scenes).
+    Toml,
+}
+
+/// The formats a frame can be written in.
+pub const FRAME_FORMATS: &[Format] = &[Format::Exr, Format::Png];
+
+impl Format {
+    /// The extension that names the format, lower case, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Exr => "exr",
+            Format::Png => "png",
+            Format::Svg => "svg",
+            Format::Csv => "csv",
+            Format::Toml => "toml",
+        }
+    }
+
+    /// The format of `path` from its extension (in any letter case), if it is one of
+    /// `allowed`.
+    pub fn from_extension(path: &Path, allowed: &[Format]) -> Option<Format> {
+        let ext = path
+            .extension()
+            .and_then(OsStr::to_str)
+            .map(str::to_ascii_lowercase);
+        allowed
+            .iter()
+            .copied()
+            .find(|f| ext.as_deref() == Some(f.extension()))
+    }
+
+    /// The format of `path` as [`Format::from_extension`] tells it, or a message naming
+    /// `what` the file is, the path and the extensions allowed.
+    pub fn of(path: &Path, allowed: &[Format], what: &str) -> Result<Format, String> {
+        Format::from_extension(path, allowed)
+            .ok_or_else(|| format!("{}: {}", path.display(), Format::unsupported(allowed, what)))
+    }
+
+    /// Why a file's extension is refused: `unsupported output format (the file name must
+    /// end in .exr or .png)`.
+    fn unsupported(allowed: &[Format], what: &str) -> String {
+        let names: Vec<String> = allowed
+            .iter()
+            .map(|f| format!(".{}", f.extension()))
+            .collect();
+        format!(
+            "unsupported {what} format (the file name must end in {})",
+            names.join(" or ")
+        )
+    }
+}
+
+/// Writes one frame to `path`, in the format its extension names (`.exr` or `.png`).
+///
+/// `rgb` holds linear RGB, row-major, top row first, three floats per pixel. Parent folders
+/// are created as needed. The file appears atomically (see [`atomic`]); on any failure
+/// nothing is left behind and an existing file at `path` is untouched. Errors name `path`.
+pub fn write_frame(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    info: &FrameInfo,
+) -> Result<(), Error> {
+    let output_error = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    if width == 0 || height == 0 {
+        return Err(output_error(format!(
+            "cannot write an empty {width}x{height} image"
+        )));
+    }
+    let expected = (width as usize)
+        .checked_mul(height as usize)
+        .and_then(|n| n.checked_mul(3));
+    if expected != Some(rgb.len()) {
+        return Err(output_error(format!(
+            "{} floats given for a {width}x{height} RGB image (expected {})",
+            rgb.len(),
+            expected.map_or("more than fit in memory".to_string(), |n| n.to_string())
+        )));
+    }
+    let format = Format::from_extension(path, FRAME_FORMATS)
+        .ok_or_else(|| output_error(Format::unsupported(FRAME_FORMATS, "output")))?;
+    // Validate the metadata before touching the disk.
+    let exr_attributes = match format {
+        Format::Exr => Some(exr::attributes(info).map_err(output_error)?),
+        _ => None,
+    };
+    atomic::write_with(path, |writer| match exr_attributes {
+        Some(attributes) => exr::write(writer, path, width, height, rgb, attributes),
+        None => png::write(writer, path, width, height, rgb),
+    })
+}

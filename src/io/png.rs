@@ -1,0 +1,46 @@
+//! PNG frames: 8-bit RGB, sRGB encoded, clamped to [0, 1].
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use crate::error::Error;
+
+/// Encodes a linear value as an 8-bit sRGB value with the exact piecewise sRGB curve,
+/// clamped to [0, 1] and rounded to nearest. Non-finite values give 0.
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    if !v.is_finite() {
+        return 0;
+    }
+    let x = (v as f64).clamp(0.0, 1.0);
+    let e = if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (e * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+/// Writes the frame as 8-bit sRGB PNG into `writer`.
+pub(super) fn write(
+    writer: &mut BufWriter<File>,
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+) -> Result<(), Error> {
+    use image::ImageEncoder;
+    use image::codecs::png::PngEncoder;
+
+    let bytes: Vec<u8> = rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
+    PngEncoder::new(&mut *writer)
+        .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| match e {
+            image::ImageError::IoError(e) => Error::io(path, e),
+            other => Error::Output {
+                path: path.to_path_buf(),
+                message: format!("PNG encoder: {other}"),
+            },
+        })?;
+    writer.flush().map_err(|e| Error::io(path, e))
+}

@@ -1,0 +1,482 @@
+//! Tests of frame paths, formats, EXR and PNG writing and reading, and atomic writes.
+
+use std::fs::{self, File};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use super::atomic::{parse_temp_name, split_target, temp_name};
+use super::exr::fps_rational;
+use super::*;
+
+fn info() -> FrameInfo {
+    FrameInfo {
+        frame: 17,
+        fps: 23.976,
+        shutter_open: 0.6666666666666666,
+        shutter_close: 0.6875000000000001,
+        samples: 256,
+        seed: u64::MAX - 12345,
+        sampler: "sobol".to_string(),
+        extra: vec![
+            ("achievedSamples".to_string(), 211.5),
+            ("error".to_string(), 0.0125),
+        ],
+    }
+}
+
+/// A small image whose pixels all differ, including values outside [0, 1].
+fn pixels(width: u32, height: u32) -> Vec<f32> {
+    (0..width * height * 3)
+        .map(|i| (i as f32) * 0.173 - 0.5 + 1.0 / (i as f32 + 3.0))
+        .collect()
+}
+
+fn dir_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn frame_paths() {
+    assert_eq!(
+        frame_path("out/render.####.exr", 1),
+        PathBuf::from("out/render.0001.exr")
+    );
+    assert_eq!(
+        frame_path("r.####.exr", 12345),
+        PathBuf::from("r.12345.exr")
+    );
+    assert_eq!(frame_path("r_##.png", 12345), PathBuf::from("r_12345.png"));
+    assert_eq!(frame_path("r_#.png", 7), PathBuf::from("r_7.png"));
+    assert_eq!(frame_path("r_#.png", 0), PathBuf::from("r_0.png"));
+    assert_eq!(
+        frame_path("shot##/f.###.exr", 5),
+        PathBuf::from("shot05/f.005.exr")
+    );
+    assert_eq!(frame_path("still.exr", 5), PathBuf::from("still.exr"));
+    assert_eq!(frame_path("é_##.png", 3), PathBuf::from("é_03.png"));
+    assert_eq!(
+        frame_path("f.##########.exr", u32::MAX),
+        PathBuf::from("f.4294967295.exr")
+    );
+    assert!(pattern_has_frame_number("a.#.exr"));
+    assert!(!pattern_has_frame_number("a.exr"));
+}
+
+#[test]
+fn formats_by_extension() {
+    let format_for = |p: &str| Format::of(Path::new(p), FRAME_FORMATS, "output");
+    assert_eq!(format_for("a/b.exr"), Ok(Format::Exr));
+    assert_eq!(format_for("b.EXR"), Ok(Format::Exr));
+    assert_eq!(format_for("b.0001.png"), Ok(Format::Png));
+    assert_eq!(format_for("b.PnG"), Ok(Format::Png));
+    assert!(format_for("b.svg").is_err());
+    assert_eq!(
+        Format::of(Path::new("p.SVG"), &[Format::Png, Format::Svg], "plot"),
+        Ok(Format::Svg)
+    );
+    for bad in ["b.jpg", "b", "b.exr.tmp", "exr", ".png"] {
+        let e = format_for(bad).unwrap_err();
+        assert!(
+            e.contains(bad) && e.contains(".exr") && e.contains(".png"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn srgb_encoding() {
+    assert_eq!(linear_to_srgb8(0.0), 0);
+    assert_eq!(linear_to_srgb8(1.0), 255);
+    assert_eq!(linear_to_srgb8(0.5), 188);
+    assert_eq!(linear_to_srgb8(0.18), 118);
+    // Both sides of the boundary of the two pieces: 12.92 * 0.0031308 * 255 = 10.31.
+    assert_eq!(linear_to_srgb8(0.0031308), 10);
+    assert_eq!(linear_to_srgb8(0.003131), 10);
+    assert_eq!(linear_to_srgb8(0.0031), 10);
+    assert_eq!(linear_to_srgb8(-3.0), 0);
+    assert_eq!(linear_to_srgb8(7.0), 255);
+    assert_eq!(linear_to_srgb8(f32::NAN), 0);
+    assert_eq!(linear_to_srgb8(f32::INFINITY), 0);
+    assert_eq!(linear_to_srgb8(f32::NEG_INFINITY), 0);
+    let mut last = 0;
+    for i in 0..=10_000 {
+        let v = linear_to_srgb8(i as f32 / 10_000.0);
+        assert!(v >= last);
+        last = v;
+    }
+}
+
+#[test]
+fn frame_rates_as_rationals() {
+    assert_eq!(fps_rational(24.0), Some((24, 1)));
+    assert_eq!(fps_rational(1.0), Some((1, 1)));
+    assert_eq!(fps_rational(23.976), Some((24000, 1001)));
+    assert_eq!(fps_rational(24000.0 / 1001.0), Some((24000, 1001)));
+    assert_eq!(fps_rational(29.97), Some((30000, 1001)));
+    assert_eq!(fps_rational(59.94), Some((60000, 1001)));
+    assert_eq!(fps_rational(12.5), Some((25, 2)));
+    assert_eq!(fps_rational(23.98), Some((1199, 50)));
+    assert_eq!(fps_rational(0.1), Some((1, 10)));
+    let (n, d) = fps_rational(std::f64::consts::PI).unwrap();
+    assert!(d <= 1_000_000 && (n as f64 / d as f64 - std::f64::consts::PI).abs() < 1e-9);
+    for bad in [0.0, -24.0, f64::NAN, f64::INFINITY, 1e12, 1e-9] {
+        assert_eq!(fps_rational(bad), None, "{bad}");
+    }
+}
+
+#[test]
+fn exr_round_trip() {
+    use ::exr::meta::attribute::{AttributeValue, Text};
+    use ::exr::prelude::*;
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.0017.exr");
+    let (w, h) = (7, 5);
+    let rgb = pixels(w, h);
+    write_frame(&path, w, h, &rgb, &info()).unwrap();
+    assert_eq!(dir_names(dir.path()), vec!["f.0017.exr"]);
+
+    let meta = ::exr::meta::MetaData::read_from_file(&path, false).unwrap();
+    assert_eq!(meta.headers.len(), 1);
+    assert_eq!(meta.headers[0].compression, Compression::ZIP16);
+
+    let image = read_all_data_from_file(&path).unwrap();
+    let layer = &image.layer_data[0];
+    assert_eq!(layer.size, Vec2(w as usize, h as usize));
+    let channels = &layer.channel_data.list;
+    let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+    assert_eq!(names, vec!["B", "G", "R"], "stored in alphabetical order");
+    for (c, offset) in channels.iter().zip([2, 1, 0]) {
+        let Levels::Singular(FlatSamples::F32(samples)) = &c.sample_data else {
+            panic!("channel {} is not f32", c.name)
+        };
+        let expected: Vec<u32> = rgb
+            .iter()
+            .skip(offset)
+            .step_by(3)
+            .map(|v| v.to_bits())
+            .collect();
+        let got: Vec<u32> = samples.iter().map(|v| v.to_bits()).collect();
+        assert_eq!(got, expected, "channel {}", c.name);
+    }
+
+    let a = &layer.attributes;
+    assert_eq!(a.frames_per_second, Some((24000, 1001)));
+    let get = |name: &str| a.other.get(&Text::from(name)).cloned();
+    let i = info();
+    assert_eq!(get("frame"), Some(AttributeValue::I32(17)));
+    assert_eq!(
+        get("shutterOpen"),
+        Some(AttributeValue::F64(i.shutter_open))
+    );
+    assert_eq!(
+        get("shutterClose"),
+        Some(AttributeValue::F64(i.shutter_close))
+    );
+    assert_eq!(get("samples"), Some(AttributeValue::I32(256)));
+    assert_eq!(
+        get("seed"),
+        Some(AttributeValue::Text(Text::from("18446744073709539270")))
+    );
+    assert_eq!(
+        get("sampler"),
+        Some(AttributeValue::Text(Text::from("sobol")))
+    );
+    assert_eq!(get("achievedSamples"), Some(AttributeValue::F64(211.5)));
+    assert_eq!(get("error"), Some(AttributeValue::F64(0.0125)));
+}
+
+#[test]
+fn exr_large_numbers_become_doubles() {
+    use ::exr::meta::attribute::{AttributeValue, Text};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.exr");
+    let info = FrameInfo {
+        frame: u32::MAX,
+        samples: 1 << 31,
+        fps: 24.0,
+        extra: vec![],
+        ..info()
+    };
+    write_frame(&path, 1, 1, &[0.25, 0.5, 1.0], &info).unwrap();
+    let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
+    let a = &image.layer_data[0].attributes;
+    assert_eq!(a.frames_per_second, Some((24, 1)));
+    assert_eq!(
+        a.other.get(&Text::from("frame")),
+        Some(&AttributeValue::F64(u32::MAX as f64))
+    );
+    assert_eq!(
+        a.other.get(&Text::from("samples")),
+        Some(&AttributeValue::F64(2147483648.0))
+    );
+}
+
+#[test]
+fn bad_extra_attributes_are_rejected_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sub/x.exr");
+    let rgb = pixels(2, 2);
+    for (name, why) in [
+        ("", "1 to 31"),
+        ("an_attribute_name_of_32_letters_", "1 to 31"),
+        ("seed", "reserved"),
+        ("framesPerSecond", "reserved"),
+        ("a\nb", "control"),
+        ("日本", "Latin-1"),
+    ] {
+        let info = FrameInfo {
+            extra: vec![(name.to_string(), 1.0)],
+            ..info()
+        };
+        let e = write_frame(&path, 2, 2, &rgb, &info).unwrap_err();
+        assert!(matches!(e, Error::Output { .. }), "{e}");
+        assert!(
+            e.to_string().contains(why) && e.to_string().contains("x.exr"),
+            "{e}"
+        );
+    }
+    let twice = FrameInfo {
+        extra: vec![("a".into(), 1.0), ("a".into(), 2.0)],
+        ..info()
+    };
+    assert!(
+        write_frame(&path, 2, 2, &rgb, &twice)
+            .unwrap_err()
+            .to_string()
+            .contains("twice")
+    );
+    let no_rate = FrameInfo { fps: 0.0, ..info() };
+    let e = write_frame(&path, 2, 2, &rgb, &no_rate).unwrap_err();
+    assert!(e.to_string().contains("frame rate"), "{e}");
+    assert!(!dir.path().join("sub").exists(), "nothing created");
+}
+
+#[test]
+fn png_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.0001.PNG");
+    let (w, h) = (3, 2);
+    #[rustfmt::skip]
+    let rgb = vec![
+        0.0, 0.5, 1.0,   0.18, 2.0, -1.0,   0.0031308, 0.25, 0.75,
+        1.0, 1.0, 1.0,   0.5, 0.5, 0.5,     0.01, 0.1, 0.9,
+    ];
+    write_frame(&path, w, h, &rgb, &info()).unwrap();
+    assert_eq!(dir_names(dir.path()), vec!["f.0001.PNG"]);
+    let image = image::ImageReader::open(&path)
+        .unwrap()
+        .with_guessed_format()
+        .unwrap()
+        .decode()
+        .unwrap();
+    assert_eq!(image.color(), image::ColorType::Rgb8);
+    let image = image.to_rgb8();
+    assert_eq!(image.dimensions(), (w, h));
+    let expected: Vec<u8> = rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
+    assert_eq!(image.as_raw(), &expected);
+    assert_eq!(
+        &image.as_raw()[..9],
+        &[0, 188, 255, 118, 255, 0, 10, 137, 225]
+    );
+    assert_eq!(image.get_pixel(1, 1).0, [188, 188, 188]);
+}
+
+#[test]
+fn parent_folders_are_created() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a/b/c/f.0001.exr");
+    write_frame(&path, 2, 1, &pixels(2, 1), &info()).unwrap();
+    assert!(path.is_file());
+    assert_eq!(dir_names(&dir.path().join("a/b/c")), vec!["f.0001.exr"]);
+}
+
+#[test]
+fn relative_bare_file_name_works() {
+    // A bare name writes into the current folder; only check the split, not the disk.
+    let (d, f) = split_target(Path::new("f.exr")).unwrap();
+    assert_eq!((d, f), (PathBuf::from("."), OsStr::new("f.exr")));
+    assert!(split_target(Path::new("out/..")).is_err());
+}
+
+#[test]
+fn overwrite_replaces_and_leaves_only_the_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.png");
+    write_frame(&path, 1, 1, &[0.0, 0.0, 0.0], &info()).unwrap();
+    write_frame(&path, 1, 1, &[1.0, 1.0, 1.0], &info()).unwrap();
+    let image = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(image.as_raw(), &[255, 255, 255]);
+    assert_eq!(dir_names(dir.path()), vec!["f.png"]);
+}
+
+#[test]
+fn invalid_input_fails_early_and_keeps_the_existing_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    fs::write(&path, b"previous frame").unwrap();
+    for (w, h, len) in [(2, 2, 11), (2, 2, 13), (0, 2, 0), (2, 0, 0)] {
+        let e = write_frame(&path, w, h, &vec![0.5; len], &info()).unwrap_err();
+        assert!(
+            matches!(&e, Error::Output { path: p, .. } if *p == path),
+            "{e}"
+        );
+        assert!(e.to_string().contains("f.exr"));
+    }
+    let e = write_frame(&dir.path().join("f.tif"), 1, 1, &[0.0; 3], &info()).unwrap_err();
+    assert!(matches!(e, Error::Output { .. }) && e.to_string().contains(".exr or .png"));
+    assert_eq!(e.to_string().matches("f.tif").count(), 1, "{e}");
+    assert_eq!(fs::read(&path).unwrap(), b"previous frame");
+    assert_eq!(dir_names(dir.path()), vec!["f.exr"]);
+}
+
+#[test]
+fn failed_rename_keeps_nothing_behind() {
+    // The target is a non-empty folder, so the final rename fails after the data was
+    // written; the temporary file must be gone and the folder untouched.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    fs::create_dir(&path).unwrap();
+    fs::write(path.join("keep"), b"x").unwrap();
+    let e = write_frame(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    assert!(matches!(&e, Error::Io { path: p, .. } if *p == path), "{e}");
+    assert_eq!(dir_names(dir.path()), vec!["f.exr"]);
+    assert_eq!(dir_names(&path), vec!["keep"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn read_only_folder_fails_cleanly() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let ro = dir.path().join("ro");
+    fs::create_dir(&ro).unwrap();
+    let path = ro.join("f.0001.exr");
+    fs::write(&path, b"previous frame").unwrap();
+    fs::set_permissions(&ro, fs::Permissions::from_mode(0o555)).unwrap();
+    // Root ignores permissions: only check the failure when it really is read-only.
+    let probe = ro.join("probe");
+    let enforced = fs::write(&probe, b"").is_err();
+    let _ = fs::remove_file(&probe);
+    if enforced {
+        for p in [&path, &ro.join("g.png")] {
+            let e = write_frame(p, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+            assert!(matches!(&e, Error::Io { path: q, .. } if q == p), "{e}");
+            assert!(e.to_string().contains(&*p.to_string_lossy()), "{e}");
+        }
+    } else {
+        eprintln!("permissions are not enforced (running as root?): skipping this check");
+    }
+    fs::set_permissions(&ro, fs::Permissions::from_mode(0o755)).unwrap();
+    assert_eq!(fs::read(&path).unwrap(), b"previous frame");
+    assert_eq!(dir_names(&ro), vec!["f.0001.exr"]);
+}
+
+#[test]
+fn unusable_parent_fails_cleanly() {
+    // A parent "folder" that is a file cannot be created; this fails even for root.
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("out");
+    fs::write(&blocker, b"not a folder").unwrap();
+    let path = blocker.join("f.0001.png");
+    let e = write_frame(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    assert!(matches!(&e, Error::Io { path: p, .. } if *p == path), "{e}");
+    assert!(e.to_string().contains("f.0001.png"), "{e}");
+    assert_eq!(dir_names(dir.path()), vec!["out"]);
+    assert_eq!(fs::read(&blocker).unwrap(), b"not a folder");
+}
+
+#[test]
+fn temp_names_are_hidden_ours_and_parseable() {
+    let name = temp_name(OsStr::new("f.0001.exr"), 4242, 0xabc);
+    assert_eq!(name, OsStr::new(".f.0001.exr.4242.0000000000000abc.tmp"));
+    assert!(
+        Format::of(Path::new(&name), FRAME_FORMATS, "output").is_err(),
+        "never taken for a frame"
+    );
+    assert_eq!(parse_temp_name(&name, OsStr::new("f.0001.exr")), Some(4242));
+    assert_eq!(parse_temp_name(&name, OsStr::new("f.0002.exr")), None);
+    assert_eq!(parse_temp_name(&name, OsStr::new("0001.exr")), None);
+    assert_eq!(parse_temp_name(&name, OsStr::new("f.0001")), None);
+    for other in [
+        "f.0001.exr",
+        ".f.0001.exr.tmp",
+        ".f.0001.exr.4242.tmp",
+        ".f.0001.exr.4242.0000000000000abc",
+        ".f.0001.exr.4242.0000000000000ABC.tmp",
+        ".f.0001.exr.4242.000000000000abc.tmp",
+        ".f.0001.exr.x.0000000000000abc.tmp",
+        ".f.0001.exr..0000000000000abc.tmp",
+        ".f.0001.exr.1.2.0000000000000abc.tmp",
+        ".f.0001.exr.99999999999.0000000000000abc.tmp",
+        "f.0001.exr.4242.0000000000000abc.tmp",
+    ] {
+        assert_eq!(
+            parse_temp_name(OsStr::new(other), OsStr::new("f.0001.exr")),
+            None,
+            "{other}"
+        );
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn stale_temp_files_are_removed_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("f.0001.exr");
+    // A pid above the kernel's maximum (4194304) can never be running.
+    let dead = 4_000_000_000;
+    let own = std::process::id();
+    let stale = dir
+        .path()
+        .join(temp_name(OsStr::new("f.0001.exr"), dead, 1));
+    let live = dir.path().join(temp_name(OsStr::new("f.0001.exr"), own, 2));
+    let other_target = dir
+        .path()
+        .join(temp_name(OsStr::new("f.0002.exr"), dead, 3));
+    let lookalike = dir.path().join(".f.0001.exr.4000000000.zz.tmp");
+    let folder = dir
+        .path()
+        .join(temp_name(OsStr::new("f.0001.exr"), dead, 4));
+    for f in [&stale, &live, &other_target, &lookalike, &target] {
+        fs::write(f, b"x").unwrap();
+    }
+    fs::create_dir(&folder).unwrap();
+
+    // Too recent for a minimum age.
+    assert!(
+        remove_stale_temp_files(&target, Duration::from_secs(600))
+            .unwrap()
+            .is_empty()
+    );
+    let removed = remove_stale_temp_files(&target, Duration::ZERO).unwrap();
+    assert_eq!(removed, vec![stale.clone()]);
+    assert!(!stale.exists());
+    for f in [&live, &other_target, &lookalike, &target, &folder] {
+        assert!(f.exists(), "{}", f.display());
+    }
+    // Old enough once its modification time is in the past.
+    let old = dir
+        .path()
+        .join(temp_name(OsStr::new("f.0001.exr"), dead, 5));
+    let file = File::create(&old).unwrap();
+    file.set_modified(std::time::SystemTime::now() - Duration::from_secs(3600))
+        .unwrap();
+    drop(file);
+    assert_eq!(
+        remove_stale_temp_files(&target, Duration::from_secs(600)).unwrap(),
+        vec![old]
+    );
+    // A folder that does not exist holds nothing stale.
+    let missing = dir.path().join("nope/f.exr");
+    assert!(
+        remove_stale_temp_files(&missing, Duration::ZERO)
+            .unwrap()
+            .is_empty()
+    );
+}

@@ -1,0 +1,579 @@
+//! The one validator: from the file's raw values (with command-line [`Overrides`] written into
+//! them first) to a [`Scene`]. Every method checks one kind of value and names the field (or
+//! the flag that gave it) on failure: `sphere[12].radius must be > 0, got -1`.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+
+use glam::DVec3;
+
+use super::schema::{
+    MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawSampler, RawScene, RawShot,
+    RawShutterPosition, RawSphere, V3,
+};
+use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
+use crate::camera::CameraRig;
+use crate::material::{Background, Material};
+use crate::motion::{Key, Motion, Orbit};
+use crate::sampler::SamplerKind;
+use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
+use crate::sphere::SphereDesc;
+
+/// Formats a number as the scene file would, with negative zero shown as `-0`.
+fn show(x: f64) -> String {
+    if x.is_nan() {
+        "nan".into()
+    } else {
+        format!("{x}")
+    }
+}
+
+/// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
+pub(super) type Validated = (Vec<SphereDesc>, Vec<Material>);
+
+/// Marks, in [`Check::spheres`]' output, a material index into that call's inline materials.
+const INLINE: u32 = 1 << 31;
+
+/// Appends validated spheres to `scene`, with their inline materials after its others.
+pub(super) fn add_spheres(scene: &mut Scene, mut spheres: Vec<SphereDesc>, inline: Vec<Material>) {
+    let base = scene.materials.len() as u32;
+    for s in &mut spheres {
+        if s.material & INLINE != 0 {
+            s.material = base + (s.material & !INLINE);
+        }
+    }
+    scene.materials.extend(inline);
+    if scene.spheres.is_empty() {
+        scene.spheres = spheres;
+    } else {
+        scene.spheres.extend(spheres);
+    }
+}
+
+/// The validator of one file, with the overrides applied to it.
+pub(super) struct Check<'a> {
+    file: &'a str,
+    overrides: &'a Overrides,
+}
+
+/// The fields the command line can override, and the flag that does.
+const FLAGS: [(&str, &str); 6] = [
+    ("output.path", "--output"),
+    ("output.width", "--width"),
+    ("output.height", "--height"),
+    ("render.samples", "--samples"),
+    ("render.seed", "--seed"),
+    ("render.sampler", "--sampler"),
+];
+
+impl<'a> Check<'a> {
+    pub(super) fn new(file: &'a str, overrides: &'a Overrides) -> Check<'a> {
+        Check { file, overrides }
+    }
+
+    /// Writes the overrides into the file's raw values, to be validated with them.
+    pub(super) fn apply(&self, raw: &mut RawScene) {
+        let o = self.overrides;
+        let int = |x: u64| Some(i64::try_from(x).map_or(Number::Float(x as f64), Number::Int));
+        if let Some(p) = &o.output {
+            raw.output.path = Some(p.clone());
+        }
+        if let Some(w) = o.width {
+            raw.output.width = int(w.into());
+        }
+        if let Some(h) = o.height {
+            raw.output.height = int(h.into());
+        }
+        if let Some(n) = o.samples {
+            raw.render.samples = int(n.into());
+        }
+        if let Some(seed) = o.seed {
+            raw.render.seed = int(seed);
+        }
+        if let Some(k) = o.sampler {
+            raw.render.sampler = Some(match k {
+                SamplerKind::Independent => RawSampler::Independent,
+                SamplerKind::Sobol => RawSampler::Sobol,
+            });
+        }
+    }
+
+    /// The name of `field` in messages: the flag that set it, if the command line did.
+    fn name(&self, field: &str) -> String {
+        let o = self.overrides;
+        let set = [
+            o.output.is_some(),
+            o.width.is_some(),
+            o.height.is_some(),
+            o.samples.is_some(),
+            o.seed.is_some(),
+            o.sampler.is_some(),
+        ];
+        match FLAGS
+            .iter()
+            .zip(set)
+            .find(|((f, _), set)| *set && *f == field)
+        {
+            Some(((_, flag), _)) => (*flag).to_string(),
+            None => field.to_string(),
+        }
+    }
+
+    /// A message about the file, or only about a flag when a flag gave the value.
+    fn err<T>(&self, msg: impl fmt::Display) -> Result<T, String> {
+        let msg = msg.to_string();
+        if msg.starts_with("--") {
+            Err(msg)
+        } else {
+            Err(format!("{}: {msg}", self.file))
+        }
+    }
+
+    /// Any finite number that fits the single-precision range frames are stored in.
+    fn num(&self, field: &str, x: f64) -> Result<f64, String> {
+        if !x.is_finite() {
+            return self.err(format_args!(
+                "{field} must be a finite number, got {}",
+                show(x)
+            ));
+        }
+        if x.abs() > f32::MAX as f64 {
+            return self.err(format_args!(
+                "{field} is too large, got {} (overflows 32-bit floats, largest 3.4e38)",
+                show(x)
+            ));
+        }
+        Ok(x)
+    }
+
+    fn vec(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        for (i, x) in v.iter().enumerate() {
+            self.num(&format!("{field}[{i}]"), *x)?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    fn positive(&self, field: &str, x: f64) -> Result<f64, String> {
+        let x = self.num(field, x)?;
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            self.err(format_args!("{field} must be > 0, got {}", show(x)))
+        }
+    }
+
+    /// `>= 0`; negative zero is rejected too (it usually means a sign error upstream).
+    fn non_negative(&self, field: &str, x: f64) -> Result<f64, String> {
+        let x = self.num(field, x)?;
+        if x > 0.0 || (x == 0.0 && x.is_sign_positive()) {
+            Ok(x)
+        } else if x == 0.0 {
+            self.err(format_args!("{field} must be >= 0, got -0 (negative zero)"))
+        } else {
+            self.err(format_args!("{field} must be >= 0, got {}", show(x)))
+        }
+    }
+
+    fn color(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        for (i, x) in v.iter().enumerate() {
+            self.non_negative(&format!("{field}[{i}]"), *x)?;
+        }
+        Ok(DVec3::from_array(v))
+    }
+
+    fn int(
+        &self,
+        field: &str,
+        x: Option<Number>,
+        default: i64,
+        min: i64,
+        max: i64,
+    ) -> Result<i64, String> {
+        let field = self.name(field);
+        let x = match x {
+            None => default,
+            Some(Number::Int(x)) => x,
+            Some(Number::Float(f)) => {
+                return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+            }
+        };
+        if x < min || x > max {
+            return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
+        }
+        Ok(x)
+    }
+
+    pub(super) fn scene(&self, raw: RawScene, source: &Path) -> Result<Scene, String> {
+        let (mut scene, names) = self.scene_head(&raw, source)?;
+        let (spheres, inline) = self.spheres(&raw.sphere, 0, &names)?;
+        add_spheres(&mut scene, spheres, inline);
+        Ok(scene)
+    }
+
+    /// Everything but the spheres, and the material names (indices into `materials`).
+    pub(super) fn scene_head<'r>(
+        &self,
+        raw: &'r RawScene,
+        source: &Path,
+    ) -> Result<(Scene, BTreeMap<&'r str, u32>), String> {
+        let shot = self.shot(&raw.shot)?;
+        let output = self.output(&raw.output, source)?;
+        let render = RenderSettings {
+            samples: self.int("render.samples", raw.render.samples, 16, 1, u32::MAX as i64)? as u32,
+            max_depth: self.int(
+                "render.max_depth",
+                raw.render.max_depth,
+                50,
+                1,
+                u32::MAX as i64,
+            )? as u32,
+            seed: self.int("render.seed", raw.render.seed, 0, 0, i64::MAX)? as u64,
+            sampler: match raw.render.sampler {
+                None => SamplerKind::default(),
+                Some(RawSampler::Independent) => SamplerKind::Independent,
+                Some(RawSampler::Sobol) => SamplerKind::Sobol,
+            },
+        };
+        let camera = self.camera(&raw.camera)?;
+        let background = match &raw.background {
+            None => Background::Sky,
+            Some(b) => Background::Uniform(self.color("background.color", b.color)?),
+        };
+        let mut materials = Vec::new();
+        let mut names = BTreeMap::new();
+        for (name, m) in &raw.materials {
+            materials.push(self.material(&format!("materials.{name}"), m)?);
+            names.insert(name.as_str(), (materials.len() - 1) as u32);
+        }
+        let scene = Scene {
+            source: source.to_path_buf(),
+            shot,
+            output,
+            render,
+            camera,
+            background,
+            materials,
+            spheres: Vec::new(),
+        };
+        Ok((scene, names))
+    }
+
+    /// Validates spheres numbered from `first`. Inline materials are returned in sphere order;
+    /// a sphere with one refers to it by `INLINE | its index in that list`.
+    pub(super) fn spheres(
+        &self,
+        raw: &[RawSphere],
+        first: usize,
+        names: &BTreeMap<&str, u32>,
+    ) -> Result<Validated, String> {
+        let mut spheres = Vec::with_capacity(raw.len());
+        let mut inline = Vec::new();
+        for (i, s) in raw.iter().enumerate() {
+            let field = format!("sphere[{}]", first + i);
+            let material = match &s.material {
+                MaterialRef::Name(n) => match names.get(n.as_str()) {
+                    Some(&m) => m,
+                    None => {
+                        let known: Vec<&str> = names.keys().copied().collect();
+                        let known = if known.is_empty() {
+                            "none defined".to_string()
+                        } else {
+                            known.join(", ")
+                        };
+                        return self.err(format_args!(
+                            "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
+                        ));
+                    }
+                },
+                MaterialRef::Inline(m) => {
+                    inline.push(self.material(&format!("{field}.material"), m)?);
+                    INLINE | (inline.len() - 1) as u32
+                }
+            };
+            spheres.push(SphereDesc {
+                radius: self.positive(&format!("{field}.radius"), s.radius)?,
+                motion: self.sphere_motion(&field, s)?,
+                material,
+            });
+        }
+        Ok((spheres, inline))
+    }
+
+    fn shot(&self, s: &RawShot) -> Result<Shot, String> {
+        let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
+        let frames = self.int("shot.frames", s.frames, 1, 1, u32::MAX as i64)?;
+        let first_frame = self.int("shot.first_frame", s.first_frame, 1, 0, u32::MAX as i64)?;
+        if first_frame + frames - 1 > u32::MAX as i64 {
+            return self.err(format_args!(
+                "shot.first_frame + shot.frames - 1 must be at most {}, got {}",
+                u32::MAX,
+                first_frame + frames - 1
+            ));
+        }
+        let shutter = match (s.shutter, s.shutter_angle) {
+            (Some(_), Some(_)) => {
+                return self.err("shot: give at most one of shutter and shutter_angle");
+            }
+            (Some(x), None) => self.non_negative("shot.shutter", x)?,
+            (None, a) => shutter_from_angle(
+                self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?,
+                fps,
+            ),
+        };
+        let shutter = self.num("shot.shutter", shutter)?;
+        let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
+            RawShutterPosition::Start => ShutterPosition::Start,
+            RawShutterPosition::Center => ShutterPosition::Center,
+            RawShutterPosition::End => ShutterPosition::End,
+        };
+        let shot = Shot {
+            fps,
+            frames: frames as u32,
+            first_frame: first_frame as u32,
+            start_time: self.num("shot.start_time", s.start_time.unwrap_or(0.0))?,
+            shutter,
+            position,
+        };
+        // A tiny fps over many frames can push the last frame's time out of range.
+        let whole = shot.whole_interval();
+        for t in [whole.open, whole.close] {
+            if !t.is_finite() || t.abs() > f32::MAX as f64 {
+                return self.err(format_args!(
+                    "shot: the last frame's time ({}) is out of range; check shot.fps and shot.frames",
+                    show(t)
+                ));
+            }
+        }
+        Ok(shot)
+    }
+
+    fn output(&self, o: &RawOutput, source: &Path) -> Result<OutputSettings, String> {
+        let path = match &o.path {
+            Some(p) if p.trim().is_empty() => {
+                return self.err(format_args!(
+                    "{} must not be empty",
+                    self.name("output.path")
+                ));
+            }
+            Some(p) => p.clone(),
+            None => {
+                let stem = source
+                    .file_stem()
+                    .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
+                format!("{stem}_####.png")
+            }
+        };
+        Ok(OutputSettings {
+            path,
+            width: self.int("output.width", o.width, 400, 1, MAX_SIDE.into())? as u32,
+            height: self.int("output.height", o.height, 225, 1, MAX_SIDE.into())? as u32,
+        })
+    }
+
+    fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
+        Ok(match m {
+            RawMaterial::Lambertian { albedo } => Material::Lambertian {
+                albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+            },
+            RawMaterial::Metal { albedo, fuzz } => {
+                let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
+                if fuzz > 1.0 {
+                    return self.err(format_args!(
+                        "{field}.fuzz must be in [0, 1], got {}",
+                        show(fuzz)
+                    ));
+                }
+                Material::Metal {
+                    albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                    fuzz,
+                }
+            }
+            RawMaterial::Dielectric { ior } => Material::Dielectric {
+                ior: self.positive(&format!("{field}.ior"), *ior)?,
+            },
+        })
+    }
+
+    fn keys(&self, field: &str, times: impl Iterator<Item = f64>) -> Result<Vec<f64>, String> {
+        let mut out: Vec<f64> = Vec::new();
+        for (i, t) in times.enumerate() {
+            let t = self.num(&format!("{field}[{i}].time"), t)?;
+            if let Some(&prev) = out.last()
+                && t <= prev
+            {
+                return self.err(format_args!(
+                    "{field}[{i}].time must be greater than {field}[{}].time ({}), got {}",
+                    i - 1,
+                    show(prev),
+                    show(t)
+                ));
+            }
+            out.push(t);
+        }
+        if out.is_empty() {
+            return self.err(format_args!("{field} must have at least one key"));
+        }
+        Ok(out)
+    }
+
+    fn sphere_motion(&self, field: &str, s: &RawSphere) -> Result<Motion, String> {
+        let kinds = [
+            s.velocity.is_some(),
+            s.keyframes.is_some(),
+            s.orbit.is_some(),
+        ];
+        if kinds.iter().filter(|k| **k).count() > 1 {
+            return self.err(format_args!(
+                "{field}: give at most one of velocity, keyframes and orbit"
+            ));
+        }
+        if let Some(keys) = &s.keyframes {
+            if s.center.is_some() {
+                return self.err(format_args!(
+                    "{field}: keyframes replace center; give one of them"
+                ));
+            }
+            let kf = format!("{field}.keyframes");
+            let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
+            let keys = keys
+                .iter()
+                .zip(times)
+                .enumerate()
+                .map(|(i, (k, time))| {
+                    Ok(Key {
+                        time,
+                        position: self.vec(&format!("{kf}[{i}].center"), k.center)?,
+                    })
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            return Ok(Motion::Keyframes(keys));
+        }
+        let Some(center) = s.center else {
+            return self.err(format_args!("{field}.center is required (or keyframes)"));
+        };
+        let origin = self.vec(&format!("{field}.center"), center)?;
+        if let Some(v) = s.velocity {
+            return Ok(Motion::Velocity {
+                origin,
+                velocity: self.vec(&format!("{field}.velocity"), v)?,
+            });
+        }
+        if let Some(o) = &s.orbit {
+            let orbit = self.orbit(
+                &format!("{field}.orbit"),
+                o.pivot,
+                o.axis,
+                o.degrees_per_second,
+            )?;
+            return Ok(Motion::Orbit { origin, orbit });
+        }
+        Ok(Motion::Still(origin))
+    }
+
+    fn orbit(&self, field: &str, pivot: V3, axis: V3, dps: f64) -> Result<Orbit, String> {
+        let pivot = self.vec(&format!("{field}.pivot"), pivot)?;
+        let axis = self.vec(&format!("{field}.axis"), axis)?;
+        let degrees_per_second = self.num(&format!("{field}.degrees_per_second"), dps)?;
+        let len = axis.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return self.err(format_args!("{field}.axis must be a non-zero vector"));
+        }
+        Ok(Orbit {
+            pivot,
+            axis: axis / len,
+            degrees_per_second,
+        })
+    }
+
+    /// Checks that a view is not degenerate.
+    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
+        let view = at - from;
+        if view.length() == 0.0 {
+            return self.err(format_args!(
+                "{field}: look_from and look_at must differ, both are {}",
+                fmt_v(from)
+            ));
+        }
+        if up.length() == 0.0 {
+            return self.err("camera.up must be a non-zero vector");
+        }
+        if up.normalize().cross(view.normalize()).length() < 1e-9 {
+            return self.err(format_args!(
+                "{field}: camera.up {} is parallel to the view direction {}",
+                fmt_v(up),
+                fmt_v(view)
+            ));
+        }
+        Ok(())
+    }
+
+    fn camera(&self, c: &RawCamera) -> Result<CameraRig, String> {
+        let from = self.vec("camera.look_from", c.look_from.unwrap_or([0.0, 0.0, 0.0]))?;
+        let at = self.vec("camera.look_at", c.look_at.unwrap_or([0.0, 0.0, -1.0]))?;
+        let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
+        let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
+        if vfov >= 180.0 {
+            return self.err(format_args!(
+                "camera.vfov must be < 180, got {}",
+                show(vfov)
+            ));
+        }
+        let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
+        let focus_distance = c
+            .focus_distance
+            .map(|f| self.positive("camera.focus_distance", f))
+            .transpose()?;
+        if c.orbit.is_some() && c.keyframes.is_some() {
+            return self.err("camera: give at most one of orbit and keyframes");
+        }
+        let (look_from, look_at) = if let Some(o) = &c.orbit {
+            self.view("camera", from, at, up)?;
+            let orbit = self.orbit(
+                "camera.orbit",
+                at.to_array(),
+                up.to_array(),
+                o.degrees_per_second,
+            )?;
+            (
+                Motion::Orbit {
+                    origin: from,
+                    orbit,
+                },
+                Motion::Still(at),
+            )
+        } else if let Some(keys) = &c.keyframes {
+            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
+            let (mut f, mut a) = (from, at);
+            let (mut fk, mut ak) = (Vec::new(), Vec::new());
+            for (i, (k, time)) in keys.iter().zip(times).enumerate() {
+                let field = format!("camera.keyframes[{i}]");
+                if let Some(v) = k.look_from {
+                    f = self.vec(&format!("{field}.look_from"), v)?;
+                }
+                if let Some(v) = k.look_at {
+                    a = self.vec(&format!("{field}.look_at"), v)?;
+                }
+                self.view(&field, f, a, up)?;
+                fk.push(Key { time, position: f });
+                ak.push(Key { time, position: a });
+            }
+            (Motion::Keyframes(fk), Motion::Keyframes(ak))
+        } else {
+            self.view("camera", from, at, up)?;
+            (Motion::Still(from), Motion::Still(at))
+        };
+        Ok(CameraRig {
+            look_from,
+            look_at,
+            up,
+            vfov,
+            aperture,
+            focus_distance,
+        })
+    }
+}
+
+fn fmt_v(v: DVec3) -> String {
+    format!("[{}, {}, {}]", show(v.x), show(v.y), show(v.z))
+}
