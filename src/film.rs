@@ -85,11 +85,6 @@ impl PixelAccumulator {
         }
     }
 
-    /// Samples kept.
-    pub fn count(&self) -> u32 {
-        self.kept
-    }
-
     /// The estimated variance of [`mean`](Self::mean) per channel: the unbiased sample
     /// variance over the count, `s^2 / n`. Exact in expectation for independent samples; for
     /// stratified (Sobol) samples it overestimates the error. Infinite with fewer than two
@@ -130,7 +125,7 @@ mod tests {
         for i in 0..5 {
             a.add(DVec3::splat(1e8 + i as f64));
         }
-        assert_eq!(a.count(), 5);
+        assert_eq!(a.kept, 5);
         assert_eq!(a.mean(), DVec3::splat(1e8 + 2.0));
         assert_eq!(a.variance_of_mean(), DVec3::splat(2.5 / 5.0));
         let mut one = PixelAccumulator::default();

@@ -5,20 +5,20 @@ use glam::DVec3;
 /// `a + (b - a) * t` would not return `b` exactly at `t = 1`; this form returns `a` at 0 and
 /// `b` at 1 exactly and is monotonic in `t` for finite inputs.
 #[inline]
-pub fn lerp(a: f64, b: f64, t: f64) -> f64 {
+pub(crate) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     (1.0 - t) * a + t * b
 }
 
 /// Component-wise [`lerp`].
 #[inline]
-pub fn lerp3(a: DVec3, b: DVec3, t: f64) -> DVec3 {
+pub(crate) fn lerp3(a: DVec3, b: DVec3, t: f64) -> DVec3 {
     (1.0 - t) * a + t * b
 }
 
 /// Where `x` lies between `a` and `b`, as a fraction in [0, 1]; `a < b` is required and clamps
 /// outside. Used for keyframe segments, whose lengths are validated to be positive.
 #[inline]
-pub fn inverse_lerp(a: f64, b: f64, x: f64) -> f64 {
+pub(crate) fn inverse_lerp(a: f64, b: f64, x: f64) -> f64 {
     debug_assert!(a < b);
     ((x - a) / (b - a)).clamp(0.0, 1.0)
 }

@@ -67,8 +67,8 @@ mod tests {
         assert!(out.y > p.y && out.x == p.x && out.z == p.z);
         let inside = offset_origin(p, err, n, DVec3::new(0.3, -1.0, 0.0));
         assert!(inside.y < p.y);
-        // Zero error still moves one ulp off the surface along the normal's axis.
-        let tiny = offset_origin(p, DVec3::ZERO, n, n);
-        assert_eq!(tiny, p);
+        // A point known exactly is not moved: the offset is zero, so no component is nudged.
+        let exact = offset_origin(p, DVec3::ZERO, n, n);
+        assert_eq!(exact, p);
     }
 }

@@ -1,7 +1,7 @@
 //! Fits of measured convergence: the slope of a power law through log-log points.
 
 /// Whether a point has a place on log-log axes: both coordinates finite and positive.
-pub fn usable((x, y): (f64, f64)) -> bool {
+pub(crate) fn usable((x, y): (f64, f64)) -> bool {
     x.is_finite() && y.is_finite() && x > 0.0 && y > 0.0
 }
 
@@ -11,7 +11,7 @@ pub fn usable((x, y): (f64, f64)) -> bool {
 /// For a power law `error = c · seconds^k` this is `k`: about -0.5 for plain Monte Carlo
 /// convergence, steeper for better samplers. Also `None` when the logarithms of the distinct
 /// x are too close to tell apart in floating point.
-pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
+pub(crate) fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
     let logs: Vec<(f64, f64)> = points
         .iter()
         .filter(|&&p| usable(p))

@@ -25,16 +25,16 @@ const PLOT_FORMATS: &[Format] = &[Format::Png, Format::Svg];
 
 /// One line of the plot.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Series {
+pub(crate) struct Series {
     /// Legend name of the line, such as the sampler's name.
-    pub name: String,
+    pub(crate) name: String,
     /// The measurements, as `(seconds, error)` pairs, joined in this order.
     /// Points that cannot be shown on log axes (non-positive or non-finite)
     /// are skipped.
-    pub points: Vec<(f64, f64)>,
+    pub(crate) points: Vec<(f64, f64)>,
     /// Fitted log-log slope shown in the legend, as from [`super::fit::log_log_slope`];
     /// a non-finite slope is not shown.
-    pub slope: Option<f64>,
+    pub(crate) slope: Option<f64>,
 }
 
 /// Width and height in pixels of every plot (PNG pixels, SVG user units).
@@ -52,7 +52,7 @@ const PLOT_SIZE: (u32, u32) = (1000, 700);
 /// and spanning at least one decade; non-positive or non-finite points are skipped (never
 /// panics), and an empty plot (no usable points) still writes a valid file. The image is
 /// 1000 × 700 pixels. Errors (I/O, drawing) become `Err(String)` naming the path.
-pub fn write_plot(
+pub(crate) fn write_plot(
     path: &Path,
     title: &str,
     x_label: &str,
@@ -98,7 +98,7 @@ pub fn write_plot(
 
 /// Checks that a plot can be written to `path` in a format its extension names, before
 /// anything is measured or drawn.
-pub fn check_path(path: &Path) -> Result<(), String> {
+pub(crate) fn check_path(path: &Path) -> Result<(), String> {
     Format::of(path, PLOT_FORMATS, "plot").map(|_| ())
 }
 

@@ -10,7 +10,7 @@ use crate::motion::Motion;
 use crate::scene::Scene;
 
 /// `raytrace check`: validates a scene and describes it.
-pub fn check(args: &CheckArgs) -> Result<String, Error> {
+pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     let scene_path = &args.scene;
     let scene = Scene::load(scene_path)?;
     let shot = &scene.shot;

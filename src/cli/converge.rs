@@ -26,7 +26,7 @@ use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
 /// Default samples per pixel of the reference render.
-pub const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
+pub(crate) const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
 
 /// Renders shorter than this are repeated (up to [`MAX_REPEATS`] times) and their median
 /// time taken, because a single short run's time is mostly noise.
@@ -35,42 +35,40 @@ const MAX_REPEATS: usize = 5;
 
 /// One measured render.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Measurement {
-    pub sampler: SamplerKind,
-    pub samples: u32,
+pub(crate) struct Measurement {
+    pub(crate) sampler: SamplerKind,
+    pub(crate) samples: u32,
     /// Median wall time of the render (preparation and tracing, no file I/O).
-    pub seconds: f64,
-    pub mse: f64,
-    pub rel_mse: f64,
+    pub(crate) seconds: f64,
+    pub(crate) mse: f64,
+    pub(crate) rel_mse: f64,
     /// The mean squared error estimated from the pixels' sample variances.
-    pub estimated_mse: f64,
-    pub estimated_rel_mse: f64,
+    pub(crate) estimated_mse: f64,
+    pub(crate) estimated_rel_mse: f64,
 }
 
 impl Measurement {
     /// `1 / (MSE x seconds)`: higher is better; equal for two renders that trade time for
     /// error at the rate of independent samples.
-    pub fn efficiency(&self) -> f64 {
+    pub(crate) fn efficiency(&self) -> f64 {
         1.0 / (self.mse * self.seconds)
     }
 }
 
 /// Everything `converge` measured.
 #[derive(Clone, Debug)]
-pub struct Report {
-    /// The reference image file (given, or rendered and written).
-    pub reference: PathBuf,
-    pub runs: Vec<Measurement>,
+pub(crate) struct Report {
+    pub(crate) runs: Vec<Measurement>,
 }
 
 impl Report {
     /// The runs of one sampler, in order of samples.
-    pub fn series(&self, kind: SamplerKind) -> Vec<&Measurement> {
+    pub(crate) fn series(&self, kind: SamplerKind) -> Vec<&Measurement> {
         self.runs.iter().filter(|m| m.sampler == kind).collect()
     }
 
     /// The samplers measured, in order.
-    pub fn samplers(&self) -> Vec<SamplerKind> {
+    pub(crate) fn samplers(&self) -> Vec<SamplerKind> {
         let mut kinds: Vec<SamplerKind> = Vec::new();
         for m in &self.runs {
             if !kinds.contains(&m.sampler) {
@@ -82,7 +80,7 @@ impl Report {
 }
 
 /// The fitted log-log slope of MSE against samples and against seconds for `runs`.
-pub fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
+pub(crate) fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
     let by_samples: Vec<(f64, f64)> = runs.iter().map(|m| (m.samples as f64, m.mse)).collect();
     let by_time: Vec<(f64, f64)> = runs.iter().map(|m| (m.seconds, m.mse)).collect();
     (log_log_slope(&by_samples), log_log_slope(&by_time))
@@ -91,7 +89,7 @@ pub fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
 /// `base`'s MSE over `other`'s at equal time, at each of `other`'s runs whose time lies
 /// within `base`'s range: `base`'s log MSE is interpolated linearly in log time (the curves
 /// are close to straight lines on log-log axes). Pairs of (seconds, factor).
-pub fn equal_time_factors(base: &[&Measurement], other: &[&Measurement]) -> Vec<(f64, f64)> {
+pub(crate) fn equal_time_factors(base: &[&Measurement], other: &[&Measurement]) -> Vec<(f64, f64)> {
     let mut b: Vec<(f64, f64)> = base
         .iter()
         .filter(|m| m.mse > 0.0)
@@ -118,7 +116,7 @@ pub fn equal_time_factors(base: &[&Measurement], other: &[&Measurement]) -> Vec<
 
 /// The samples per pixel of the measured renders: powers of two up to `max_samples`, and
 /// `max_samples` itself.
-pub fn schedule(max_samples: u32) -> Vec<u32> {
+pub(crate) fn schedule(max_samples: u32) -> Vec<u32> {
     let mut v: Vec<u32> = (0..32)
         .map(|k| 1u32 << k)
         .take_while(|&n| n < max_samples)
@@ -128,10 +126,10 @@ pub fn schedule(max_samples: u32) -> Vec<u32> {
 }
 
 /// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
-pub fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
+pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
     let mut scene = Scene::load_with(&args.scene, &args.scene_args.overrides())?;
     let frame = args.frame.unwrap_or(scene.shot.first_frame);
-    if frame < scene.shot.first_frame || frame > scene.shot.last_frame() {
+    if !scene.shot.contains_frame(frame) {
         return Err(Error::Usage(format!(
             "--frame {frame} is outside the shot's frames {}-{}",
             scene.shot.first_frame,
@@ -156,7 +154,7 @@ fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report,
         }
     };
     let statics = StaticGeometry::new(scene);
-    let (reference, reference_path) = reference(scene, &statics, frame, args, &say)?;
+    let reference = reference(scene, &statics, frame, args, &say)?;
 
     let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -204,10 +202,7 @@ fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report,
             break;
         }
     }
-    let report = Report {
-        reference: reference_path,
-        runs,
-    };
+    let report = Report { runs };
     say(&summary(&report));
     if let Some(path) = &args.csv {
         io::write_file(path, csv(&report).as_bytes())?;
@@ -257,10 +252,10 @@ fn reference(
     frame: u32,
     args: &ConvergeArgs,
     say: &dyn Fn(&str),
-) -> Result<(Vec<DVec3>, PathBuf), Error> {
+) -> Result<Vec<DVec3>, Error> {
     let (width, height) = (scene.output.width, scene.output.height);
     if let Some(path) = &args.reference {
-        return Ok((read_reference(path, width, height)?, path.clone()));
+        return read_reference(path, width, height);
     }
     let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     let path = args
@@ -286,7 +281,7 @@ fn reference(
         path.display()
     ));
     // Compare against what was written (f32), as a reused reference would be.
-    Ok((read_reference(&path, width, height)?, path))
+    read_reference(&path, width, height)
 }
 
 /// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
@@ -327,7 +322,7 @@ fn default_reference_path(scene: &Scene, frame: u32, samples: u32, args: &Conver
 }
 
 /// Reads the RGB channels of an EXR reference of the given size, as linear radiance.
-pub fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
+pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
     let bad = |message: String| Error::Usage(format!("reference {}: {message}", path.display()));
     if !path.exists() {
         return Err(bad(
@@ -376,7 +371,7 @@ fn fmt_slope(s: Option<f64>) -> String {
 }
 
 /// Slopes per sampler and equal-time comparisons with the first sampler.
-pub fn summary(report: &Report) -> String {
+pub(crate) fn summary(report: &Report) -> String {
     let mut s = String::new();
     let kinds = report.samplers();
     for &k in &kinds {
@@ -408,7 +403,7 @@ pub fn summary(report: &Report) -> String {
 }
 
 /// The measurements as CSV, one row per render.
-pub fn csv(report: &Report) -> String {
+pub(crate) fn csv(report: &Report) -> String {
     let mut s = String::from(
         "sampler,samples,seconds,mse,rmse,rel_mse,estimated_mse,estimated_rmse,estimated_rel_mse,efficiency\n",
     );
@@ -495,7 +490,6 @@ mod tests {
         let mut r = m(SamplerKind::Independent, 1, 0.5, 0.04);
         r.estimated_mse = f64::INFINITY;
         let report = Report {
-            reference: PathBuf::from("r.exr"),
             runs: vec![r, m(SamplerKind::Sobol, 2, 1.0, 0.01)],
         };
         let text = csv(&report);

@@ -15,7 +15,7 @@
 /// Every number written in the specification (including the end of a stepped range, even
 /// when the step skips it) must lie in the shot. Errors are one-line messages that quote the
 /// offending part.
-pub fn parse_frames(spec: &str, first: u32, last: u32) -> Result<Vec<u32>, String> {
+pub(crate) fn parse_frames(spec: &str, first: u32, last: u32) -> Result<Vec<u32>, String> {
     if spec.trim().is_empty() {
         return Err("empty frame specification".to_string());
     }
@@ -107,7 +107,7 @@ fn parse_number(text: &str, what: &str) -> Result<u32, String> {
 
 /// The number of chunks of `chunk_size` consecutive frames that `n_frames` frames make, the
 /// last one possibly shorter. Zero when there are no frames or when `chunk_size` is 0.
-pub fn chunk_count(n_frames: u64, chunk_size: u64) -> u64 {
+pub(crate) fn chunk_count(n_frames: u64, chunk_size: u64) -> u64 {
     if chunk_size == 0 {
         0
     } else {
@@ -118,7 +118,7 @@ pub fn chunk_count(n_frames: u64, chunk_size: u64) -> u64 {
 /// The `index`-th (from 0) chunk of `chunk_size` consecutive frames of the selection
 /// `frames`; the last chunk may be shorter. Errors on a chunk size of 0 and on an index past
 /// the last chunk (the message says how many chunks there are).
-pub fn chunk(frames: &[u32], chunk_size: u64, index: u64) -> Result<&[u32], String> {
+pub(crate) fn chunk(frames: &[u32], chunk_size: u64, index: u64) -> Result<&[u32], String> {
     if chunk_size == 0 {
         return Err("the chunk size must be at least 1".to_string());
     }

@@ -7,7 +7,7 @@ use crate::scene::generate::{RandomScene, scene_text};
 
 /// Writes the scene to its `.toml` file, atomically. The argument ranges were checked by the
 /// command line's parsers.
-pub fn generate(args: &GenerateArgs) -> Result<(), Error> {
+pub(crate) fn generate(args: &GenerateArgs) -> Result<(), Error> {
     Format::of(&args.output, &[Format::Toml], "scene").map_err(Error::Usage)?;
     let scene = RandomScene {
         spheres: args.spheres,

@@ -6,12 +6,12 @@
 //! flags that replace scene values become [`Overrides`] and are checked by the scene's
 //! validator, with the file's values.
 
-pub mod check;
-pub mod converge;
-pub mod frames;
-pub mod generate;
-pub mod progress;
-pub mod render;
+mod check;
+mod converge;
+mod frames;
+mod generate;
+mod progress;
+mod render;
 
 use std::path::PathBuf;
 

@@ -6,20 +6,20 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// Prints a line to stdout. A closed stdout (`raytrace render ... | head -1`) is not an error:
 /// the lines are for whoever reads them, and the frames are still rendered and written.
-pub fn print_line(text: &str) {
+pub(crate) fn print_line(text: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stdout().lock(), "{text}");
 }
 
 /// Progress bars on a terminal's stderr, and one summary line per frame on stdout.
-pub struct Progress {
+pub(crate) struct Progress {
     multi: MultiProgress,
     frames: ProgressBar,
     quiet: bool,
 }
 
 impl Progress {
-    pub fn new(frames: u64, quiet: bool) -> Progress {
+    pub(crate) fn new(frames: u64, quiet: bool) -> Progress {
         let target = if quiet || !std::io::stderr().is_terminal() {
             ProgressDrawTarget::hidden()
         } else {
@@ -41,7 +41,7 @@ impl Progress {
     }
 
     /// A bar for one frame's samples; without a planned count (a budget), a spinner.
-    pub fn start_frame(&self, frame: u32, planned: Option<u64>) -> ProgressBar {
+    pub(crate) fn start_frame(&self, frame: u32, planned: Option<u64>) -> ProgressBar {
         let (bar, template) = match planned {
             Some(samples) => (
                 ProgressBar::new(samples),
@@ -58,17 +58,17 @@ impl Progress {
         bar
     }
 
-    pub fn frame_done(&self) {
+    pub(crate) fn frame_done(&self) {
         self.frames.inc(1);
     }
 
-    pub fn line(&self, text: &str) {
+    pub(crate) fn line(&self, text: &str) {
         if !self.quiet {
             self.multi.suspend(|| print_line(text));
         }
     }
 
-    pub fn finish(&self) {
+    pub(crate) fn finish(&self) {
         self.frames.finish_and_clear();
     }
 }

@@ -14,24 +14,24 @@ use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
 /// Age after which a temporary frame file of a process that no longer runs is removed.
-pub const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
+pub(crate) const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
 
 /// What a render run did.
 #[derive(Clone, Debug, Default)]
-pub struct RunSummary {
+pub(crate) struct RunSummary {
     /// Frames rendered and written.
-    pub rendered: Vec<u32>,
+    pub(crate) rendered: Vec<u32>,
     /// Frames left alone because their file existed.
-    pub skipped: Vec<u32>,
-    pub seconds: f64,
-    pub samples: u64,
-    pub dropped: u64,
+    pub(crate) skipped: Vec<u32>,
+    pub(crate) seconds: f64,
+    pub(crate) samples: u64,
+    pub(crate) dropped: u64,
     /// The estimated relative error of each rendered frame.
-    pub relative_errors: Vec<f64>,
+    pub(crate) relative_errors: Vec<f64>,
 }
 
 /// The frames a run renders: the `--frames` selection (or the whole shot), then the chunk.
-pub fn select_frames(scene: &Scene, args: &RenderArgs) -> Result<Vec<u32>, Error> {
+pub(crate) fn select_frames(scene: &Scene, args: &RenderArgs) -> Result<Vec<u32>, Error> {
     let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
     let all = match args.frames.as_deref().map(str::trim) {
         None | Some("") => (first..=last).collect(),
@@ -48,7 +48,7 @@ pub fn select_frames(scene: &Scene, args: &RenderArgs) -> Result<Vec<u32>, Error
 
 /// The frames a run renders and the file of each, checked before anything is rendered: one
 /// file per frame.
-pub fn targets(scene: &Scene, args: &RenderArgs) -> Result<Vec<(u32, PathBuf)>, Error> {
+pub(crate) fn targets(scene: &Scene, args: &RenderArgs) -> Result<Vec<(u32, PathBuf)>, Error> {
     let selected = select_frames(scene, args)?;
     let pattern = &scene.output.path;
     if selected.len() > 1 && !io::pattern_has_frame_number(pattern) {
@@ -65,7 +65,7 @@ pub fn targets(scene: &Scene, args: &RenderArgs) -> Result<Vec<(u32, PathBuf)>, 
 
 /// Renders the selected frames of a scene and writes them. Everything that can be checked
 /// before rendering (scene, arguments, output names) is checked before anything is written.
-pub fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
+pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let scene = Scene::load_with(&args.scene, &args.overrides())?;
     let targets = targets(&scene, args)?;
     super::thread_pool(args.scene_args.threads)?.install(|| render_targets(&scene, &targets, args))
@@ -165,7 +165,7 @@ fn render_targets(
 }
 
 /// The attributes of `frame` of `scene`, rendered with `samples` per pixel.
-pub fn frame_info(scene: &Scene, frame: u32, samples: u32) -> FrameInfo {
+pub(crate) fn frame_info(scene: &Scene, frame: u32, samples: u32) -> FrameInfo {
     let interval = scene.shot.interval(frame);
     FrameInfo {
         frame,
@@ -212,7 +212,7 @@ fn stats_line(frame: u32, st: &FrameStats) -> String {
 }
 
 /// The process's peak resident memory so far (Linux: `VmHWM` in `/proc/self/status`).
-pub fn peak_memory_bytes() -> Option<u64> {
+pub(crate) fn peak_memory_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;

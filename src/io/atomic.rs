@@ -16,7 +16,7 @@ use crate::error::Error;
 
 /// Writes `bytes` to `path` atomically: through a temporary file beside it, renamed into
 /// place, so readers never see a partial file. Parent folders are created as needed.
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     write_with(path, |writer| {
         writer.write_all(bytes).map_err(|e| Error::io(path, e))
     })
@@ -24,7 +24,7 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 
 /// Creates `path`'s folder, has `write` fill a new temporary file beside `path`, syncs it and
 /// renames it into place. The temporary file is removed on any failure.
-pub fn write_with(
+pub(crate) fn write_with(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), Error>,
 ) -> Result<(), Error> {
@@ -166,7 +166,7 @@ fn process_may_be_alive(pid: u32) -> bool {
 /// write (minutes), so a file another machine is still writing is never taken for stale.
 ///
 /// A missing folder is not an error.
-pub fn remove_stale_temp_files(target: &Path, min_age: Duration) -> Result<Vec<PathBuf>, Error> {
+pub(crate) fn remove_stale_temp_files(target: &Path, min_age: Duration) -> Result<Vec<PathBuf>, Error> {
     let (dir, file_name) = split_target(target)?;
     let entries = match fs::read_dir(&dir) {
         Ok(entries) => entries,

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 ///
 /// A pattern without any `#` is returned unchanged, so every frame then writes the same
 /// file; callers rendering more than one frame should check [`pattern_has_frame_number`].
-pub fn frame_path(pattern: &str, frame: u32) -> PathBuf {
+pub(crate) fn frame_path(pattern: &str, frame: u32) -> PathBuf {
     let mut out = String::with_capacity(pattern.len() + 8);
     let mut chars = pattern.chars().peekable();
     while let Some(c) = chars.next() {
@@ -29,6 +29,6 @@ pub fn frame_path(pattern: &str, frame: u32) -> PathBuf {
 
 /// Whether the pattern contains a `#` run, that is, whether different frames get different
 /// paths from [`frame_path`].
-pub fn pattern_has_frame_number(pattern: &str) -> bool {
+pub(crate) fn pattern_has_frame_number(pattern: &str) -> bool {
     pattern.contains('#')
 }

@@ -15,9 +15,9 @@ use std::path::Path;
 
 use crate::error::Error;
 
-pub use atomic::{remove_stale_temp_files, write_file};
+pub(crate) use atomic::{remove_stale_temp_files, write_file};
 pub use exr::{FrameInfo, read_exr_rgb};
-pub use frame_path::{frame_path, pattern_has_frame_number};
+pub(crate) use frame_path::{frame_path, pattern_has_frame_number};
 pub use png::linear_to_srgb8;
 
 /// A file format the renderer writes, named by the file's extension.

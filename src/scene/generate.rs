@@ -20,32 +20,32 @@ use rayon::prelude::*;
 use crate::rng::{Pcg32, hash_words};
 
 /// Side of the cube the spheres' centres fill.
-pub const CUBE: f64 = 100.0;
+pub(crate) const CUBE: f64 = 100.0;
 /// Typical radius over mean spacing (`CUBE / cbrt(n)`).
-pub const RADIUS_PER_SPACING: f64 = 0.35;
+pub(crate) const RADIUS_PER_SPACING: f64 = 0.35;
 /// Farthest a moving sphere travels while the shutter is open, in radii of the typical sphere.
-pub const MAX_TRAVEL: f64 = 1.0;
+pub(crate) const MAX_TRAVEL: f64 = 1.0;
 /// Frames per second of the generated shot; the shutter is open half of each frame.
 const FPS: f64 = 24.0;
 
 /// The most spheres a generated scene has (about 110 bytes each: a 1.1 GB file).
-pub const MAX_SPHERES: u64 = 10_000_000;
+pub(crate) const MAX_SPHERES: u64 = 10_000_000;
 
 /// What to generate.
 #[derive(Clone, Debug)]
-pub struct RandomScene {
+pub(crate) struct RandomScene {
     /// Number of spheres, 1 to [`MAX_SPHERES`].
-    pub spheres: u64,
+    pub(crate) spheres: u64,
     /// Fraction of them that move, in [0, 1].
-    pub moving: f64,
+    pub(crate) moving: f64,
     /// Seed of the spheres' random numbers.
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// Frames of the shot, >= 1.
-    pub frames: u32,
+    pub(crate) frames: u32,
 }
 
 /// The typical radius for `n` spheres (radii are drawn from 0.5 to 1.5 times it).
-pub fn typical_radius(n: usize) -> f64 {
+pub(crate) fn typical_radius(n: usize) -> f64 {
     RADIUS_PER_SPACING * CUBE / (n.max(1) as f64).cbrt()
 }
 
@@ -129,7 +129,7 @@ fn sphere(out: &mut String, opts: &RandomScene, i: usize, r0: f64) {
 }
 
 /// The whole scene file as text.
-pub fn scene_text(opts: &RandomScene) -> String {
+pub(crate) fn scene_text(opts: &RandomScene) -> String {
     let n = opts.spheres as usize;
     let r0 = typical_radius(n);
     let mut text = header(opts);

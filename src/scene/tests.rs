@@ -244,6 +244,7 @@ fn malformed_scenes_name_the_place() {
         ("[materials]\nm = { type = \"lambertian\", albedo = [-1, 1, 1] }\n".into(), "materials.m.albedo[0] must be >= 0"),
         ("[background]\ncolor = [1, 1, inf]\n".into(), "background.color[2]"),
         ("[output]\nwidth = 0\n".into(), "output.width"),
+        ("[output]\npath = \"f_####.tiff\"\n".into(), "output.path \"f_####.tiff\": the file name must end in .exr or .png"),
         ("[render]\nseed = -1\n".into(), "render.seed"),
         ("[render]\nsamples = 0\n".into(), "render.samples"),
         ("[shot]\nshutter = 0.1\nshutter_angle = 10\n".into(), "at most one of shutter and shutter_angle"),
@@ -384,4 +385,61 @@ fn unusual_layouts_are_parsed_whole() {
 fn negative_zero_coordinates_are_zero() {
     let s = ok("[camera]\nlook_from = [-0.0, 0, 0]\n");
     assert_eq!(s.camera.look_from.at(0.0), DVec3::ZERO);
+}
+
+#[test]
+fn overrides_are_validated_as_the_file_is_and_name_the_flag() {
+    let file = "[output]\nwidth = 100\nheight = 50\n[render]\nsamples = 4\n";
+    let with = |o: Overrides| Scene::parse_with(file, Path::new("s.toml"), &o);
+    let s = with(Overrides {
+        width: Some(32),
+        samples: Some(9),
+        seed: Some(u64::MAX >> 1),
+        output: Some("o_#.exr".into()),
+        sampler: Some(SamplerKind::Independent),
+        ..Overrides::default()
+    })
+    .unwrap();
+    assert_eq!((s.output.width, s.output.height), (32, 50));
+    assert_eq!((s.render.samples, s.render.seed), (9, u64::MAX >> 1));
+    assert_eq!(s.output.path, "o_#.exr");
+    assert_eq!(s.render.sampler, SamplerKind::Independent);
+    for (o, want) in [
+        (
+            Overrides {
+                width: Some(0),
+                ..Overrides::default()
+            },
+            "--width must be in 1..=65536, got 0",
+        ),
+        (
+            Overrides {
+                height: Some(MAX_SIDE + 1),
+                ..Overrides::default()
+            },
+            "--height must be in 1..=65536, got 65537",
+        ),
+        (
+            Overrides {
+                samples: Some(0),
+                ..Overrides::default()
+            },
+            "--samples must be in 1..",
+        ),
+        (
+            Overrides {
+                output: Some("f.tif".into()),
+                ..Overrides::default()
+            },
+            "--output \"f.tif\": the file name must end in .exr or .png",
+        ),
+    ] {
+        let e = with(o).unwrap_err().to_string();
+        assert!(e.starts_with(want), "{e}");
+    }
+    // The same rule for the file's own value names the field and the file.
+    let e = Scene::parse("[output]\nwidth = 0\n", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(e, "s.toml: output.width must be in 1..=65536, got 0");
 }

@@ -14,6 +14,7 @@ use super::schema::{
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
 use crate::camera::CameraRig;
+use crate::io::{FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
 use crate::sampler::SamplerKind;
@@ -356,7 +357,16 @@ impl<'a> Check<'a> {
                     self.name("output.path")
                 ));
             }
-            Some(p) => p.clone(),
+            Some(p) => {
+                let known = Format::from_extension(Path::new(p), FRAME_FORMATS);
+                if known.is_none() {
+                    return self.err(format_args!(
+                        "{} \"{p}\": the file name must end in .exr or .png",
+                        self.name("output.path")
+                    ));
+                }
+                p.clone()
+            }
             None => {
                 let stem = source
                     .file_stem()
