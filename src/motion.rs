@@ -105,14 +105,14 @@ impl Motion {
                 let along = orbit.axis * orbit.axis.dot(r);
                 let e1 = r - along;
                 let e2 = orbit.axis.cross(e1);
-                FrameMotion::Circle {
+                FrameMotion::Circle(CirclePath {
                     center: orbit.pivot + along,
                     e1,
                     e2,
                     degrees0: (orbit.degrees_per_second * t0).rem_euclid(360.0),
                     degrees_per_second: orbit.degrees_per_second,
                     t0,
-                }
+                })
             }
         }
     }
@@ -175,15 +175,40 @@ pub enum FrameMotion {
     },
     /// Piecewise linear through the given points (the interval's ends and the keys inside).
     Keyframes(Box<[Key]>),
-    /// `center + cos(a) e1 + sin(a) e2` with `a = degrees0 + degrees_per_second * (t - t0)`.
-    Circle {
-        center: DVec3,
-        e1: DVec3,
-        e2: DVec3,
-        degrees0: f64,
-        degrees_per_second: f64,
-        t0: f64,
-    },
+    /// An arc of a circle.
+    Circle(CirclePath),
+}
+
+/// `center + cos(a) e1 + sin(a) e2` with `a = degrees0 + degrees_per_second * (t - t0)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CirclePath {
+    pub center: DVec3,
+    pub e1: DVec3,
+    pub e2: DVec3,
+    pub degrees0: f64,
+    pub degrees_per_second: f64,
+    pub t0: f64,
+}
+
+impl CirclePath {
+    /// The point at time `t`.
+    #[inline]
+    pub fn at(&self, t: f64) -> DVec3 {
+        let degrees = self.degrees0 + self.degrees_per_second * (t - self.t0);
+        circle_point(self.center, self.e1, self.e2, degrees)
+    }
+
+    /// The box of the arc swept from `t0` over `duration` seconds.
+    pub fn bounds(&self, duration: f64) -> Aabb {
+        let sweep = self.degrees_per_second * duration;
+        arc_bounds(
+            self.center,
+            self.e1,
+            self.e2,
+            self.degrees0,
+            self.degrees0 + sweep,
+        )
+    }
 }
 
 impl FrameMotion {
@@ -198,14 +223,7 @@ impl FrameMotion {
                 t0,
             } => *start + *velocity * (t - t0),
             FrameMotion::Keyframes(points) => keyframe_at(points, t),
-            FrameMotion::Circle {
-                center,
-                e1,
-                e2,
-                degrees0,
-                degrees_per_second,
-                t0,
-            } => circle_point(*center, *e1, *e2, degrees0 + degrees_per_second * (t - t0)),
+            FrameMotion::Circle(c) => c.at(t),
         }
     }
 
@@ -225,17 +243,7 @@ impl FrameMotion {
             FrameMotion::Keyframes(points) => points
                 .iter()
                 .fold(Aabb::EMPTY, |b, k| b.union_point(k.position)),
-            FrameMotion::Circle {
-                center,
-                e1,
-                e2,
-                degrees0,
-                degrees_per_second,
-                ..
-            } => {
-                let sweep = degrees_per_second * interval.duration();
-                arc_bounds(*center, *e1, *e2, *degrees0, *degrees0 + sweep)
-            }
+            FrameMotion::Circle(c) => c.bounds(interval.duration()),
         };
         core.grow(radius).pad_for_rounding()
     }

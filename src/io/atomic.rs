@@ -166,7 +166,10 @@ fn process_may_be_alive(pid: u32) -> bool {
 /// write (minutes), so a file another machine is still writing is never taken for stale.
 ///
 /// A missing folder is not an error.
-pub(crate) fn remove_stale_temp_files(target: &Path, min_age: Duration) -> Result<Vec<PathBuf>, Error> {
+pub(crate) fn remove_stale_temp_files(
+    target: &Path,
+    min_age: Duration,
+) -> Result<Vec<PathBuf>, Error> {
     let (dir, file_name) = split_target(target)?;
     let entries = match fs::read_dir(&dir) {
         Ok(entries) => entries,

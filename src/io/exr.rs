@@ -5,6 +5,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use super::Image;
 use crate::error::Error;
 
 /// The metadata stored with a frame (in EXR headers; PNG files carry none).
@@ -187,9 +188,7 @@ pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAtt
 pub(super) fn write(
     writer: &mut BufWriter<File>,
     path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[f32],
+    image: &Image,
     attributes: exr::meta::header::LayerAttributes,
 ) -> Result<(), Error> {
     use exr::prelude::{
@@ -197,7 +196,7 @@ pub(super) fn write(
         WritableImage,
     };
 
-    let w = width as usize;
+    let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
         let i = 3 * (p.y() * w + p.x());
         (rgb[i], rgb[i + 1], rgb[i + 2])

@@ -84,6 +84,13 @@ impl Format {
     }
 }
 
+/// A frame's pixels as the encoders take them: linear RGB, row-major, top row first.
+struct Image<'a> {
+    width: u32,
+    height: u32,
+    rgb: &'a [f32],
+}
+
 /// Writes one frame to `path`, in the format its extension names (`.exr` or `.png`).
 ///
 /// `rgb` holds linear RGB, row-major, top row first, three floats per pixel. Parent folders
@@ -122,8 +129,9 @@ pub fn write_frame(
         Format::Exr => Some(exr::attributes(info).map_err(output_error)?),
         _ => None,
     };
+    let image = Image { width, height, rgb };
     atomic::write_with(path, |writer| match exr_attributes {
-        Some(attributes) => exr::write(writer, path, width, height, rgb, attributes),
-        None => png::write(writer, path, width, height, rgb),
+        Some(attributes) => exr::write(writer, path, &image, attributes),
+        None => png::write(writer, path, &image),
     })
 }

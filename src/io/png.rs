@@ -4,6 +4,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use super::Image;
 use crate::error::Error;
 
 /// Encodes a linear value as an 8-bit sRGB value with the exact piecewise sRGB curve,
@@ -22,21 +23,20 @@ pub fn linear_to_srgb8(v: f32) -> u8 {
 }
 
 /// Writes the frame as 8-bit sRGB PNG into `writer`.
-pub(super) fn write(
-    writer: &mut BufWriter<File>,
-    path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[f32],
-) -> Result<(), Error> {
-    use image::ImageEncoder;
-    use image::codecs::png::PngEncoder;
+pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) -> Result<(), Error> {
+    use ::image::ImageEncoder;
+    use ::image::codecs::png::PngEncoder;
 
-    let bytes: Vec<u8> = rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
+    let bytes: Vec<u8> = image.rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
     PngEncoder::new(&mut *writer)
-        .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
+        .write_image(
+            &bytes,
+            image.width,
+            image.height,
+            ::image::ExtendedColorType::Rgb8,
+        )
         .map_err(|e| match e {
-            image::ImageError::IoError(e) => Error::io(path, e),
+            ::image::ImageError::IoError(e) => Error::io(path, e),
             other => Error::Output {
                 path: path.to_path_buf(),
                 message: format!("PNG encoder: {other}"),
