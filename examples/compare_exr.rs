@@ -1,0 +1,80 @@
+//! Whether two renders of the same frame agree within their noise.
+//!
+//! ```sh
+//! cargo run --release --example compare_exr -- BLOCK A.exr B.exr [C.exr]
+//! ```
+//! Prints each image's mean per channel and, over BLOCK x BLOCK-pixel blocks, the largest and
+//! the root-mean-square difference of the block means of A and B. With a third image C (A's
+//! frame rendered again with another seed), also the same figures for A against C: the spread
+//! that noise alone gives, to judge A against B by. Used to check that a change to the
+//! renderer keeps its images (docs/architecture.md, docs/convergence.md).
+
+use std::process::ExitCode;
+
+use glam::DVec3;
+use raytrace::io::read_exr_rgb;
+
+/// Width, height and pixels of an EXR file.
+type Image = (usize, usize, Vec<DVec3>);
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if !(3..=4).contains(&args.len()) {
+        eprintln!("usage: compare_exr BLOCK A.exr B.exr [C.exr]");
+        return ExitCode::from(2);
+    }
+    let Ok(block) = args[0].parse::<usize>() else {
+        eprintln!("BLOCK must be a whole number, got {}", args[0]);
+        return ExitCode::from(2);
+    };
+    let mut images: Vec<Image> = Vec::new();
+    for path in &args[1..] {
+        match read_exr_rgb(path.as_ref()) {
+            Ok(image) => images.push(image),
+            Err(e) => {
+                eprintln!("{path}: {e}");
+                return ExitCode::from(1);
+            }
+        }
+    }
+    if images.iter().any(|i| (i.0, i.1) != (images[0].0, images[0].1)) || block == 0 {
+        eprintln!("the images differ in size, or BLOCK is 0");
+        return ExitCode::from(2);
+    }
+    for (path, image) in args[1..].iter().zip(&images) {
+        let m = image.2.iter().sum::<DVec3>() / image.2.len() as f64;
+        println!("{path}: mean {:.5} {:.5} {:.5}", m.x, m.y, m.z);
+    }
+    let (max, rms) = block_difference(&images[0], &images[1], block);
+    println!("A vs B: block means differ by at most {max:.5}, rms {rms:.5}");
+    if let Some(c) = images.get(2) {
+        let (max, rms) = block_difference(&images[0], c, block);
+        println!("A vs C (noise): block means differ by at most {max:.5}, rms {rms:.5}");
+    }
+    ExitCode::SUCCESS
+}
+
+/// The largest and the root-mean-square difference, over channels and whole blocks, of the
+/// block means of two images of one size.
+fn block_difference(a: &Image, b: &Image, block: usize) -> (f64, f64) {
+    let (w, h) = (a.0, a.1);
+    let mean = |img: &Image, bx: usize, by: usize| {
+        let mut sum = DVec3::ZERO;
+        for y in by * block..(by + 1) * block {
+            for x in bx * block..(bx + 1) * block {
+                sum += img.2[y * w + x];
+            }
+        }
+        sum / (block * block) as f64
+    };
+    let (mut max, mut sum_sq, mut n) = (0.0f64, 0.0, 0usize);
+    for by in 0..h / block {
+        for bx in 0..w / block {
+            let d = (mean(a, bx, by) - mean(b, bx, by)).abs();
+            max = max.max(d.max_element());
+            sum_sq += d.length_squared();
+            n += 3;
+        }
+    }
+    (max, (sum_sq / n.max(1) as f64).sqrt())
+}
