@@ -11,6 +11,7 @@ mod check;
 mod converge;
 mod frames;
 mod generate;
+mod interrupt;
 mod progress;
 mod render;
 
@@ -56,7 +57,8 @@ pub enum Command {
   raytrace render shot.toml --noise-threshold 0.01   # sample each frame to 1% estimated error
   raytrace render shot.toml --time-limit 60          # at most a minute a frame
 
-Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure.")]
+Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure,
+130 on SIGINT and 143 on SIGTERM (finished frames stay, the frame in progress is dropped).")]
     Render(RenderArgs),
     /// Measure how a frame's error falls with render time, for each sampler.
     #[command(
@@ -282,8 +284,9 @@ impl BudgetArgs {
     }
 }
 
-/// Runs a parsed command line.
+/// Runs a parsed command line. SIGINT and SIGTERM stop it (see [`interrupt`]).
 pub fn run(cli: &Cli) -> Result<(), Error> {
+    interrupt::install()?;
     match &cli.command {
         Command::Render(args) => render::render(args).map(|_| ()),
         Command::Converge(args) => converge::converge(args).map(|_| ()),

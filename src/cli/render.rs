@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use super::frames::Selection;
 use super::progress::Progress;
-use super::RenderArgs;
+use super::{RenderArgs, interrupt};
 use crate::error::{Error, clip_path};
 use crate::io::{self, FrameInfo};
 use crate::render::{FrameStats, render_frame};
@@ -116,6 +116,7 @@ fn render_targets(
     let start = Instant::now();
     let budget = args.budget.budget();
     let progress = Progress::new(targets.frames.len(), args.scene_args.quiet);
+    interrupt::frames_selected(targets.frames.len());
     let statics = StaticGeometry::new(scene);
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
@@ -132,6 +133,7 @@ fn render_targets(
                         clip_path(&path)
                     ));
                     summary.skipped += 1;
+                    interrupt::frame_skipped();
                     progress.frame_done();
                     continue;
                 }
