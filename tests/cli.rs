@@ -489,7 +489,12 @@ fn unwritable_output_exits_1_naming_the_path() {
     std::fs::write(d.path().join("out"), b"not a folder").unwrap();
     let o = run(d.path(), &["render", "shot.toml", "--frames", "1"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("out"), "{}", text(&o));
+    assert!(
+        text(&o).contains("out/f_0001.exr: out is not a folder"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(files(d.path()), ["out", "shot.toml"].map(PathBuf::from));
 }
 
 #[test]

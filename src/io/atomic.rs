@@ -379,7 +379,8 @@ fn process_may_be_alive(pid: u32) -> bool {
 /// protects a file another machine is still writing into a shared folder. Pass a `min_age`
 /// longer than any frame takes to write (minutes).
 ///
-/// A missing folder is not an error.
+/// A missing folder, or a path through a regular file, is not an error here: there is
+/// nothing to clean, and the write that follows reports it with the frame's path.
 pub(crate) fn remove_stale_temp_files(
     target: &Path,
     min_age: Duration,
@@ -387,7 +388,14 @@ pub(crate) fn remove_stale_temp_files(
     let (dir, file_name) = split_target(target)?;
     let entries = match fs::read_dir(&dir) {
         Ok(entries) => entries,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::NotFound | io::ErrorKind::NotADirectory
+            ) =>
+        {
+            return Ok(Vec::new());
+        }
         Err(e) => return Err(Error::io(&dir, e)),
     };
     let here = host_name();

@@ -588,13 +588,15 @@ fn stale_temp_files_are_removed_and_nothing_else() {
     let mut want = vec![theirs_young, legacy_young];
     want.sort();
     assert_eq!(removed, want);
-    // A folder that does not exist holds nothing stale.
-    let missing = dir.path().join("nope/f.exr");
-    assert!(
-        remove_stale_temp_files(&missing, Duration::ZERO)
-            .unwrap()
-            .is_empty()
-    );
+    // A folder that does not exist, or a regular file, holds nothing stale.
+    for nothing in ["nope/f.exr", "f.0001.exr/f.exr"] {
+        let path = dir.path().join(nothing);
+        assert!(
+            remove_stale_temp_files(&path, Duration::ZERO)
+                .unwrap()
+                .is_empty()
+        );
+    }
 }
 
 #[test]
