@@ -1,7 +1,9 @@
-//! The error type of the library, and the exit status each kind maps to.
+//! The error type of the library, the exit status each kind maps to, and how long texts
+//! (paths, arguments) are shortened in messages.
 
+use std::borrow::Cow;
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Everything that can go wrong, split by who has to act on it.
 #[derive(Debug)]
@@ -44,12 +46,84 @@ impl Error {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::Scene(m) => write!(f, "{m}"),
-            Error::Usage(m) | Error::Resource(m) => write!(f, "{m}"),
-            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
-            Error::Output { path, message } => write!(f, "{}: {message}", path.display()),
+            Error::Scene(m) | Error::Usage(m) | Error::Resource(m) => {
+                write!(f, "{}", clip_message(m))
+            }
+            Error::Io { path, source } => write!(f, "{}: {source}", clip_path(path)),
+            Error::Output { path, message } => {
+                write!(f, "{}: {}", clip_path(path), clip_message(message))
+            }
         }
     }
+}
+
+/// The longest text (path, argument) a message quotes whole, in bytes.
+pub const MAX_QUOTED: usize = 400;
+
+/// The longest message printed whole, in bytes.
+const MAX_MESSAGE: usize = 4000;
+
+/// `text` itself when it is at most [`MAX_QUOTED`] bytes; else its start, an ellipsis, its
+/// last few characters and its length: `renders/aaaaaaaa…aaa/f_####.exr (20971531 bytes)`.
+/// A message never repeats a huge argument.
+pub fn clip(text: &str) -> Cow<'_, str> {
+    if text.len() <= MAX_QUOTED {
+        return Cow::Borrowed(text);
+    }
+    let mut head = MAX_QUOTED / 2;
+    while !text.is_char_boundary(head) {
+        head -= 1;
+    }
+    let mut tail = text.len() - 32;
+    while !text.is_char_boundary(tail) {
+        tail += 1;
+    }
+    Cow::Owned(format!(
+        "{}…{} ({} bytes)",
+        &text[..head],
+        &text[tail..],
+        text.len()
+    ))
+}
+
+/// A path for a message, shortened as [`clip`] does.
+pub fn clip_path(path: &Path) -> String {
+    clip(&path.to_string_lossy()).into_owned()
+}
+
+/// A message with every run of more than [`MAX_QUOTED`] non-blank characters shortened as
+/// [`clip`] does, and cut after [`MAX_MESSAGE`] bytes: messages that quote a value of the
+/// input (a scene's output path, say) stay readable however long the value is.
+fn clip_message(message: &str) -> Cow<'_, str> {
+    let long_run = message
+        .split(char::is_whitespace)
+        .any(|w| w.len() > MAX_QUOTED);
+    if !long_run && message.len() <= MAX_MESSAGE {
+        return Cow::Borrowed(message);
+    }
+    let mut out = String::new();
+    let mut word = String::new();
+    let flush = |out: &mut String, word: &mut String| {
+        out.push_str(&clip(word));
+        word.clear();
+    };
+    for c in message.chars() {
+        if c.is_whitespace() {
+            flush(&mut out, &mut word);
+            out.push(c);
+        } else {
+            word.push(c);
+        }
+    }
+    flush(&mut out, &mut word);
+    if out.len() > MAX_MESSAGE {
+        let mut end = MAX_MESSAGE;
+        while !out.is_char_boundary(end) {
+            end -= 1;
+        }
+        out = format!("{}… (message of {} bytes cut)", &out[..end], out.len());
+    }
+    Cow::Owned(out)
 }
 
 impl std::error::Error for Error {
@@ -58,5 +132,51 @@ impl std::error::Error for Error {
             Error::Io { source, .. } => Some(source),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_texts_are_quoted_by_their_start_and_length() {
+        assert_eq!(clip("out/f_####.exr"), "out/f_####.exr");
+        let long = format!("renders/{}/f_####.exr", "a".repeat(20 << 20));
+        let short = clip(&long);
+        assert!(short.len() < MAX_QUOTED, "{short}");
+        assert!(short.starts_with("renders/aaa"), "{short}");
+        assert!(
+            short.ends_with(&format!("aaa/f_####.exr ({} bytes)", long.len())),
+            "{short}"
+        );
+        // Never cut inside a character.
+        let accents = clip(&"é".repeat(1000)).into_owned();
+        assert!(accents.ends_with("é (2000 bytes)"), "{accents}");
+
+        let e = Error::io(&long, std::io::Error::other("File name too long"));
+        let text = e.to_string();
+        assert!(
+            text.len() < 1000 && text.ends_with("File name too long"),
+            "{text}"
+        );
+        let e = Error::Scene(format!(
+            "shot.toml: output.path \"{long}\" must end in .exr"
+        ));
+        let text = e.to_string();
+        assert!(text.len() < 1000, "{}", text.len());
+        assert!(
+            text.starts_with("shot.toml: output.path \"renders/"),
+            "{text}"
+        );
+        assert!(text.ends_with(" must end in .exr"), "{text}");
+        // Many short words: cut as a whole.
+        let e = Error::Usage("word ".repeat(100_000));
+        let text = e.to_string();
+        assert!(
+            text.len() < MAX_MESSAGE + 100 && text.ends_with("bytes cut)"),
+            "{text}"
+        );
+        assert_eq!(Error::Usage("short".into()).to_string(), "short");
     }
 }

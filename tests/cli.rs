@@ -230,18 +230,50 @@ fn default_output_is_named_after_the_scene() {
 }
 
 #[test]
-fn skip_existing_leaves_frames_untouched() {
+fn skip_existing_leaves_complete_frames_untouched_and_redoes_the_rest() {
     let d = setup(SMALL);
-    std::fs::create_dir_all(d.path().join("out")).unwrap();
-    std::fs::write(d.path().join("out/f_0002.exr"), b"keep me").unwrap();
+    // Frame 2 rendered with other settings: a complete file, so it stays as it is.
+    let o = run(
+        d.path(),
+        &["render", "shot.toml", "--frames", "2", "--samples", "1"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let kept = std::fs::read(d.path().join("out/f_0002.exr")).unwrap();
+    // Frame 3 empty, frame 4 cut short (as an interrupted copy leaves them): rendered again.
+    std::fs::write(d.path().join("out/f_0003.exr"), b"").unwrap();
+    std::fs::write(d.path().join("out/f_0004.exr"), &kept[..kept.len() - 10]).unwrap();
     let o = run(d.path(), &["render", "shot.toml", "--skip-existing"]);
     assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    assert!(
+        out.contains("frame 2: out/f_0002.exr exists, skipped"),
+        "{out}"
+    );
+    assert!(
+        out.contains("incomplete file out/f_0003.exr (0 bytes): frame 3 is rendered again"),
+        "{out}"
+    );
+    assert!(
+        out.contains("incomplete file out/f_0004.exr (truncated"),
+        "{out}"
+    );
+    assert!(out.contains("3 frames rendered, 1 skipped"), "{out}");
     assert_eq!(
         std::fs::read(d.path().join("out/f_0002.exr")).unwrap(),
-        b"keep me"
+        kept
     );
-    assert_eq!(files(d.path()).len(), 5);
-    assert!(text(&o).contains("skipped"));
+    // The redone frames are whole, and the same as a fresh render's.
+    let o = run(
+        d.path(),
+        &["render", "shot.toml", "--output", "ref/f_####.exr"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    for f in ["f_0001.exr", "f_0003.exr", "f_0004.exr"] {
+        let a = std::fs::read(d.path().join("out").join(f)).unwrap();
+        let b = std::fs::read(d.path().join("ref").join(f)).unwrap();
+        assert!(a == b, "{f} differs from a fresh render");
+    }
+    assert_eq!(files(d.path()).len(), 9);
 }
 
 #[test]
@@ -457,7 +489,12 @@ fn unwritable_output_exits_1_naming_the_path() {
     std::fs::write(d.path().join("out"), b"not a folder").unwrap();
     let o = run(d.path(), &["render", "shot.toml", "--frames", "1"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("out"), "{}", text(&o));
+    assert!(
+        text(&o).contains("out/f_0001.exr: out is not a folder"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(files(d.path()), ["out", "shot.toml"].map(PathBuf::from));
 }
 
 #[test]

@@ -5,17 +5,21 @@ use std::fmt::Write;
 
 use super::CheckArgs;
 use super::frames;
-use crate::error::Error;
+use super::render::targets;
+use crate::error::{Error, clip, clip_path};
 use crate::motion::Motion;
 use crate::scene::Scene;
 
-/// `raytrace check`: validates a scene and describes it.
+/// `raytrace check`: validates a scene, and what `raytrace render` of it would check before
+/// rendering (its frames and their files, with the same code), and describes it.
 pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     let scene_path = &args.scene;
+    super::check_scene_path(scene_path)?;
     let scene = Scene::load(scene_path)?;
+    let selected = targets(&scene, None, None)?.frames;
     let shot = &scene.shot;
     let mut s = String::new();
-    let _ = writeln!(s, "{}: ok", scene_path.display());
+    let _ = writeln!(s, "{}: ok", clip_path(scene_path));
     let _ = writeln!(
         s,
         "shot: {} frames ({}-{}) at {} fps, shutter {} s ({}), start time {} s",
@@ -62,19 +66,20 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         scene.render.samples,
         scene.render.max_depth,
         scene.render.seed,
-        scene.output.path
+        clip(&scene.output.path)
     );
+    // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.
     let _ = writeln!(
         s,
         "total samples: {} ({} per frame)",
-        per_frame * shot.frames as u64,
+        per_frame as u128 * selected.len() as u128,
         per_frame
     );
     if let Some(size) = args.chunk_size {
         let _ = writeln!(
             s,
             "chunks: {} of up to {size} frames",
-            frames::chunk_count(shot.frames.into(), size)
+            frames::chunk_count(selected.len(), size)
         );
     }
     let _ = writeln!(s, "frames:");

@@ -9,6 +9,7 @@ use crate::scene::generate::{RandomScene, scene_text};
 /// command line's parsers.
 pub(crate) fn generate(args: &GenerateArgs) -> Result<(), Error> {
     Format::of(&args.output, &[Format::Toml], "scene").map_err(Error::Usage)?;
+    io::check_target(&args.output).map_err(Error::Usage)?;
     let scene = RandomScene {
         spheres: args.spheres,
         moving: args.moving,

@@ -4,16 +4,18 @@
 //!
 //! Ranges of flags that do not come from the scene are checked by clap's value parsers here;
 //! flags that replace scene values become [`Overrides`] and are checked by the scene's
-//! validator, with the file's values.
+//! validator, with the file's values. Every numeric flag takes a negative number as its value
+//! (`--width -16`), so that the value parser, not the option parser, says what is wrong.
 
 mod check;
 mod converge;
 mod frames;
 mod generate;
+mod interrupt;
 mod progress;
 mod render;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
@@ -55,7 +57,8 @@ pub enum Command {
   raytrace render shot.toml --noise-threshold 0.01   # sample each frame to 1% estimated error
   raytrace render shot.toml --time-limit 60          # at most a minute a frame
 
-Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure.")]
+Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure,
+130 on SIGINT and 143 on SIGTERM (finished frames stay, the frame in progress is dropped).")]
     Render(RenderArgs),
     /// Measure how a frame's error falls with render time, for each sampler.
     #[command(
@@ -86,16 +89,17 @@ Examples:
 #[derive(Args, Clone, Debug, Default)]
 pub struct SceneArgs {
     /// Image width in pixels.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub width: Option<u32>,
     /// Image height in pixels.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Random seed (for `converge`: of the measured renders).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole::<u64>)]
     pub seed: Option<u64>,
-    /// Worker threads (default: one per core).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads, 1 to 1024 (default: one per core).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64))]
     pub threads: Option<u16>,
     /// Print nothing but errors.
     #[arg(long, short)]
@@ -108,14 +112,16 @@ pub struct RenderArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// Frames to render: `12`, `1-48`, `1-48:4` (every 4th) or a comma list of those.
-    /// Without a value, or absent: every frame of the shot.
-    #[arg(long, num_args = 0..=1, default_missing_value = "")]
-    pub frames: Option<String>,
+    /// Without a value, or absent: every frame of the shot. An empty value (`--frames ''`)
+    /// is an error.
+    #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
+    pub frames: Option<Option<String>>,
     /// Output path pattern; runs of `#` become the zero-padded frame number; `.exr` or `.png`.
     #[arg(long, short)]
     pub output: Option<String>,
-    /// Samples per pixel.
-    #[arg(long)]
+    /// Samples per pixel, exactly (not with --time-limit or --noise-threshold, which decide
+    /// the samples themselves: cap them with --max-samples).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "limit")]
     pub samples: Option<u32>,
     /// How samples are placed: `sobol` (default) or `independent`.
     #[arg(long)]
@@ -130,10 +136,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub stats: bool,
     /// Split the selected frames into chunks of this many consecutive frames (with --chunk).
-    #[arg(long, requires = "chunk", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, requires = "chunk", allow_negative_numbers = true,
+          value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
     /// Render only this chunk (0-based) of the selected frames (with --chunk-size).
-    #[arg(long, requires = "chunk_size")]
+    #[arg(long, requires = "chunk_size", allow_negative_numbers = true,
+          value_parser = whole::<u64>)]
     pub chunk: Option<u64>,
     #[command(flatten)]
     pub budget: BudgetArgs,
@@ -148,11 +156,12 @@ pub struct BudgetArgs {
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
     pub time_limit: Option<f64>,
     /// Sample in passes until the estimated relative error of the frame (as printed,
-    /// 0.01 = 1%) is at or below this.
+    /// 0.01 = 1%) is at or below this, or until --max-samples (default 65536).
     #[arg(long, value_name = "E", allow_negative_numbers = true, value_parser = positive)]
     pub noise_threshold: Option<f64>,
-    /// With --time-limit or --noise-threshold: never more than this many samples per pixel.
-    #[arg(long, value_name = "N", requires = "limit",
+    /// With --time-limit or --noise-threshold: never more than this many samples per pixel
+    /// (default with --noise-threshold: 65536; with --time-limit alone: no cap).
+    #[arg(long, value_name = "N", requires = "limit", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub max_samples: Option<u32>,
 }
@@ -163,13 +172,14 @@ pub struct ConvergeArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// The frame to measure (default: the shot's first).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub frame: Option<u32>,
     /// A reference image (EXR) of the frame, instead of rendering one.
     #[arg(long, value_name = "FILE.exr", conflicts_with = "reference_samples")]
     pub reference: Option<PathBuf>,
     /// Samples per pixel of the reference rendered first (default 4096).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_samples: Option<u32>,
     /// Where to write the rendered reference (default: beside --csv or --plot, named
     /// after the scene).
@@ -177,7 +187,8 @@ pub struct ConvergeArgs {
     pub write_reference: Option<PathBuf>,
     /// The largest samples per pixel measured (default: the scene's samples, or no limit
     /// with --budget).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
     pub max_samples: Option<u32>,
     /// Seconds of rendering per sampler, at most.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
@@ -201,7 +212,7 @@ pub struct CheckArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// Also print how many chunks of this many frames the shot makes.
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
 }
 
@@ -209,17 +220,18 @@ pub struct CheckArgs {
 #[derive(Args, Clone, Debug)]
 pub struct GenerateArgs {
     /// Number of spheres.
-    #[arg(long, default_value_t = 10000,
+    #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u64).range(1..=crate::scene::generate::MAX_SPHERES))]
     pub spheres: u64,
     /// Fraction of the spheres that move, 0 to 1.
-    #[arg(long, default_value_t = 0.5, value_parser = fraction)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = fraction)]
     pub moving: f64,
     /// Seed of the spheres' random numbers.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole::<u64>)]
     pub seed: u64,
     /// Frames in the shot.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
     /// The scene file to write (.toml).
     #[arg(long, short)]
@@ -250,19 +262,31 @@ impl RenderArgs {
     }
 }
 
+/// The samples per pixel a frame takes at most under `--noise-threshold` without
+/// `--max-samples`: a threshold the frame never reaches (`1e-300`) still ends.
+pub const DEFAULT_MAX_SAMPLES_FOR_THRESHOLD: u32 = 65536;
+
+/// The most worker threads `--threads` takes.
+pub const MAX_THREADS: u16 = 1024;
+
 impl BudgetArgs {
-    /// The budget these arguments give.
+    /// The budget these arguments give: a noise threshold without `--max-samples` stops at
+    /// [`DEFAULT_MAX_SAMPLES_FOR_THRESHOLD`].
     pub fn budget(&self) -> Budget {
+        let default_cap = self
+            .noise_threshold
+            .map(|_| DEFAULT_MAX_SAMPLES_FOR_THRESHOLD);
         Budget {
             time_limit: self.time_limit,
             noise_threshold: self.noise_threshold,
-            max_samples: self.max_samples,
+            max_samples: self.max_samples.or(default_cap),
         }
     }
 }
 
-/// Runs a parsed command line.
+/// Runs a parsed command line. SIGINT and SIGTERM stop it (see [`interrupt`]).
 pub fn run(cli: &Cli) -> Result<(), Error> {
+    interrupt::install()?;
     match &cli.command {
         Command::Render(args) => render::render(args).map(|_| ()),
         Command::Converge(args) => converge::converge(args).map(|_| ()),
@@ -279,12 +303,63 @@ pub fn thread_pool(threads: Option<u16>) -> Result<rayon::ThreadPool, Error> {
         .map_err(|e| Error::Resource(format!("cannot start worker threads: {e}")))
 }
 
+/// Refuses a scene path that names no regular file, before anything reads it: a folder, a
+/// symbolic link loop, a path through a regular file, a name too long, an unreadable file
+/// (exit 2, as a missing file is). A pipe or a device is refused too: reading one could
+/// wait for ever (a pipe without a writer) or never end (`/dev/zero`).
+pub(crate) fn check_scene_path(path: &Path) -> Result<(), Error> {
+    let shown = crate::error::clip_path(path);
+    let refuse = |why: String| Err(Error::Usage(format!("{shown}: {why}")));
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => refuse("is a folder, not a scene file".to_string()),
+        Ok(m) if !m.is_file() => refuse(
+            "is not a regular file (a scene is read from a file, not a pipe or a device)"
+                .to_string(),
+        ),
+        Ok(_) => match std::fs::File::open(path) {
+            Ok(_) => Ok(()),
+            Err(e) => refuse(format!("cannot read the scene: {e}")),
+        },
+        // The loader says it in its own words (exit 2 as well).
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => refuse(format!("cannot read the scene: {e}")),
+    }
+}
+
+/// Clap's value parser of a whole number `T` (a negative or fractional one is refused with a
+/// message that says so).
+fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
+    let t = text.trim();
+    if let Ok(v) = t.parse::<T>() {
+        return Ok(v);
+    }
+    let shown = crate::error::clip(text);
+    if t.starts_with('-') && t[1..].bytes().all(|b| b.is_ascii_digit()) && t.len() > 1 {
+        Err(format!("must be a whole number >= 0, got {shown}"))
+    } else if !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()) {
+        Err(format!("{shown} is too large"))
+    } else {
+        Err(format!("must be a whole number, got \"{shown}\""))
+    }
+}
+
+/// Clap's value parser of a whole number from 1.
+fn whole_from_1(text: &str) -> Result<u64, String> {
+    match whole::<u64>(text)? {
+        0 => Err("must be at least 1, got 0".to_string()),
+        n => Ok(n),
+    }
+}
+
 /// Clap's value parser of a finite number above zero.
 fn positive(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
         Ok(v) => Err(format!("must be a number > 0, got {v}")),
-        Err(_) => Err(format!("must be a number > 0, got \"{text}\"")),
+        Err(_) => Err(format!(
+            "must be a number > 0, got \"{}\"",
+            crate::error::clip(text)
+        )),
     }
 }
 
@@ -293,6 +368,9 @@ fn fraction(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
         Ok(v) => Err(format!("must be in [0, 1], got {v}")),
-        Err(_) => Err(format!("must be a number in [0, 1], got \"{text}\"")),
+        Err(_) => Err(format!(
+            "must be a number in [0, 1], got \"{}\"",
+            crate::error::clip(text)
+        )),
     }
 }

@@ -5,105 +5,152 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use super::frames::Selection;
 use super::progress::Progress;
-use super::{RenderArgs, frames};
-use crate::error::Error;
+use super::{RenderArgs, interrupt};
+use crate::error::{Error, clip_path};
 use crate::io::{self, FrameInfo};
 use crate::render::{FrameStats, render_frame};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
-/// Age after which a temporary frame file of a process that no longer runs is removed.
+/// Age after which a temporary frame file of another machine (or of an earlier version, whose
+/// names record no machine) is removed when its writer is not running here.
 pub(crate) const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
 
 /// What a render run did.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct RunSummary {
     /// Frames rendered and written.
-    pub(crate) rendered: Vec<u32>,
+    pub(crate) rendered: u64,
     /// Frames left alone because their file existed.
-    pub(crate) skipped: Vec<u32>,
+    pub(crate) skipped: u64,
     pub(crate) seconds: f64,
     pub(crate) samples: u64,
     pub(crate) dropped: u64,
-    /// The estimated relative error of each rendered frame.
-    pub(crate) relative_errors: Vec<f64>,
+    /// The mean and the largest estimated relative error of the rendered frames.
+    pub(crate) error_mean: f64,
+    pub(crate) error_max: f64,
 }
 
-/// The frames a run renders: the `--frames` selection (or the whole shot), then the chunk.
-pub(crate) fn select_frames(scene: &Scene, args: &RenderArgs) -> Result<Vec<u32>, Error> {
+/// The frames a run renders: the `--frames` selection (absent or bare: the whole shot), then
+/// the chunk. Ranges, never a list: any shot length costs the same.
+pub(crate) fn select_frames(
+    scene: &Scene,
+    frames: Option<&Option<String>>,
+    chunk: Option<(u64, u64)>,
+) -> Result<Selection, Error> {
     let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
-    let all = match args.frames.as_deref().map(str::trim) {
-        None | Some("") => (first..=last).collect(),
-        Some(spec) => frames::parse_frames(spec, first, last)
+    let all = match frames {
+        None | Some(None) => Selection::range(first, last),
+        Some(Some(spec)) => Selection::parse(spec, first, last)
             .map_err(|e| Error::Usage(format!("--frames: {e}")))?,
     };
-    match args.chunk_size.zip(args.chunk) {
+    match chunk {
         None => Ok(all),
-        Some((size, index)) => Ok(frames::chunk(&all, size, index)
-            .map_err(Error::Usage)?
-            .to_vec()),
+        Some((size, index)) => all.chunk(size, index).map_err(Error::Usage),
+    }
+}
+
+/// The frames a run renders and the file of each.
+#[derive(Clone, Debug)]
+pub(crate) struct Targets {
+    pub(crate) frames: Selection,
+    pattern: String,
+}
+
+impl Targets {
+    /// Each frame with its file, in order, made as they are asked for.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (u32, PathBuf)> + '_ {
+        self.frames
+            .iter()
+            .map(|f| (f, io::frame_path(&self.pattern, f)))
     }
 }
 
 /// The frames a run renders and the file of each, checked before anything is rendered: one
-/// file per frame.
-pub(crate) fn targets(scene: &Scene, args: &RenderArgs) -> Result<Vec<(u32, PathBuf)>, Error> {
-    let selected = select_frames(scene, args)?;
+/// file per frame, and file names the system can take (the longest is the last frame's).
+/// `check` runs the same checks.
+pub(crate) fn targets(
+    scene: &Scene,
+    frames: Option<&Option<String>>,
+    chunk: Option<(u64, u64)>,
+) -> Result<Targets, Error> {
+    let selected = select_frames(scene, frames, chunk)?;
     let pattern = &scene.output.path;
     if selected.len() > 1 && !io::pattern_has_frame_number(pattern) {
         return Err(Error::Usage(format!(
-            "output path \"{pattern}\" has no '#' for the frame number, so {} frames would overwrite one file",
+            "output path \"{}\" has no '#' for the frame number, so {} frames would overwrite one file",
+            crate::error::clip(pattern),
             selected.len()
         )));
     }
-    Ok(selected
-        .iter()
-        .map(|&f| (f, io::frame_path(pattern, f)))
-        .collect())
+    for frame in [selected.first(), selected.last()].into_iter().flatten() {
+        io::check_target(&io::frame_path(pattern, frame))
+            .map_err(|e| Error::Usage(format!("output path: {e}")))?;
+    }
+    Ok(Targets {
+        frames: selected,
+        pattern: pattern.clone(),
+    })
 }
 
 /// Renders the selected frames of a scene and writes them. Everything that can be checked
 /// before rendering (scene, arguments, output names) is checked before anything is written.
 pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
+    super::check_scene_path(&args.scene)?;
     let scene = Scene::load_with(&args.scene, &args.overrides())?;
-    let targets = targets(&scene, args)?;
+    let targets = targets(
+        &scene,
+        args.frames.as_ref(),
+        args.chunk_size.zip(args.chunk),
+    )?;
     super::thread_pool(args.scene_args.threads)?.install(|| render_targets(&scene, &targets, args))
 }
 
 fn render_targets(
     scene: &Scene,
-    targets: &[(u32, PathBuf)],
+    targets: &Targets,
     args: &RenderArgs,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let budget = args.budget.budget();
-    let progress = Progress::new(targets.len() as u64, args.scene_args.quiet);
+    let progress = Progress::new(targets.frames.len(), args.scene_args.quiet);
+    interrupt::frames_selected(targets.frames.len());
     let statics = StaticGeometry::new(scene);
     let mut summary = RunSummary::default();
-    for (frame, path) in targets {
-        // A frame's temporary file lives only while the frame is encoded and written (seconds),
-        // so one a minute old whose writer is gone was left by a killed run. The age also
-        // protects files another machine is writing into a shared folder (its pid means
-        // nothing here).
-        io::remove_stale_temp_files(path, STALE_TEMP_AGE)?;
+    let mut error_sum = 0.0;
+    for (frame, path) in targets.iter() {
+        // A temporary file whose writer is gone was left by a killed run (see
+        // io::remove_stale_temp_files for the rule, and the age for files of other
+        // machines writing into a shared folder).
+        io::remove_stale_temp_files(&path, STALE_TEMP_AGE)?;
         if args.skip_existing && path.exists() {
-            progress.line(&format!(
-                "frame {frame}: {} exists, skipped",
-                path.display()
-            ));
-            summary.skipped.push(*frame);
-            progress.frame_done();
-            continue;
+            match io::check_frame_file(&path) {
+                Ok(()) => {
+                    progress.line(&format!(
+                        "frame {frame}: {} exists, skipped",
+                        clip_path(&path)
+                    ));
+                    summary.skipped += 1;
+                    interrupt::frame_skipped();
+                    progress.frame_done();
+                    continue;
+                }
+                Err(why) => progress.line(&format!(
+                    "incomplete file {} ({why}): frame {frame} is rendered again",
+                    clip_path(&path)
+                )),
+            }
         }
         let planned = (!budget.is_set()).then(|| {
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
-        let bar = progress.start_frame(*frame, planned);
-        let result = render_frame(scene, &statics, *frame, &budget, &|n| bar.inc(n));
+        let bar = progress.start_frame(frame, planned);
+        let result = render_frame(scene, &statics, frame, &budget, &|n| bar.inc(n));
         bar.finish_and_clear();
         let st = &result.stats;
-        let mut info = frame_info(scene, *frame, st.samples_per_pixel);
+        let mut info = frame_info(scene, frame, st.samples_per_pixel);
         if st.relative_error.is_finite() {
             info.extra
                 .push(("estimatedRelativeError".to_string(), st.relative_error));
@@ -115,7 +162,7 @@ fn render_targets(
             info.extra.push(("timeLimit".to_string(), t));
         }
         io::write_frame(
-            path,
+            &path,
             scene.output.width,
             scene.output.height,
             &result.film.to_rgb_f32(),
@@ -133,30 +180,33 @@ fn render_targets(
             percent(st.relative_error),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
             st.dropped,
-            path.display()
+            clip_path(&path)
         ));
         if args.stats {
-            progress.line(&stats_line(*frame, st));
+            progress.line(&stats_line(frame, st));
         }
-        summary.relative_errors.push(st.relative_error);
-        summary.rendered.push(*frame);
+        error_sum += st.relative_error;
+        summary.error_max = summary.error_max.max(st.relative_error);
+        summary.rendered += 1;
         summary.samples += st.samples;
         summary.dropped += st.dropped;
         progress.frame_done();
     }
     summary.seconds = start.elapsed().as_secs_f64();
-    let errors = &summary.relative_errors;
-    let error = if errors.is_empty() {
+    let error = if summary.rendered == 0 {
         String::new()
     } else {
-        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        let max = errors.iter().copied().fold(0.0, f64::max);
-        format!(", est. error mean {} max {}", percent(mean), percent(max))
+        summary.error_mean = error_sum / summary.rendered as f64;
+        format!(
+            ", est. error mean {} max {}",
+            percent(summary.error_mean),
+            percent(summary.error_max)
+        )
     };
     progress.line(&format!(
         "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",
-        summary.rendered.len(),
-        summary.skipped.len(),
+        summary.rendered,
+        summary.skipped,
         summary.seconds,
         summary.samples as f64 / summary.seconds.max(1e-9) / 1e6
     ));

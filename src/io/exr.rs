@@ -306,3 +306,73 @@ fn splice_exr_attributes(
     out.extend_from_slice(&file[table + 8 * chunks..]);
     Ok(out)
 }
+
+/// Whether the EXR file at `path` is whole, cheaply: its header reads, every chunk its offset
+/// table lists starts inside the file, and (for a single-part image, as frames are) the last
+/// chunk ends inside it. Reads the header, the offset table and a few bytes; decodes no pixel.
+/// The error says what is wrong.
+pub(super) fn check_complete(path: &Path) -> Result<(), String> {
+    use exr::meta::BlockDescription;
+    use std::io::{BufReader, Read, Seek, SeekFrom};
+
+    /// Counts the bytes read through it.
+    struct Counting<R> {
+        inner: R,
+        count: u64,
+    }
+    impl<R: Read> Read for Counting<R> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.inner.read(buf)?;
+            self.count += n as u64;
+            Ok(n)
+        }
+    }
+
+    let truncated = "truncated (it ends before its last chunk of pixels)";
+    let file = File::open(path).map_err(|e| e.to_string())?;
+    let len = file.metadata().map_err(|e| e.to_string())?.len();
+    let mut reader = Counting {
+        inner: BufReader::new(file),
+        count: 0,
+    };
+    let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false)
+        .map_err(|e| format!("not a readable EXR file ({e})"))?;
+    // The header ends with its terminating byte, which the reader consumed: the offset
+    // tables start here.
+    let chunks: u64 = meta.headers.iter().map(|h| h.chunk_count as u64).sum();
+    let table_end = chunks
+        .checked_mul(8)
+        .and_then(|n| n.checked_add(reader.count))
+        .filter(|&end| end <= len)
+        .ok_or(truncated)?;
+    let mut last_chunk = 0;
+    for _ in 0..chunks {
+        let mut offset = [0u8; 8];
+        reader.read_exact(&mut offset).map_err(|_| truncated)?;
+        let offset = u64::from_le_bytes(offset);
+        if offset < table_end || offset >= len {
+            return Err(truncated.to_string());
+        }
+        last_chunk = last_chunk.max(offset);
+    }
+    if let [header] = meta.headers.as_slice()
+        && !header.deep
+    {
+        // A chunk starts with its coordinates (a scan line: one int; a tile: four), then the
+        // size of its data.
+        let coordinates = match header.blocks {
+            BlockDescription::ScanLines => 4,
+            BlockDescription::Tiles(_) => 16,
+        };
+        let mut file = reader.inner.into_inner();
+        let mut size = [0u8; 4];
+        file.seek(SeekFrom::Start(last_chunk + coordinates))
+            .and_then(|_| file.read_exact(&mut size))
+            .map_err(|_| truncated)?;
+        let size = i32::from_le_bytes(size);
+        if size < 0 || last_chunk + coordinates + 4 + size as u64 > len {
+            return Err(truncated.to_string());
+        }
+    }
+    Ok(())
+}

@@ -15,7 +15,9 @@ use std::path::Path;
 
 use crate::error::Error;
 
-pub(crate) use atomic::{remove_stale_temp_files, write_file};
+pub(crate) use atomic::{
+    check_target, files_written, remove_stale_temp_files, stop_writing, write_file,
+};
 pub use exr::{FrameInfo, read_exr_rgb};
 pub(crate) use frame_path::{frame_path, pattern_has_frame_number};
 pub use png::linear_to_srgb8;
@@ -134,4 +136,24 @@ pub fn write_frame(
         Some(attributes) => exr::write(writer, path, &image, attributes),
         None => png::write(writer, path, &image),
     })
+}
+
+/// Whether the frame file at `path` is complete, cheaply (no pixel is decoded): an EXR file
+/// whose header reads and whose chunks all lie inside the file, or a PNG file that starts
+/// with its signature and header and ends with its end chunk. Used to tell a finished frame
+/// from a truncated or empty file under another name's writer. The error says what is
+/// wrong: `0 bytes`, `truncated (...)`, `not a readable EXR file (...)`.
+pub(crate) fn check_frame_file(path: &Path) -> Result<(), String> {
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err("not a file".to_string());
+    }
+    if meta.len() == 0 {
+        return Err("0 bytes".to_string());
+    }
+    match Format::from_extension(path, FRAME_FORMATS) {
+        Some(Format::Exr) => exr::check_complete(path),
+        Some(Format::Png) => png::check_complete(path),
+        _ => Err(Format::unsupported(FRAME_FORMATS, "output")),
+    }
 }

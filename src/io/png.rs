@@ -44,3 +44,29 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
         })?;
     writer.flush().map_err(|e| Error::io(path, e))
 }
+
+/// Whether the PNG file at `path` is whole, cheaply: it starts with the PNG signature and an
+/// `IHDR` chunk and ends with the `IEND` chunk. The error says what is wrong.
+pub(super) fn check_complete(path: &Path) -> Result<(), String> {
+    use std::io::{Read, Seek, SeekFrom};
+    const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+    const IEND: [u8; 12] = [0, 0, 0, 0, b'I', b'E', b'N', b'D', 0xae, 0x42, 0x60, 0x82];
+    let mut file = File::open(path).map_err(|e| e.to_string())?;
+    let mut start = [0u8; 16];
+    let mut end = [0u8; 12];
+    let len = file.metadata().map_err(|e| e.to_string())?.len();
+    if len < (SIGNATURE.len() + 25 + IEND.len()) as u64
+        || file.read_exact(&mut start).is_err()
+        || start[..8] != SIGNATURE
+        || &start[12..16] != b"IHDR"
+    {
+        return Err("not a readable PNG file".to_string());
+    }
+    file.seek(SeekFrom::End(-(IEND.len() as i64)))
+        .and_then(|_| file.read_exact(&mut end))
+        .map_err(|e| e.to_string())?;
+    if end != IEND {
+        return Err("truncated (it does not end with the IEND chunk)".to_string());
+    }
+    Ok(())
+}

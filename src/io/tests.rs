@@ -4,7 +4,7 @@ use std::fs::{self, File};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::atomic::{parse_temp_name, split_target, temp_name};
+use super::atomic::{Writer, host_name, parse_temp_name, split_target, temp_name, write_with};
 use super::exr::fps_rational;
 use super::*;
 
@@ -349,32 +349,73 @@ fn failed_rename_keeps_nothing_behind() {
     assert_eq!(dir_names(&path), vec!["keep"]);
 }
 
-#[cfg(unix)]
 #[test]
-fn read_only_folder_fails_cleanly() {
-    use std::os::unix::fs::PermissionsExt;
+fn a_name_too_long_fails_cleanly_and_removes_the_folders_it_made() {
+    // A file name the file system refuses (ENAMETOOLONG, for root too): the folders made
+    // for it are removed again, and an existing frame beside it is untouched.
     let dir = tempfile::tempdir().unwrap();
-    let ro = dir.path().join("ro");
-    fs::create_dir(&ro).unwrap();
-    let path = ro.join("f.0001.exr");
-    fs::write(&path, b"previous frame").unwrap();
-    fs::set_permissions(&ro, fs::Permissions::from_mode(0o555)).unwrap();
-    // Root ignores permissions: only check the failure when it really is read-only.
-    let probe = ro.join("probe");
-    let enforced = fs::write(&probe, b"").is_err();
-    let _ = fs::remove_file(&probe);
-    if enforced {
-        for p in [&path, &ro.join("g.png")] {
-            let e = write_frame(p, 2, 2, &pixels(2, 2), &info()).unwrap_err();
-            assert!(matches!(&e, Error::Io { path: q, .. } if q == p), "{e}");
-            assert!(e.to_string().contains(&*p.to_string_lossy()), "{e}");
-        }
-    } else {
-        eprintln!("permissions are not enforced (running as root?): skipping this check");
-    }
-    fs::set_permissions(&ro, fs::Permissions::from_mode(0o755)).unwrap();
-    assert_eq!(fs::read(&path).unwrap(), b"previous frame");
-    assert_eq!(dir_names(&ro), vec!["f.0001.exr"]);
+    let keep = dir.path().join("a/f.0001.exr");
+    write_frame(&keep, 2, 2, &pixels(2, 2), &info()).unwrap();
+    let before = fs::read(&keep).unwrap();
+    let long = dir.path().join(format!("a/b/c/{}.exr", "x".repeat(300)));
+    let e = write_frame(&long, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    assert!(matches!(&e, Error::Io { path: p, .. } if *p == long), "{e}");
+    assert_eq!(dir_names(&dir.path().join("a")), vec!["f.0001.exr"]);
+    assert_eq!(fs::read(&keep).unwrap(), before);
+    let e = check_target(&long).unwrap_err();
+    assert!(e.contains("304 bytes long") && e.contains("255"), "{e}");
+}
+
+#[test]
+fn a_failed_write_removes_its_temporary_file_and_new_folders() {
+    // The writer fails half way (as on a full disk): nothing is left, not even the folders
+    // created for the file, while a folder that existed stays.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("new/deeper/f.exr");
+    let e = write_with(&path, |w| {
+        use std::io::Write;
+        w.write_all(&[7u8; 100_000]).unwrap();
+        Err(Error::io(
+            &path,
+            std::io::Error::other("No space left on device"),
+        ))
+    })
+    .unwrap_err();
+    assert!(e.to_string().contains("No space left"), "{e}");
+    assert!(
+        dir_names(dir.path()).is_empty(),
+        "{:?}",
+        dir_names(dir.path())
+    );
+    fs::create_dir(dir.path().join("old")).unwrap();
+    let path = dir.path().join("old/f.exr");
+    write_with(&path, |_| {
+        Err(Error::io(&path, std::io::Error::other("full")))
+    })
+    .unwrap_err();
+    assert_eq!(dir_names(dir.path()), vec!["old"]);
+    assert!(dir_names(&dir.path().join("old")).is_empty());
+}
+
+#[test]
+fn paths_too_long_for_the_system_are_refused_before_writing() {
+    assert_eq!(check_target(Path::new("out/f.0001.exr")), Ok(()));
+    let e = check_target(Path::new(&format!("{}/f.exr", "d/".repeat(2100)))).unwrap_err();
+    assert!(
+        e.contains("the path is 4206 bytes long") && e.contains("4095"),
+        "{e}"
+    );
+    assert!(e.len() < 600, "the path is shortened: {e}");
+    // The temporary file's name is longer than its target's: the target's name must leave
+    // room for it.
+    let name = "n".repeat(240);
+    let e = check_target(Path::new(&format!("out/{name}.exr"))).unwrap_err();
+    assert!(
+        e.contains("244 bytes long") && e.contains("temporary"),
+        "{e}"
+    );
+    let e = check_target(Path::new("out/..")).unwrap_err();
+    assert!(e.contains("no file name"), "{e}");
 }
 
 #[test]
@@ -393,16 +434,52 @@ fn unusable_parent_fails_cleanly() {
 
 #[test]
 fn temp_names_are_hidden_ours_and_parseable() {
-    let name = temp_name(OsStr::new("f.0001.exr"), 4242, 0xabc);
-    assert_eq!(name, OsStr::new(".f.0001.exr.4242.0000000000000abc.tmp"));
+    let name = temp_name(OsStr::new("f.0001.exr"), Some("node-7"), 4242, 0xabc);
+    assert_eq!(
+        name,
+        OsStr::new(".f.0001.exr.node-7.4242.0000000000000abc.tmp")
+    );
     assert!(
         Format::of(Path::new(&name), FRAME_FORMATS, "output").is_err(),
         "never taken for a frame"
     );
-    assert_eq!(parse_temp_name(&name, OsStr::new("f.0001.exr")), Some(4242));
+    let node7 = Writer {
+        host: Some("node-7"),
+        pid: 4242,
+    };
+    assert_eq!(
+        parse_temp_name(&name, OsStr::new("f.0001.exr")),
+        Some(node7)
+    );
     assert_eq!(parse_temp_name(&name, OsStr::new("f.0002.exr")), None);
     assert_eq!(parse_temp_name(&name, OsStr::new("0001.exr")), None);
     assert_eq!(parse_temp_name(&name, OsStr::new("f.0001")), None);
+    // Earlier versions' names, without the machine.
+    let old = temp_name(OsStr::new("f.0001.exr"), None, 4242, 0xabc);
+    assert_eq!(old, OsStr::new(".f.0001.exr.4242.0000000000000abc.tmp"));
+    assert_eq!(
+        parse_temp_name(&old, OsStr::new("f.0001.exr")),
+        Some(Writer {
+            host: None,
+            pid: 4242
+        })
+    );
+    // A host of digits only is a host.
+    assert_eq!(
+        parse_temp_name(
+            OsStr::new(".f.0001.exr.1.2.0000000000000abc.tmp"),
+            OsStr::new("f.0001.exr")
+        ),
+        Some(Writer {
+            host: Some("1"),
+            pid: 2
+        })
+    );
+    // This machine's name as names carry it: letters, digits and '-'.
+    if let Some(host) = host_name() {
+        assert!(!host.is_empty() && host.len() <= 63, "{host}");
+        assert!(host.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-'));
+    }
     for other in [
         "f.0001.exr",
         ".f.0001.exr.tmp",
@@ -412,7 +489,9 @@ fn temp_names_are_hidden_ours_and_parseable() {
         ".f.0001.exr.4242.000000000000abc.tmp",
         ".f.0001.exr.x.0000000000000abc.tmp",
         ".f.0001.exr..0000000000000abc.tmp",
-        ".f.0001.exr.1.2.0000000000000abc.tmp",
+        ".f.0001.exr.a.b.2.0000000000000abc.tmp",
+        ".f.0001.exr.a_b.2.0000000000000abc.tmp",
+        ".f.0001.exr..2.0000000000000abc.tmp",
         ".f.0001.exr.99999999999.0000000000000abc.tmp",
         "f.0001.exr.4242.0000000000000abc.tmp",
     ] {
@@ -429,54 +508,120 @@ fn temp_names_are_hidden_ours_and_parseable() {
 fn stale_temp_files_are_removed_and_nothing_else() {
     let dir = tempfile::tempdir().unwrap();
     let target = dir.path().join("f.0001.exr");
+    let name = OsStr::new("f.0001.exr");
+    let temp = |host: Option<&str>, pid: u32, random: u64| {
+        dir.path().join(temp_name(name, host, pid, random))
+    };
+    let age = |path: &Path, seconds: u64| {
+        File::options()
+            .write(true)
+            .open(path)
+            .unwrap()
+            .set_modified(std::time::SystemTime::now() - Duration::from_secs(seconds))
+            .unwrap();
+    };
     // A pid above the kernel's maximum (4194304) can never be running.
     let dead = 4_000_000_000;
     let own = std::process::id();
-    let stale = dir
-        .path()
-        .join(temp_name(OsStr::new("f.0001.exr"), dead, 1));
-    let live = dir.path().join(temp_name(OsStr::new("f.0001.exr"), own, 2));
+    let here = host_name().expect("Linux has a host name");
+    let elsewhere = if here == "other-node" {
+        "node-9"
+    } else {
+        "other-node"
+    };
+    // This machine's, writer gone: removed at once, however young.
+    let ours_dead = temp(Some(here), dead, 1);
+    // This machine's, writer running: kept, however old.
+    let ours_live = temp(Some(here), own, 2);
+    // Another machine's: kept while young (it may be writing it), removed when old, whatever
+    // its pid means here.
+    let theirs_young = temp(Some(elsewhere), dead, 3);
+    let theirs_old = temp(Some(elsewhere), own, 4);
+    // An earlier version's (no machine): the pid must be gone here and the file old.
+    let legacy_young = temp(None, dead, 5);
+    let legacy_old = temp(None, dead, 6);
+    let legacy_live = temp(None, own, 7);
     let other_target = dir
         .path()
-        .join(temp_name(OsStr::new("f.0002.exr"), dead, 3));
+        .join(temp_name(OsStr::new("f.0002.exr"), Some(here), dead, 8));
     let lookalike = dir.path().join(".f.0001.exr.4000000000.zz.tmp");
-    let folder = dir
-        .path()
-        .join(temp_name(OsStr::new("f.0001.exr"), dead, 4));
-    for f in [&stale, &live, &other_target, &lookalike, &target] {
+    let folder = temp(Some(here), dead, 9);
+    for f in [
+        &ours_dead,
+        &ours_live,
+        &theirs_young,
+        &theirs_old,
+        &legacy_young,
+        &legacy_old,
+        &legacy_live,
+        &other_target,
+        &lookalike,
+        &target,
+    ] {
         fs::write(f, b"x").unwrap();
     }
     fs::create_dir(&folder).unwrap();
+    for f in [&ours_live, &theirs_old, &legacy_old, &legacy_live] {
+        age(f, 3600);
+    }
 
-    // Too recent for a minimum age.
-    assert!(
-        remove_stale_temp_files(&target, Duration::from_secs(600))
-            .unwrap()
-            .is_empty()
-    );
-    let removed = remove_stale_temp_files(&target, Duration::ZERO).unwrap();
-    assert_eq!(removed, vec![stale.clone()]);
-    assert!(!stale.exists());
-    for f in [&live, &other_target, &lookalike, &target, &folder] {
+    let mut removed = remove_stale_temp_files(&target, Duration::from_secs(600)).unwrap();
+    removed.sort();
+    let mut want = vec![ours_dead.clone(), theirs_old.clone(), legacy_old.clone()];
+    want.sort();
+    assert_eq!(removed, want);
+    for f in [
+        &ours_live,
+        &theirs_young,
+        &legacy_young,
+        &legacy_live,
+        &other_target,
+        &lookalike,
+        &target,
+        &folder,
+    ] {
         assert!(f.exists(), "{}", f.display());
     }
-    // Old enough once its modification time is in the past.
-    let old = dir
-        .path()
-        .join(temp_name(OsStr::new("f.0001.exr"), dead, 5));
-    let file = File::create(&old).unwrap();
-    file.set_modified(std::time::SystemTime::now() - Duration::from_secs(3600))
-        .unwrap();
-    drop(file);
-    assert_eq!(
-        remove_stale_temp_files(&target, Duration::from_secs(600)).unwrap(),
-        vec![old]
-    );
-    // A folder that does not exist holds nothing stale.
-    let missing = dir.path().join("nope/f.exr");
-    assert!(
-        remove_stale_temp_files(&missing, Duration::ZERO)
-            .unwrap()
-            .is_empty()
-    );
+    // Without a minimum age, the young ones of other machines go too.
+    let mut removed = remove_stale_temp_files(&target, Duration::ZERO).unwrap();
+    removed.sort();
+    let mut want = vec![theirs_young, legacy_young];
+    want.sort();
+    assert_eq!(removed, want);
+    // A folder that does not exist, or a regular file, holds nothing stale.
+    for nothing in ["nope/f.exr", "f.0001.exr/f.exr"] {
+        let path = dir.path().join(nothing);
+        assert!(
+            remove_stale_temp_files(&path, Duration::ZERO)
+                .unwrap()
+                .is_empty()
+        );
+    }
+}
+
+#[test]
+fn complete_frames_are_told_from_empty_and_truncated_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, w, h) in [("f.exr", 7, 5), ("g.png", 7, 5), ("big.exr", 200, 150)] {
+        let path = dir.path().join(name);
+        write_frame(&path, w, h, &pixels(w, h), &info()).unwrap();
+        assert_eq!(check_frame_file(&path), Ok(()), "{name}");
+        let bytes = fs::read(&path).unwrap();
+        for cut in [1, 2, 9, bytes.len() / 2, bytes.len() - 40, bytes.len() - 1] {
+            let short = dir.path().join(format!("short_{cut}_{name}"));
+            fs::write(&short, &bytes[..cut]).unwrap();
+            let e = check_frame_file(&short).expect_err(&format!("{name} cut to {cut} bytes"));
+            assert!(
+                e.contains("truncated") || e.contains("not a readable"),
+                "{e}"
+            );
+        }
+        let empty = dir.path().join(format!("empty_{name}"));
+        fs::write(&empty, b"").unwrap();
+        assert_eq!(check_frame_file(&empty), Err("0 bytes".to_string()));
+    }
+    let folder = dir.path().join("d.exr");
+    fs::create_dir(&folder).unwrap();
+    assert_eq!(check_frame_file(&folder), Err("not a file".to_string()));
+    assert!(check_frame_file(&dir.path().join("none.exr")).is_err());
 }
