@@ -1,14 +1,16 @@
 //! The world of one frame: every sphere prepared for the frame's shutter interval, in one or
 //! two hierarchies. Spheres that never move in the shot are built into a [`StaticGeometry`]
-//! once per sequence; the others are prepared per frame, with boxes at that frame's shutter
-//! opening and closing, and built into a hierarchy per frame. A sphere that does not move
-//! during a frame is traced as a fixed sphere.
+//! once per sequence; the others are prepared per frame ([`SphereDesc::prepare`]), with boxes
+//! at that frame's shutter opening and closing, and built into a hierarchy per frame. A sphere
+//! that does not move during a frame is traced as a fixed sphere.
 //!
 //! Where one hierarchy over everything is cheaper, every sphere is treated as animated: in
 //! scenes of at most [`MERGE_LIMIT`] spheres it is built per frame; in larger scenes where at
 //! least [`SHARED_FRACTION`] of the spheres are animated it is built once, on the shot's first
 //! frame, and refitted to each frame's boxes, unless it has degraded too far
 //! ([`REBUILD_AREA`]), when the frame gets a hierarchy of its own.
+//!
+//! [`SphereDesc::prepare`]: crate::sphere::SphereDesc::prepare
 
 use std::sync::{Mutex, MutexGuard, TryLockError};
 
@@ -22,7 +24,7 @@ use crate::motion::FrameMotion;
 use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::sphere::{SurfacePoint, intersect, surface_point};
+use crate::sphere::{PreparedSphere, SurfacePoint, intersect, surface_point};
 
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
@@ -142,7 +144,8 @@ impl StaticGeometry {
         };
         let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
             let first = scene.shot.interval(scene.shot.first_frame);
-            let (_, open, close) = prepare_spheres(scene, &animated, first);
+            let prepared = prepare_spheres(scene, &animated, first);
+            let (open, close) = shutter_boxes(&prepared, first);
             let bvh = Bvh::build_moving(&open, &close);
             Mutex::new(Shared {
                 area: bvh.area(),
@@ -257,7 +260,8 @@ impl<'a> World<'a> {
     /// the current rayon pool); the static ones come from `statics`, built once for the
     /// sequence.
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
-        let (prepared, open, close) = prepare_spheres(scene, &statics.animated, interval);
+        let prepared = prepare_spheres(scene, &statics.animated, interval);
+        let (open, close) = shutter_boxes(&prepared, interval);
         let own = || FrameBvh::Own(Bvh::build_moving(&open, &close));
         // Frames are prepared one at a time, and this one keeps the shared hierarchy locked
         // while it renders. Were another world holding it, this one builds its own (the same
@@ -285,10 +289,28 @@ impl<'a> World<'a> {
         let mut moving = 0;
         let mut animated = Vec::with_capacity(prepared.len());
         for &k in animated_bvh.get().order() {
-            let (mut prim, general) = prepared[k as usize].clone();
-            if let Some(m) = general {
-                prim.general = motions.len() as u32;
-                motions.push(m);
+            let id = statics.animated[k as usize];
+            let s = &prepared[k as usize];
+            let mut prim = MovingPrim {
+                center: DVec3::ZERO,
+                velocity: DVec3::ZERO,
+                radius: s.radius,
+                material: scene.spheres[id as usize].material,
+                id,
+                general: LINEAR,
+            };
+            match &s.motion {
+                FrameMotion::Fixed(c) => prim.center = *c,
+                FrameMotion::Linear {
+                    start, velocity, ..
+                } => {
+                    prim.center = *start;
+                    prim.velocity = *velocity;
+                }
+                curved => {
+                    prim.general = motions.len() as u32;
+                    motions.push(curved.clone());
+                }
             }
             if prim.general != LINEAR || prim.velocity != DVec3::ZERO {
                 moving += 1;
@@ -373,86 +395,28 @@ impl<'a> World<'a> {
     }
 }
 
-/// Prepared spheres: each one's prim and curved path, if any; their boxes at the shutter's
-/// opening; their boxes at its closing.
-type Prepared = (Vec<(MovingPrim, Option<FrameMotion>)>, Vec<Aabb>, Vec<Aabb>);
+/// The spheres `ids` of `scene` prepared for the shutter `interval` (in parallel on the
+/// current rayon pool).
+fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Vec<PreparedSphere> {
+    ids.par_iter()
+        .map(|&id| scene.spheres[id as usize].prepare(interval))
+        .collect()
+}
 
-/// Prepares the spheres `ids` of `scene` for the shutter `interval` (in parallel on the
-/// current rayon pool): per sphere, its prim (with a curved path's motion), and its boxes at
-/// the shutter's opening and closing, padded for their interpolation.
-fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Prepared {
-    let duration = interval.close - interval.open;
-    let prims: Vec<(MovingPrim, Option<FrameMotion>)> = ids
-        .par_iter()
-        .map(|&id| {
-            let s = &scene.spheres[id as usize];
-            let mut prim = MovingPrim {
-                center: DVec3::ZERO,
-                velocity: DVec3::ZERO,
-                radius: s.radius,
-                material: s.material,
-                id,
-                general: LINEAR,
-            };
-            let general = match s.motion.prepare(interval) {
-                FrameMotion::Fixed(c) => {
-                    prim.center = c;
-                    None
-                }
-                FrameMotion::Linear {
-                    start, velocity, ..
-                } => {
-                    prim.center = start;
-                    prim.velocity = velocity;
-                    None
-                }
-                m => Some(m),
-            };
-            (prim, general)
-        })
-        .collect();
-    // The boxes, one pass each, rather than one array of everything and two copies (at a
-    // million spheres the difference is a few hundred megabytes at the peak).
+/// The boxes of `prepared` at the shutter's opening and at its closing
+/// ([`PreparedSphere::shutter_boxes`]). One pass each, rather than one array of pairs and two
+/// copies: at a million spheres the difference is a few hundred megabytes at the peak.
+fn shutter_boxes(prepared: &[PreparedSphere], interval: Interval) -> (Vec<Aabb>, Vec<Aabb>) {
     let boxes = |at_close: bool| -> Vec<Aabb> {
-        prims
+        prepared
             .par_iter()
-            .map(|(prim, general)| {
-                let (open, close) = match general {
-                    // A curved path: the box over the whole shutter at both ends.
-                    Some(m) => {
-                        let b = m.bounds(interval, prim.radius);
-                        (b, b)
-                    }
-                    // The end exactly as `center_at` computes it at the closing.
-                    None => (
-                        Aabb::point(prim.center).grow(prim.radius),
-                        Aabb::point(prim.center + prim.velocity * duration).grow(prim.radius),
-                    ),
-                };
-                let (open, close) = pad_for_interpolation(open, close);
+            .map(|p| {
+                let (open, close) = p.shutter_boxes(interval);
                 if at_close { close } else { open }
             })
             .collect()
     };
-    let open = boxes(false);
-    let close = boxes(true);
-    (prims, open, close)
-}
-
-/// Grows the boxes a sphere has at the shutter's opening and closing so that their linear
-/// interpolation at any time, as the traversal rounds it, still contains the sphere as
-/// `center_at` rounds it: by 64 units in the last place of their largest coordinate, which is
-/// several times the few roundings of either computation (`lo + s (hi - lo)`, `c + v dt`).
-fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
-    let m = open
-        .min
-        .abs()
-        .max(open.max.abs())
-        .max(close.min.abs())
-        .max(close.max.abs())
-        .max_element();
-    let pad = m * 64.0 * f64::EPSILON;
-    (open.grow(pad), close.grow(pad))
+    (boxes(false), boxes(true))
 }
 
 #[cfg(test)]
