@@ -40,16 +40,23 @@ const MAX_SAH_DEPTH: usize = 64;
 const STACK: usize = 3 * (MAX_SAH_DEPTH + 40) + 4;
 /// Subtrees with more primitives than this are built on two threads.
 const PARALLEL_BUILD: usize = 4096;
-/// Marks a stack entry that is a leaf (the rest of the entry is its child slot).
-const LEAF_BIT: u32 = 1 << 31;
+/// A child slot is one word: a node index, or a leaf's first primitive position with its
+/// primitive count in the bits from this one up (a node has count 0). Positions are below
+/// 2^28, which a hierarchy of fewer primitives than that guarantees.
+const COUNT_SHIFT: u32 = 28;
+/// The position bits of a child slot.
+const POSITION_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+const _: () = assert!(
+    MAX_LEAF < 1 << (32 - COUNT_SHIFT),
+    "a leaf's count fits its bits"
+);
 
 /// Scratch space for traversals. Made once per thread of work and reused for every ray:
 /// clearing a fresh stack array per ray cost about 8% of a render.
 #[derive(Clone, Debug)]
 pub struct TraversalStack {
-    /// A node index, or a leaf's `first | LEAF_BIT` with its count in `count`.
+    /// A child slot ([`COUNT_SHIFT`]): a node index, or a leaf's first position and count.
     entry: [u32; STACK],
-    count: [u8; STACK],
     /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
     /// are skipped.
     near: [f64; STACK],
@@ -59,7 +66,6 @@ impl Default for TraversalStack {
     fn default() -> Self {
         TraversalStack {
             entry: [0; STACK],
-            count: [0; STACK],
             near: [0.0; STACK],
         }
     }
@@ -99,13 +105,23 @@ impl Boxes4 {
     }
 }
 
-/// The children of a 4-wide node: per slot, either a node index (`count == 0`) or a leaf's
-/// first primitive position and count. An empty slot has both 0 (node 0 is the root, nobody's
-/// child).
+/// The children of a 4-wide node: per slot, a node index or a leaf's first primitive position
+/// and count, packed in one word ([`COUNT_SHIFT`]). An empty slot is 0 (node 0 is the root,
+/// nobody's child). Sixteen bytes, aligned, so a node's children never straddle a cache line:
+/// a traversal reads them apart from the node's boxes, one line more per node.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(align(16))]
 struct Links {
     child: [u32; 4],
-    count: [u8; 4],
+}
+
+impl Links {
+    /// Slot `k`: a node index and count 0, or a leaf's first position and its count.
+    #[inline]
+    fn slot(&self, k: usize) -> (u32, u32) {
+        let w = self.child[k];
+        (w & POSITION_MASK, w >> COUNT_SHIFT)
+    }
 }
 
 /// The structure of a hierarchy over primitives `0..n`, which a refit keeps: the children of
@@ -192,7 +208,8 @@ impl NodeBoxes {
 }
 
 impl Bvh {
-    /// Builds the hierarchy over `boxes`; primitive `i` has box `boxes[i]`.
+    /// Builds the hierarchy over `boxes`; primitive `i` has box `boxes[i]`. At most 2^28
+    /// primitives.
     pub fn build(boxes: &[Aabb]) -> Bvh {
         Bvh::build_inner(boxes, None)
     }
@@ -207,6 +224,10 @@ impl Bvh {
     }
 
     fn build_inner(open: &[Aabb], close: Option<&[Aabb]>) -> Bvh {
+        assert!(
+            open.len() <= 1 << COUNT_SHIFT,
+            "too many primitives for a hierarchy"
+        );
         let whole = |i: usize| close.map_or(open[i], |c| open[i].union(&c[i]));
         let mut items: Vec<BuildItem> = {
             use rayon::prelude::*;
@@ -349,9 +370,9 @@ impl Topology {
             let links = &self.links[i];
             let mut all = (Aabb::EMPTY, Aabb::EMPTY);
             for k in 0..4 {
-                let (child, count) = (links.child[k], links.count[k]);
+                let (child, count) = links.slot(k);
                 let (o, c) = if count > 0 {
-                    (child..child + count as u32).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
+                    (child..child + count).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
                         let p = self.order[pos as usize] as usize;
                         (o.union(&open[p]), c.union(&close[p]))
                     })
@@ -538,13 +559,7 @@ impl<'a> BvhView<'a> {
             }
             let node = &links[current];
             for &(d, k) in &hits[..n] {
-                let c = node.count[k];
-                stack.entry[sp] = if c == 0 {
-                    node.child[k]
-                } else {
-                    node.child[k] | LEAF_BIT
-                };
-                stack.count[sp] = c;
+                stack.entry[sp] = node.child[k];
                 stack.near[sp] = d;
                 sp += 1;
             }
@@ -558,12 +573,13 @@ impl<'a> BvhView<'a> {
                     continue;
                 }
                 let e = stack.entry[sp];
-                if e & LEAF_BIT == 0 {
+                let count = e >> COUNT_SHIFT;
+                if count == 0 {
                     current = e as usize;
                     break;
                 }
-                let first = e & !LEAF_BIT;
-                for pos in first..first + stack.count[sp] as u32 {
+                let first = e & POSITION_MASK;
+                for pos in first..first + count {
                     if let Some(t) = hit(pos, t_max) {
                         t_max = t;
                         best = Some((t, pos));
@@ -672,26 +688,21 @@ fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) 
         kids.insert(i, &grand[0]);
     }
     let index = links.len();
-    links.push(Links {
-        child: [0; 4],
-        count: [0; 4],
-    });
+    links.push(Links { child: [0; 4] });
     if moving {
         boxes.moving.push([Boxes4::EMPTY, Boxes4::ZERO]);
     } else {
         boxes.still.push(Boxes4::EMPTY);
     }
     for (k, c) in kids.iter().enumerate() {
-        let (child, count) = match c.kind {
-            Kind::Leaf { first, count } => (first, count as u8),
+        links[index].child[k] = match c.kind {
+            Kind::Leaf { first, count } => first | count << COUNT_SHIFT,
             Kind::Inner(_) => {
                 let at = links.len() as u32;
                 collapse(c, moving, links, boxes);
-                (at, 0)
+                at
             }
         };
-        links[index].child[k] = child;
-        links[index].count[k] = count;
         let b = &c.boxes;
         if moving {
             set_moving(&mut boxes.moving[index], k, &b.open, &b.close);
@@ -950,7 +961,7 @@ mod tests {
             bvh.topology
                 .links
                 .iter()
-                .all(|n| n.count.iter().all(|&c| c as usize <= MAX_LEAF))
+                .all(|n| (0..4).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
         );
         let mut seen: Vec<u32> = bvh.order().to_vec();
         seen.sort();
