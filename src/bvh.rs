@@ -57,6 +57,8 @@ const _: () = assert!(
 pub struct TraversalStack {
     /// A child slot ([`COUNT_SHIFT`]): a node index, or a leaf's first position and count.
     entry: [u32; STACK],
+    /// For a node entry, its children, read from the topology when the entry is pushed.
+    links: [Links; STACK],
     /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
     /// are skipped.
     near: [f64; STACK],
@@ -66,6 +68,7 @@ impl Default for TraversalStack {
     fn default() -> Self {
         TraversalStack {
             entry: [0; STACK],
+            links: [Links::default(); STACK],
             near: [0.0; STACK],
         }
     }
@@ -109,7 +112,7 @@ impl Boxes4 {
 /// and count, packed in one word ([`COUNT_SHIFT`]). An empty slot is 0 (node 0 is the root,
 /// nobody's child). Sixteen bytes, aligned, so a node's children never straddle a cache line:
 /// a traversal reads them apart from the node's boxes, one line more per node.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(align(16))]
 struct Links {
     child: [u32; 4],
@@ -515,6 +518,7 @@ impl<'a> BvhView<'a> {
         let mut best = None;
         let mut sp = 0usize;
         let mut current = 0usize;
+        let mut node = links[0];
         loop {
             // Test the four children of `current` at once.
             let mut near = [0.0f64; 4];
@@ -557,9 +561,15 @@ impl<'a> BvhView<'a> {
                     n += 1;
                 }
             }
-            let node = &links[current];
             for &(d, k) in &hits[..n] {
-                stack.entry[sp] = node.child[k];
+                let w = node.child[k];
+                // A node's children are read now, when it is pushed, not when it is visited:
+                // the load then overlaps the rest of this node's work instead of delaying
+                // the child's, which measured a few percent faster than reading them at the
+                // visit. A leaf reads the root's (always cached) without a branch.
+                let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
+                stack.links[sp] = links[at];
+                stack.entry[sp] = w;
                 stack.near[sp] = d;
                 sp += 1;
             }
@@ -576,6 +586,7 @@ impl<'a> BvhView<'a> {
                 let count = e >> COUNT_SHIFT;
                 if count == 0 {
                     current = e as usize;
+                    node = stack.links[sp];
                     break;
                 }
                 let first = e & POSITION_MASK;
