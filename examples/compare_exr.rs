@@ -37,7 +37,11 @@ fn main() -> ExitCode {
             }
         }
     }
-    if images.iter().any(|i| (i.0, i.1) != (images[0].0, images[0].1)) || block == 0 {
+    if images
+        .iter()
+        .any(|i| (i.0, i.1) != (images[0].0, images[0].1))
+        || block == 0
+    {
         eprintln!("the images differ in size, or BLOCK is 0");
         return ExitCode::from(2);
     }

@@ -1,4 +1,6 @@
-//! Spheres: their description in a scene and their intersection with rays.
+//! Spheres: their description in a scene, their preparation for one frame's shutter interval
+//! (the path of the centre during it, and the boxes a hierarchy interpolates over it), and
+//! their intersection with rays.
 //!
 //! The intersection follows "Precision Improvements for Ray/Sphere Intersection" (Haines,
 //! Günther and Akenine-Möller, Ray Tracing Gems, chapter 7): the discriminant is computed from
@@ -10,8 +12,10 @@
 
 use glam::DVec3;
 
-use crate::motion::Motion;
+use crate::aabb::Aabb;
+use crate::motion::{FrameMotion, Motion};
 use crate::ray::{Ray, gamma};
+use crate::shutter::Interval;
 
 /// A sphere as the scene describes it, for the whole shot.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,6 +117,72 @@ pub fn surface_point(center: DVec3, radius: f64, ray: &Ray, t: f64) -> SurfacePo
     SurfacePoint { p, p_error, normal }
 }
 
+/// A sphere prepared for one frame's shutter interval.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PreparedSphere {
+    /// The path of the centre during the interval ([`FrameMotion::Linear`] is relative to
+    /// the interval's opening).
+    pub motion: FrameMotion,
+    /// Radius, > 0.
+    pub radius: f64,
+}
+
+impl SphereDesc {
+    /// Prepares the sphere for a frame whose shutter is open over `interval`.
+    pub fn prepare(&self, interval: Interval) -> PreparedSphere {
+        PreparedSphere {
+            motion: self.motion.prepare(interval),
+            radius: self.radius,
+        }
+    }
+}
+
+impl PreparedSphere {
+    /// The sphere's boxes at the opening and the closing of `interval` (the one it was
+    /// prepared for), for a hierarchy that interpolates them linearly over the shutter: at
+    /// any time of the interval the sphere lies inside their interpolation. A fixed or
+    /// linear path has the boxes of its two ends (the closing one as `start + velocity *
+    /// (close - open)`, the centre a tracer computes at the closing); a curved one has the
+    /// box of its whole path at both ends.
+    pub fn shutter_boxes(&self, interval: Interval) -> (Aabb, Aabb) {
+        let r = self.radius;
+        let (open, close) = match &self.motion {
+            FrameMotion::Fixed(c) => {
+                let b = Aabb::point(*c).grow(r);
+                (b, b)
+            }
+            FrameMotion::Linear {
+                start, velocity, ..
+            } => (
+                Aabb::point(*start).grow(r),
+                Aabb::point(*start + *velocity * (interval.close - interval.open)).grow(r),
+            ),
+            curved => {
+                let b = curved.bounds(interval, r);
+                (b, b)
+            }
+        };
+        pad_for_interpolation(open, close)
+    }
+}
+
+/// Grows the boxes a sphere has at the shutter's opening and closing so that their linear
+/// interpolation at any time, as a traversal rounds it, still contains the sphere with its
+/// centre at `start + velocity * (t - open)` as rounded: by 64 units in the last place of
+/// their largest coordinate, which is several times the few roundings of either computation
+/// (`lo + s (hi - lo)`, `c + v dt`).
+fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
+    let m = open
+        .min
+        .abs()
+        .max(open.max.abs())
+        .max(close.min.abs())
+        .max(close.max.abs())
+        .max_element();
+    let pad = m * 64.0 * f64::EPSILON;
+    (open.grow(pad), close.grow(pad))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -122,6 +192,81 @@ mod tests {
             origin,
             dir: dir.normalize(),
             time: 0.0,
+        }
+    }
+
+    /// The boxes at the shutter's ends, interpolated as a traversal does at any time of the
+    /// interval, contain the sphere where the tracer places it then: for fixed, linear,
+    /// keyframed and circular paths, near the origin and far from it.
+    #[test]
+    fn interpolated_shutter_boxes_contain_the_sphere() {
+        use crate::motion::{Key, Orbit};
+        let mut rng = crate::rng::Pcg32::new(17, 3);
+        for far in [0.0, 1e5] {
+            let at = DVec3::new(far, -0.5 * far, 0.25 * far);
+            let motions = [
+                Motion::Still(at),
+                Motion::Velocity {
+                    origin: at,
+                    velocity: DVec3::new(30.0, -2.0, 7.0),
+                },
+                Motion::Keyframes(vec![
+                    Key {
+                        time: 0.0,
+                        position: at,
+                    },
+                    Key {
+                        time: 0.3,
+                        position: at + DVec3::new(4.0, 1.0, -2.0),
+                    },
+                    Key {
+                        time: 0.5,
+                        position: at - DVec3::Y,
+                    },
+                ]),
+                Motion::Orbit {
+                    origin: at + DVec3::X,
+                    orbit: Orbit {
+                        pivot: at,
+                        axis: DVec3::new(0.3, 1.0, 0.1).normalize(),
+                        degrees_per_second: 900.0,
+                    },
+                },
+            ];
+            for motion in motions {
+                let sphere = SphereDesc {
+                    motion,
+                    radius: 0.7,
+                    material: 0,
+                };
+                for _ in 0..200 {
+                    let open = rng.next_f64() * 0.6;
+                    let interval = Interval {
+                        open,
+                        close: open + rng.next_f64() * 0.1,
+                    };
+                    let p = sphere.prepare(interval);
+                    let (lo, hi) = p.shutter_boxes(interval);
+                    let duration = interval.close - interval.open;
+                    for _ in 0..20 {
+                        let t = interval.at(rng.next_f64());
+                        let dt = t - interval.open;
+                        let center = match &p.motion {
+                            FrameMotion::Linear {
+                                start, velocity, ..
+                            } => *start + *velocity * dt,
+                            m => m.at(t),
+                        };
+                        let s = if duration > 0.0 { dt / duration } else { 0.0 };
+                        let b = Aabb {
+                            min: lo.min + s * (hi.min - lo.min),
+                            max: lo.max + s * (hi.max - lo.max),
+                        };
+                        let want = Aabb::point(center).grow(p.radius);
+                        assert!(b.contains(&want), "{p:?} at {t}: {want:?} not in {b:?}");
+                    }
+                }
+            }
         }
     }
 
@@ -240,22 +385,5 @@ mod tests {
                 assert!(t3 > 1e-6 * scale || (t3 > 0.0 && r.dir.dot(sp.normal).abs() < 1e-3));
             }
         }
-    }
-}
-
-/// A sphere prepared for one frame: its motion over the frame's shutter interval and a box
-/// enclosing it over the whole interval.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PreparedSphere {
-    pub motion: crate::motion::FrameMotion,
-    pub bounds: crate::aabb::Aabb,
-}
-
-impl SphereDesc {
-    /// Prepares the sphere for a frame whose shutter is open over `interval`.
-    pub fn prepare(&self, interval: crate::shutter::Interval) -> PreparedSphere {
-        let motion = self.motion.prepare(interval);
-        let bounds = motion.bounds(interval, self.radius);
-        PreparedSphere { motion, bounds }
     }
 }

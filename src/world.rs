@@ -1,28 +1,31 @@
 //! The world of one frame: every sphere prepared for the frame's shutter interval, in one or
 //! two hierarchies. Spheres that never move in the shot are built into a [`StaticGeometry`]
-//! once per sequence; the others are prepared per frame, with boxes at that frame's shutter
-//! opening and closing, and built into a hierarchy per frame. A sphere that does not move
-//! during a frame is traced as a fixed sphere.
+//! once per sequence; the others are prepared per frame ([`SphereDesc::prepare`]), with boxes
+//! at that frame's shutter opening and closing. A sphere that does not move during a frame is
+//! traced as a fixed sphere.
 //!
-//! Where one hierarchy over everything is cheaper, every sphere is treated as animated: in
-//! scenes of at most [`MERGE_LIMIT`] spheres it is built per frame; in larger scenes where at
-//! least [`SHARED_FRACTION`] of the spheres are animated it is built once, on the shot's first
-//! frame, and refitted to each frame's boxes, unless it has degraded too far
-//! ([`REBUILD_AREA`]), when the frame gets a hierarchy of its own.
+//! Where one hierarchy over everything is cheaper, every sphere is treated as animated. In
+//! scenes of at most [`MERGE_LIMIT`] spheres its hierarchy is built per frame. In larger
+//! scenes where at least [`SHARED_FRACTION`] of the spheres are animated, its topology is
+//! built once, on the shot's first frame, and kept in the [`StaticGeometry`], read-only: each
+//! [`World`] refits it into boxes of its own, so worlds of any frames can exist at once. A
+//! frame whose refitted boxes are too poor ([`REBUILD_AREA`]) gets a hierarchy of its own.
+//!
+//! [`SphereDesc::prepare`]: crate::sphere::SphereDesc::prepare
 
-use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::borrow::Cow;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bvh::{Bvh, TraversalStack};
+use crate::bvh::{Boxes, Bvh, BvhView, Topology, TraversalStack};
 use crate::material::{Background, Material};
 use crate::motion::FrameMotion;
 use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::sphere::{SurfacePoint, intersect, surface_point};
+use crate::sphere::{PreparedSphere, SurfacePoint, intersect, surface_point};
 
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
@@ -32,13 +35,14 @@ const LINEAR: u32 = u32::MAX;
 const MERGE_LIMIT: usize = 16384;
 
 /// Larger scenes in which at least this share of the spheres is animated get one hierarchy
-/// over every sphere, built once for the shot and refitted per frame ([`Shared`]): one
-/// traversal per ray instead of two, without a build per frame. With fewer animated spheres,
-/// the static hierarchy plus a small per-frame one cost less to prepare.
+/// over every sphere whose topology is built once for the shot and refitted per frame
+/// ([`SharedTopology`]): one traversal per ray instead of two, without a build per frame.
+/// With fewer animated spheres, the static hierarchy plus a small per-frame one cost less to
+/// prepare.
 const SHARED_FRACTION: f64 = 0.25;
 
-/// A refitted hierarchy whose summed box areas ([`Bvh::area`]) grew past this factor of
-/// those it was built with is replaced by a hierarchy built for the frame.
+/// A frame whose boxes refitted to the shared topology have summed areas ([`Boxes::area`])
+/// above this factor of those the topology was built with builds a hierarchy of its own.
 const REBUILD_AREA: f64 = 2.0;
 
 /// A sphere that never moves, as the tracer sees it.
@@ -80,8 +84,8 @@ impl MovingPrim {
 }
 
 /// What is built once per sequence: the spheres that never move during the shot, with their
-/// hierarchy, and, for a large scene with many animated spheres, the hierarchy over every
-/// sphere that each frame refits.
+/// hierarchy, and, for a large scene with many animated spheres, the topology of a hierarchy
+/// over every sphere that each frame refits. Read-only once built.
 #[derive(Debug, Default)]
 pub struct StaticGeometry {
     /// In the hierarchy's leaf order.
@@ -89,35 +93,17 @@ pub struct StaticGeometry {
     bvh: Bvh,
     /// Indices of the scene's animated spheres, prepared per frame.
     animated: Vec<u32>,
-    /// For a large scene with many animated spheres: one hierarchy over all of them (then
-    /// `animated` holds every sphere and `prims` none), to be refitted per frame.
-    shared: Option<Mutex<Shared>>,
+    /// For a large scene with many animated spheres: the topology of one hierarchy over all
+    /// of them (then `animated` holds every sphere and `prims` none), refitted per frame.
+    shared: Option<SharedTopology>,
 }
 
-/// The hierarchy of a frame's animated spheres: its own, or the shared one refitted to it (and
-/// locked while the frame renders).
-#[derive(Debug)]
-enum FrameBvh<'a> {
-    Own(Bvh),
-    Shared(MutexGuard<'a, Shared>),
-}
-
-impl FrameBvh<'_> {
-    #[inline]
-    fn get(&self) -> &Bvh {
-        match self {
-            FrameBvh::Own(b) => b,
-            FrameBvh::Shared(s) => &s.bvh,
-        }
-    }
-}
-
-/// A hierarchy over the animated spheres built once, on their boxes in the shot's first
-/// frame, to be refitted to each frame's boxes.
+/// The topology of a hierarchy over the animated spheres, built on their boxes in the shot's
+/// first frame.
 #[derive(Clone, Debug)]
-struct Shared {
-    bvh: Bvh,
-    /// Its [`Bvh::area`] as built.
+struct SharedTopology {
+    topology: Topology,
+    /// [`Boxes::area`] of the boxes it was built with.
     area: f64,
 }
 
@@ -142,12 +128,13 @@ impl StaticGeometry {
         };
         let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
             let first = scene.shot.interval(scene.shot.first_frame);
-            let (_, open, close) = prepare_spheres(scene, &animated, first);
-            let bvh = Bvh::build_moving(&open, &close);
-            Mutex::new(Shared {
-                area: bvh.area(),
-                bvh,
-            })
+            let prepared = prepare_spheres(scene, &animated, first);
+            let (open, close) = shutter_boxes(&prepared, first);
+            let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
+            SharedTopology {
+                topology,
+                area: boxes.area(),
+            }
         });
         let boxes: Vec<Aabb> = still
             .par_iter()
@@ -192,17 +179,15 @@ impl StaticGeometry {
         self.prims.is_empty()
     }
 
-    /// Bytes held (spheres and hierarchy).
+    /// Bytes held (spheres and hierarchies).
     pub fn memory_bytes(&self) -> usize {
         self.prims.capacity() * std::mem::size_of::<StillPrim>()
             + self.bvh.memory_bytes()
             + self.animated.capacity() * 4
-            + self.shared.as_ref().map_or(0, |s| {
-                s.lock()
-                    .unwrap_or_else(|poisoned| poisoned.into_inner())
-                    .bvh
-                    .memory_bytes()
-            })
+            + self
+                .shared
+                .as_ref()
+                .map_or(0, |s| s.topology.memory_bytes())
     }
 
     #[inline]
@@ -234,13 +219,17 @@ pub struct Hit {
     pub sphere: u32,
 }
 
-/// Everything the tracer needs for one frame.
+/// Everything the tracer needs for one frame. It owns everything that depends on the frame
+/// and only reads the [`StaticGeometry`].
 #[derive(Debug)]
 pub struct World<'a> {
     statics: &'a StaticGeometry,
     /// The animated spheres, in the order of their hierarchy's leaves.
     animated: Vec<MovingPrim>,
-    animated_bvh: FrameBvh<'a>,
+    /// The topology of their hierarchy: the shared one, or one built for this frame.
+    animated_topology: Cow<'a, Topology>,
+    /// The boxes of that topology for this frame.
+    animated_boxes: Boxes,
     /// The curved paths of this frame (circles, several keyframe segments).
     motions: Vec<FrameMotion>,
     materials: &'a [Material],
@@ -255,27 +244,26 @@ pub struct World<'a> {
 impl<'a> World<'a> {
     /// Prepares every animated sphere of `scene` for the shutter `interval` (in parallel on
     /// the current rayon pool); the static ones come from `statics`, built once for the
-    /// sequence.
+    /// sequence. The result depends only on its arguments, never on other worlds.
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
-        let (prepared, open, close) = prepare_spheres(scene, &statics.animated, interval);
-        let own = || FrameBvh::Own(Bvh::build_moving(&open, &close));
-        // Frames are prepared one at a time, and this one keeps the shared hierarchy locked
-        // while it renders. Were another world holding it, this one builds its own (the same
-        // hits, never a deadlock). A lock poisoned by a panic is refitted like any other.
-        let shared = statics.shared.as_ref().and_then(|m| match m.try_lock() {
-            Ok(guard) => Some(guard),
-            Err(TryLockError::Poisoned(poisoned)) => Some(poisoned.into_inner()),
-            Err(TryLockError::WouldBlock) => None,
-        });
-        let animated_bvh = match shared {
-            Some(mut shared) => {
-                // Refitted boxes that have moved far from those the tree was built on make a
-                // slow tree: then build this frame's own.
-                let built = shared.area;
-                if shared.bvh.refit_moving(&open, &close) > REBUILD_AREA * built {
+        let prepared = prepare_spheres(scene, &statics.animated, interval);
+        let (open, close) = shutter_boxes(&prepared, interval);
+        let own = || {
+            let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
+            (Cow::Owned(topology), boxes)
+        };
+        let (animated_topology, animated_boxes) = match &statics.shared {
+            Some(shared) => {
+                let boxes = shared.topology.refit_moving(&open, &close);
+                // Refitted boxes that have moved far from those the topology was built on
+                // overlap a lot and make a slow traversal: then the frame builds its own
+                // hierarchy. Both give the same nearest hits; the choice depends only on this
+                // frame's boxes and the shot's first frame, so a frame is traced the same way
+                // whichever frames were prepared before or alongside it.
+                if boxes.area() > REBUILD_AREA * shared.area {
                     own()
                 } else {
-                    FrameBvh::Shared(shared)
+                    (Cow::Borrowed(&shared.topology), boxes)
                 }
             }
             None => own(),
@@ -284,11 +272,29 @@ impl<'a> World<'a> {
         let mut motions = Vec::new();
         let mut moving = 0;
         let mut animated = Vec::with_capacity(prepared.len());
-        for &k in animated_bvh.get().order() {
-            let (mut prim, general) = prepared[k as usize].clone();
-            if let Some(m) = general {
-                prim.general = motions.len() as u32;
-                motions.push(m);
+        for &k in animated_topology.order() {
+            let id = statics.animated[k as usize];
+            let s = &prepared[k as usize];
+            let mut prim = MovingPrim {
+                center: DVec3::ZERO,
+                velocity: DVec3::ZERO,
+                radius: s.radius,
+                material: scene.spheres[id as usize].material,
+                id,
+                general: LINEAR,
+            };
+            match &s.motion {
+                FrameMotion::Fixed(c) => prim.center = *c,
+                FrameMotion::Linear {
+                    start, velocity, ..
+                } => {
+                    prim.center = *start;
+                    prim.velocity = *velocity;
+                }
+                curved => {
+                    prim.general = motions.len() as u32;
+                    motions.push(curved.clone());
+                }
             }
             if prim.general != LINEAR || prim.velocity != DVec3::ZERO {
                 moving += 1;
@@ -298,7 +304,8 @@ impl<'a> World<'a> {
         World {
             statics,
             animated,
-            animated_bvh,
+            animated_topology,
+            animated_boxes,
             motions,
             materials: &scene.materials,
             background: scene.background,
@@ -312,10 +319,16 @@ impl<'a> World<'a> {
         self.moving > 0
     }
 
-    /// Bytes held by this frame's animated spheres and their hierarchy.
+    /// Bytes held by this frame's animated spheres and their hierarchy (its boxes, and its
+    /// topology if it is the frame's own).
     pub fn memory_bytes(&self) -> usize {
+        let topology = match &self.animated_topology {
+            Cow::Owned(t) => t.memory_bytes(),
+            Cow::Borrowed(_) => 0,
+        };
         self.animated.capacity() * std::mem::size_of::<MovingPrim>()
-            + self.animated_bvh.get().memory_bytes()
+            + topology
+            + self.animated_boxes.memory_bytes()
             + self.motions.capacity() * std::mem::size_of::<FrameMotion>()
     }
 
@@ -335,25 +348,19 @@ impl<'a> World<'a> {
             } else {
                 0.0
             };
-            found = self.animated_bvh.get().closest_hit(
-                ray.origin,
-                ray.dir,
-                s,
-                t_max,
-                stack,
-                |i, t_max| {
-                    let p = &self.animated[i as usize];
-                    if p.id == skip {
-                        return None;
-                    }
-                    intersect(
-                        p.center_at(&self.motions, dt, ray.time),
-                        p.radius,
-                        ray,
-                        t_max,
-                    )
-                },
-            );
+            let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
+            found = bvh.closest_hit(ray.origin, ray.dir, s, t_max, stack, |i, t_max| {
+                let p = &self.animated[i as usize];
+                if p.id == skip {
+                    return None;
+                }
+                intersect(
+                    p.center_at(&self.motions, dt, ray.time),
+                    p.radius,
+                    ray,
+                    t_max,
+                )
+            });
         }
         let (t, center, radius, material, id) = if let Some((t, i)) = found {
             let p = &self.animated[i as usize];
@@ -373,86 +380,28 @@ impl<'a> World<'a> {
     }
 }
 
-/// Prepared spheres: each one's prim and curved path, if any; their boxes at the shutter's
-/// opening; their boxes at its closing.
-type Prepared = (Vec<(MovingPrim, Option<FrameMotion>)>, Vec<Aabb>, Vec<Aabb>);
+/// The spheres `ids` of `scene` prepared for the shutter `interval` (in parallel on the
+/// current rayon pool).
+fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Vec<PreparedSphere> {
+    ids.par_iter()
+        .map(|&id| scene.spheres[id as usize].prepare(interval))
+        .collect()
+}
 
-/// Prepares the spheres `ids` of `scene` for the shutter `interval` (in parallel on the
-/// current rayon pool): per sphere, its prim (with a curved path's motion), and its boxes at
-/// the shutter's opening and closing, padded for their interpolation.
-fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Prepared {
-    let duration = interval.close - interval.open;
-    let prims: Vec<(MovingPrim, Option<FrameMotion>)> = ids
-        .par_iter()
-        .map(|&id| {
-            let s = &scene.spheres[id as usize];
-            let mut prim = MovingPrim {
-                center: DVec3::ZERO,
-                velocity: DVec3::ZERO,
-                radius: s.radius,
-                material: s.material,
-                id,
-                general: LINEAR,
-            };
-            let general = match s.motion.prepare(interval) {
-                FrameMotion::Fixed(c) => {
-                    prim.center = c;
-                    None
-                }
-                FrameMotion::Linear {
-                    start, velocity, ..
-                } => {
-                    prim.center = start;
-                    prim.velocity = velocity;
-                    None
-                }
-                m => Some(m),
-            };
-            (prim, general)
-        })
-        .collect();
-    // The boxes, one pass each, rather than one array of everything and two copies (at a
-    // million spheres the difference is a few hundred megabytes at the peak).
+/// The boxes of `prepared` at the shutter's opening and at its closing
+/// ([`PreparedSphere::shutter_boxes`]). One pass each, rather than one array of pairs and two
+/// copies: at a million spheres the difference is a few hundred megabytes at the peak.
+fn shutter_boxes(prepared: &[PreparedSphere], interval: Interval) -> (Vec<Aabb>, Vec<Aabb>) {
     let boxes = |at_close: bool| -> Vec<Aabb> {
-        prims
+        prepared
             .par_iter()
-            .map(|(prim, general)| {
-                let (open, close) = match general {
-                    // A curved path: the box over the whole shutter at both ends.
-                    Some(m) => {
-                        let b = m.bounds(interval, prim.radius);
-                        (b, b)
-                    }
-                    // The end exactly as `center_at` computes it at the closing.
-                    None => (
-                        Aabb::point(prim.center).grow(prim.radius),
-                        Aabb::point(prim.center + prim.velocity * duration).grow(prim.radius),
-                    ),
-                };
-                let (open, close) = pad_for_interpolation(open, close);
+            .map(|p| {
+                let (open, close) = p.shutter_boxes(interval);
                 if at_close { close } else { open }
             })
             .collect()
     };
-    let open = boxes(false);
-    let close = boxes(true);
-    (prims, open, close)
-}
-
-/// Grows the boxes a sphere has at the shutter's opening and closing so that their linear
-/// interpolation at any time, as the traversal rounds it, still contains the sphere as
-/// `center_at` rounds it: by 64 units in the last place of their largest coordinate, which is
-/// several times the few roundings of either computation (`lo + s (hi - lo)`, `c + v dt`).
-fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
-    let m = open
-        .min
-        .abs()
-        .max(open.max.abs())
-        .max(close.min.abs())
-        .max(close.max.abs())
-        .max_element();
-    let pad = m * 64.0 * f64::EPSILON;
-    (open.grow(pad), close.grow(pad))
+    (boxes(false), boxes(true))
 }
 
 #[cfg(test)]
@@ -475,89 +424,158 @@ mod tests {
         best
     }
 
+    /// A generated scene of `n` spheres, a share `moving` of them animated.
+    fn generated(n: u64, moving: f64, seed: u64, frames: u32) -> Scene {
+        let text = scene_text(&RandomScene {
+            spheres: n,
+            moving,
+            seed,
+            frames,
+        });
+        Scene::parse(&text, Path::new("g.toml")).unwrap()
+    }
+
+    /// A ray from in or around the generated cube, in a random direction, at a random time of
+    /// `interval`.
+    fn random_ray(r: &mut Pcg32, interval: Interval) -> Ray {
+        let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
+        let origin = (v() - 0.5) * 1.2 * CUBE;
+        let dir = (v() - 0.5).normalize();
+        Ray {
+            origin,
+            dir,
+            time: interval.at(r.next_f64()),
+        }
+    }
+
+    /// Whether `world` finds the sphere testing every one finds, at the same distance up to
+    /// the rounding of the two ways of placing a moving centre (relative 1e-9). Returns
+    /// `None` if it does not, else whether there is a hit.
+    fn agrees(world: &World, scene: &Scene, ray: &Ray, stack: &mut TraversalStack) -> Option<bool> {
+        let got = world.hit(ray, u32::MAX, stack).map(|h| (h.t, h.sphere));
+        match (got, brute(scene, ray)) {
+            (Some((t, i)), Some((u, j))) => (i == j && (t - u).abs() <= 1e-9 * u).then_some(true),
+            (None, None) => Some(false),
+            _ => None,
+        }
+    }
+
+    /// Asserts that `world` agrees with brute force on 400 random rays, most of which hit.
+    fn assert_agrees(world: &World, scene: &Scene, r: &mut Pcg32) {
+        let mut stack = TraversalStack::default();
+        let mut hits = 0;
+        for _ in 0..400 {
+            let ray = random_ray(r, world.interval);
+            match agrees(world, scene, &ray, &mut stack) {
+                Some(hit) => hits += hit as u32,
+                None => panic!("{ray:?}: {:?}", world.hit(&ray, u32::MAX, &mut stack)),
+            }
+        }
+        assert!(hits > 100, "{hits}");
+    }
+
+    impl World<'_> {
+        /// Whether the world's hierarchy is the shared topology refitted.
+        fn shares_topology(&self) -> bool {
+            matches!(self.animated_topology, Cow::Borrowed(_))
+        }
+    }
+
     #[test]
     fn every_layout_finds_the_nearest_sphere() {
         let mut r = Pcg32::new(8, 8);
-        let mut stack = TraversalStack::default();
-        // Per frame, one hierarchy built per frame; one built once and refitted; a static
-        // hierarchy and a per-frame one.
+        // Per frame, one hierarchy built per frame; one topology built once and refitted; a
+        // static hierarchy and a per-frame one.
         for (n, moving, shared) in [
             (2000, 0.5, false),
             (20_000, 0.5, true),
             (20_000, 0.1, false),
         ] {
-            let text = scene_text(&RandomScene {
-                spheres: n,
-                moving,
-                seed: 3,
-                frames: 40,
-            });
-            let scene = Scene::parse(&text, Path::new("g.toml")).unwrap();
+            let scene = generated(n, moving, 3, 40);
             let statics = StaticGeometry::new(&scene);
             assert_eq!(statics.shared.is_some(), shared, "{n} {moving}");
-            // The first frame (the refitted hierarchy's own) and a later one.
-            for frame in [scene.shot.first_frame, scene.shot.last_frame()] {
-                let interval = scene.shot.interval(frame);
-                let world = World::prepare(&scene, &statics, interval);
-                let mut hits = 0;
-                for _ in 0..400 {
-                    let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
-                    let origin = (v() - 0.5) * 1.2 * CUBE;
-                    let dir = (v() - 0.5).normalize();
-                    let ray = Ray {
-                        origin,
-                        dir,
-                        time: interval.at(r.next_f64()),
-                    };
-                    let got = world
-                        .hit(&ray, u32::MAX, &mut stack)
-                        .map(|h| (h.t, h.sphere));
-                    let want = brute(&scene, &ray);
-                    // The same sphere at the same distance, up to the rounding of the two
-                    // ways of placing a moving centre.
-                    match (got, want) {
-                        (Some((t, i)), Some((u, j))) => {
-                            assert!(i == j && (t - u).abs() <= 1e-9 * u, "{got:?} {want:?}");
-                            hits += 1;
-                        }
-                        _ => assert_eq!(got, want),
-                    }
-                }
-                assert!(hits > 100, "{hits}");
+            // The first frame (whose boxes the topology was built on), a later one refitted,
+            // and the last, whose refitted boxes are too poor: it builds its own hierarchy.
+            let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
+            for (frame, refitted) in [(first, shared), (first + 2, shared), (last, false)] {
+                let world = World::prepare(&scene, &statics, scene.shot.interval(frame));
+                assert_eq!(world.shares_topology(), refitted, "{n} {moving} {frame}");
+                assert_agrees(&world, &scene, &mut r);
             }
         }
     }
 
+    /// A world of a later frame with the boxes of the first (its refit skipped) misses
+    /// spheres that have moved: the brute-force comparisons above would catch it.
     #[test]
-    fn two_worlds_of_one_shared_hierarchy_at_once() {
-        // The first world holds the shared hierarchy; the second builds its own, and both
-        // find the nearest sphere.
-        let text = scene_text(&RandomScene {
-            spheres: 20_000,
-            moving: 0.5,
-            seed: 4,
-            frames: 10,
-        });
-        let scene = Scene::parse(&text, Path::new("g.toml")).unwrap();
+    fn a_skipped_refit_is_caught() {
+        let scene = generated(20_000, 0.5, 4, 10);
         let statics = StaticGeometry::new(&scene);
-        let (a, b) = (scene.shot.interval(1), scene.shot.interval(10));
-        let first = World::prepare(&scene, &statics, a);
-        let second = World::prepare(&scene, &statics, b);
-        assert!(matches!(first.animated_bvh, FrameBvh::Shared(_)));
-        assert!(matches!(second.animated_bvh, FrameBvh::Own(_)));
+        let first = World::prepare(&scene, &statics, scene.shot.interval(1));
+        let later = World::prepare(&scene, &statics, scene.shot.interval(3));
+        assert!(first.shares_topology() && later.shares_topology());
+        assert_ne!(first.animated_boxes, later.animated_boxes);
+        let stale = World {
+            animated_boxes: first.animated_boxes.clone(),
+            ..later
+        };
+        let mut r = Pcg32::new(6, 6);
         let mut stack = TraversalStack::default();
+        let wrong = (0..400)
+            .filter(|_| {
+                let ray = random_ray(&mut r, stale.interval);
+                agrees(&stale, &scene, &ray, &mut stack).is_none()
+            })
+            .count();
+        assert!(wrong > 0);
+    }
+
+    #[test]
+    fn worlds_of_several_frames_at_once() {
+        // Two frames refitting the shared topology into their own boxes and one building its
+        // own hierarchy, all alive together: each finds the nearest sphere of its frame.
+        let scene = generated(20_000, 0.5, 4, 10);
+        let statics = StaticGeometry::new(&scene);
+        let worlds: Vec<World> = [2, 4, 10]
+            .iter()
+            .map(|&f| World::prepare(&scene, &statics, scene.shot.interval(f)))
+            .collect();
+        let shares: Vec<bool> = worlds.iter().map(World::shares_topology).collect();
+        assert_eq!(shares, [true, true, false]);
+        assert_ne!(worlds[0].animated_boxes, worlds[1].animated_boxes);
         let mut r = Pcg32::new(2, 2);
-        for (world, interval) in [(&first, a), (&second, b)] {
-            for _ in 0..100 {
-                let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
-                let ray = Ray {
-                    origin: (v() - 0.5) * CUBE,
-                    dir: (v() - 0.5).normalize(),
-                    time: interval.at(r.next_f64()),
-                };
-                let got = world.hit(&ray, u32::MAX, &mut stack).map(|h| h.sphere);
-                assert_eq!(got, brute(&scene, &ray).map(|h| h.1));
-            }
+        for world in &worlds {
+            assert_agrees(world, &scene, &mut r);
+        }
+    }
+
+    #[test]
+    fn a_frame_is_the_same_alone_or_after_others() {
+        let scene = generated(20_000, 0.5, 5, 10);
+        let interval = scene.shot.interval(3);
+        let alone_statics = StaticGeometry::new(&scene);
+        let alone = World::prepare(&scene, &alone_statics, interval);
+        let statics = StaticGeometry::new(&scene);
+        let before = World::prepare(&scene, &statics, scene.shot.interval(1));
+        drop(before);
+        let _alive = World::prepare(&scene, &statics, scene.shot.interval(2));
+        let after = World::prepare(&scene, &statics, interval);
+        assert!(alone.shares_topology() && after.shares_topology());
+        assert_eq!(alone.animated_boxes, after.animated_boxes);
+        let mut r = Pcg32::new(3, 1);
+        let mut stack = TraversalStack::default();
+        for _ in 0..400 {
+            let ray = random_ray(&mut r, interval);
+            let hit = |w: &World, stack: &mut TraversalStack| {
+                w.hit(&ray, u32::MAX, stack).map(|h| {
+                    (
+                        h.t.to_bits(),
+                        h.sphere,
+                        h.surface.p.to_array().map(f64::to_bits),
+                    )
+                })
+            };
+            assert_eq!(hit(&alone, &mut stack), hit(&after, &mut stack));
         }
     }
 }
