@@ -1,9 +1,14 @@
 //! Materials and the background: the integrand of "Ray Tracing in One Weekend", exactly.
-//! (Scattering code comes with the tracer; this file holds the types.)
+//!
+//! [`Material::scatter`] is the books' scattering of each material. It draws no numbers of
+//! its own: the tracer hands it a bounce's numbers ([`BounceSample`], the same three for
+//! every material), and each material uses those it needs: a Lambertian `u` for its
+//! direction, a fuzzy metal `u` and `uc` for its point in the unit ball (a sharp mirror
+//! none), glass `uc` to choose between reflection and refraction.
 
 use glam::DVec3;
 
-use crate::sampler::Sampler;
+use crate::sampler::BounceSample;
 
 /// A surface material. A closed set, so an enum: no dynamic dispatch in the hot loop.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,15 +89,16 @@ pub fn schlick(cosine: f64, eta_ratio: f64) -> f64 {
 
 impl Material {
     /// Scatters a ray arriving in unit direction `dir_in` at a point with unit outward normal
-    /// `outward`, drawing its numbers from `sampler`.
-    /// This is the integrand of "Ray Tracing in One Weekend" exactly.
+    /// `outward`, with the bounce's numbers `sample`.
+    /// This is the integrand of "Ray Tracing in One Weekend" exactly: the scattered
+    /// directions have the books' distributions.
     #[inline]
-    pub fn scatter(&self, dir_in: DVec3, outward: DVec3, sampler: &mut impl Sampler) -> Scatter {
+    pub fn scatter(&self, dir_in: DVec3, outward: DVec3, sample: BounceSample) -> Scatter {
         let front_face = dir_in.dot(outward) < 0.0;
         let n = if front_face { outward } else { -outward };
         match *self {
             Material::Lambertian { albedo } => {
-                let mut dir = n + unit_vector(sampler.next_2d());
+                let mut dir = n + unit_vector(sample.u);
                 // The books' near_zero(): every component below 1e-8.
                 if dir.abs().max_element() < 1e-8 {
                     dir = n;
@@ -106,8 +112,7 @@ impl Material {
             Material::Metal { albedo, fuzz } => {
                 let mut dir = reflect(dir_in, n);
                 if fuzz > 0.0 {
-                    let (a, b, r) = sampler.next_3d();
-                    dir += fuzz * in_unit_ball((a, b), r);
+                    dir += fuzz * in_unit_ball(sample.u, sample.uc);
                 }
                 // Absorbed when scattered below the surface (and when it has no length).
                 if dir.dot(n) <= 0.0 {
@@ -124,7 +129,9 @@ impl Material {
                 let cos_theta = (-dir_in).dot(n).min(1.0);
                 let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
                 let cannot_refract = ratio * sin_theta > 1.0;
-                let dir = if cannot_refract || schlick(cos_theta, ratio) > sampler.next_1d() {
+                // Reflects with probability Schlick's reflectance (the books' comparison
+                // with a uniform number).
+                let dir = if cannot_refract || schlick(cos_theta, ratio) > sample.uc {
                     reflect(dir_in, n)
                 } else {
                     refract(dir_in, n, ratio, cos_theta)
@@ -158,16 +165,9 @@ mod tests {
     use super::*;
     use crate::rng::Pcg32;
 
-    /// A sampler that returns fixed numbers.
-    struct Fixed(f64, (f64, f64));
-    impl Sampler for Fixed {
-        fn start_sample(&mut self, _: u32, _: u32, _: u32) {}
-        fn next_1d(&mut self) -> f64 {
-            self.0
-        }
-        fn next_2d(&mut self) -> (f64, f64) {
-            self.1
-        }
+    /// Fixed bounce numbers.
+    fn fixed(uc: f64, u: (f64, f64)) -> BounceSample {
+        BounceSample { uc, u }
     }
 
     #[test]
@@ -226,7 +226,7 @@ mod tests {
         let glass = Material::Dielectric { ior: 1.5 };
         // From inside (the outward normal points the same way as the ray), at a grazing angle.
         let dir = DVec3::new(0.9, 0.1, 0.0).normalize();
-        match glass.scatter(dir, DVec3::Y, &mut Fixed(0.999, (0.5, 0.5))) {
+        match glass.scatter(dir, DVec3::Y, fixed(0.999, (0.5, 0.5))) {
             Scatter::Continue {
                 dir: d,
                 attenuation,
@@ -248,16 +248,13 @@ mod tests {
         let dir = DVec3::new(1.0, -1e-3, 0.0).normalize();
         // A fuzz point straight down (z = 0, azimuth 270 degrees) pushes the reflection below
         // the surface.
-        let mut down = Fixed(0.999, (0.5, 0.75));
-        assert!(matches!(
-            m.scatter(dir, DVec3::Y, &mut down),
-            Scatter::Absorbed
-        ));
+        let down = fixed(0.999, (0.5, 0.75));
+        assert!(matches!(m.scatter(dir, DVec3::Y, down), Scatter::Absorbed));
         let mirror = Material::Metal {
             albedo: DVec3::splat(0.5),
             fuzz: 0.0,
         };
-        match mirror.scatter(DVec3::new(1.0, -1.0, 0.0).normalize(), DVec3::Y, &mut down) {
+        match mirror.scatter(DVec3::new(1.0, -1.0, 0.0).normalize(), DVec3::Y, down) {
             Scatter::Continue {
                 dir,
                 leaves_outside,
@@ -268,6 +265,71 @@ mod tests {
             }
             Scatter::Absorbed => panic!(),
         }
+    }
+
+    /// The direction of a scatter that continues.
+    fn direction(s: Scatter) -> DVec3 {
+        match s {
+            Scatter::Continue { dir, .. } => dir,
+            Scatter::Absorbed => panic!("absorbed"),
+        }
+    }
+
+    #[test]
+    fn each_material_uses_only_its_numbers() {
+        let dir = DVec3::new(0.3, -1.0, 0.2).normalize();
+        let scatter = |m: Material, uc, u| m.scatter(dir, DVec3::Y, fixed(uc, u));
+        let diffuse = Material::Lambertian { albedo: DVec3::ONE };
+        let a = direction(scatter(diffuse, 0.1, (0.3, 0.6)));
+        assert_eq!(direction(scatter(diffuse, 0.9, (0.3, 0.6))), a);
+        assert_ne!(direction(scatter(diffuse, 0.1, (0.4, 0.6))), a);
+        let glass = Material::Dielectric { ior: 1.5 };
+        let a = direction(scatter(glass, 0.5, (0.3, 0.6)));
+        assert_eq!(direction(scatter(glass, 0.5, (0.9, 0.1))), a);
+        let mirror = Material::Metal {
+            albedo: DVec3::ONE,
+            fuzz: 0.0,
+        };
+        let a = direction(scatter(mirror, 0.5, (0.3, 0.6)));
+        assert_eq!(direction(scatter(mirror, 0.1, (0.9, 0.1))), a);
+        let fuzzy = Material::Metal {
+            albedo: DVec3::ONE,
+            fuzz: 0.3,
+        };
+        let a = direction(scatter(fuzzy, 0.5, (0.3, 0.6)));
+        assert_ne!(direction(scatter(fuzzy, 0.9, (0.3, 0.6))), a);
+        assert_ne!(direction(scatter(fuzzy, 0.5, (0.4, 0.6))), a);
+    }
+
+    #[test]
+    fn glass_reflects_with_the_probability_of_its_reflectance() {
+        // Straight in from outside, Schlick's reflectance is 0.04: `uc` below it reflects
+        // (straight back), above it refracts (straight through).
+        let glass = Material::Dielectric { ior: 1.5 };
+        let down = -DVec3::Y;
+        let reflected = direction(glass.scatter(down, DVec3::Y, fixed(0.039, (0.5, 0.5))));
+        assert!((reflected - DVec3::Y).length() < 1e-12);
+        let refracted = direction(glass.scatter(down, DVec3::Y, fixed(0.041, (0.5, 0.5))));
+        assert!((refracted - down).length() < 1e-12);
+    }
+
+    #[test]
+    fn lambertian_directions_follow_the_cosine() {
+        // normal + a uniform unit vector is distributed as cos(theta) / pi about the normal:
+        // mean cosine 2/3, and a quarter of the directions within 30 degrees of the normal
+        // (sin^2 30 = 1/4 of the cosine-weighted hemisphere).
+        let diffuse = Material::Lambertian { albedo: DVec3::ONE };
+        let mut r = Pcg32::new(5, 5);
+        let n = 200_000;
+        let (mut sum, mut near) = (0.0, 0);
+        for _ in 0..n {
+            let u = (r.next_f64(), r.next_f64());
+            let d = direction(diffuse.scatter(-DVec3::Y, DVec3::Y, fixed(r.next_f64(), u)));
+            sum += d.y;
+            near += (d.y > 30f64.to_radians().cos()) as u32;
+        }
+        assert!((sum / n as f64 - 2.0 / 3.0).abs() < 0.003);
+        assert!((near as f64 / n as f64 - 0.25).abs() < 0.005);
     }
 
     #[test]

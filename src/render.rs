@@ -165,6 +165,10 @@ impl FrameSetup<'_> {
     fn sample_tile<S: Sampler>(&self, sampler: &mut S, tile: &mut Tile, range: Range<u32>) -> u64 {
         let req = self.req;
         let interval = self.interval;
+        let uses = crate::sampler::CameraUse {
+            lens: self.has_lens,
+            time: self.sample_time,
+        };
         let mut stats = TraceStats::default();
         let mut acc = tile.pixels.iter_mut();
         for y in tile.y0..tile.y1 {
@@ -172,19 +176,11 @@ impl FrameSetup<'_> {
                 let acc = acc.next().expect("one accumulator per pixel");
                 for s in range.clone() {
                     sampler.start_sample(x, y, s);
-                    let jitter = sampler.next_2d();
-                    // The lens position and the time are one joint sample.
-                    let (lens, u) = match (self.has_lens, self.sample_time) {
-                        (true, true) => {
-                            let (a, b, c) = sampler.next_3d();
-                            ((a, b), c)
-                        }
-                        (true, false) => (sampler.next_2d(), 0.0),
-                        (false, true) => ((0.5, 0.5), sampler.next_1d()),
-                        (false, false) => ((0.5, 0.5), 0.0),
-                    };
+                    // The pixel position, and the lens position and the time (one joint
+                    // sample) where used; the bounces' numbers do not depend on which are.
+                    let camera = sampler.camera(uses);
                     let time = if self.sample_time {
-                        interval.at(u)
+                        interval.at(camera.time)
                     } else {
                         interval.open
                     };
@@ -193,7 +189,7 @@ impl FrameSetup<'_> {
                     } else {
                         self.fixed_view
                     };
-                    let ray = view.ray(x, y, jitter, lens, time);
+                    let ray = view.ray(x, y, camera.pixel, camera.lens, time);
                     acc.add(radiance(
                         &self.world,
                         ray,

@@ -1,17 +1,27 @@
 //! Sample generation behind one small interface.
 //!
 //! A [`Sampler`] is positioned at one (pixel, sample index) of one frame and then hands out
-//! the numbers of that sample's path in a fixed order of dimensions: the position inside the
-//! pixel, the lens position (only for a lens of non-zero aperture) and the time (only when
-//! something moves during the frame), drawn together as one joint sample, then the numbers of
-//! each bounce. Every number depends on (seed, frame, pixel, sample index) alone, never on the
-//! order samples are computed in.
+//! the numbers of that sample's path in a layout of dimensions that is the same for every
+//! scene and every path (as pbrt-v4's integrators draw theirs):
+//!
+//! | dimensions | numbers |
+//! | --- | --- |
+//! | 0, 1 | the position inside the pixel ([`CameraSample::pixel`]) |
+//! | 2, 3, 4 | the lens position and the time, one joint sample ([`CameraSample`]) |
+//! | 5 + 3k, 6 + 3k, 7 + 3k | bounce k: `uc` and `u` ([`BounceSample`]) |
+//!
+//! So bounce k of a sample gets the same numbers whether or not the camera has a lens or
+//! samples time, and whatever the materials of the bounces before it: every bounce takes its
+//! three numbers, and a material uses those it needs. Camera numbers a frame does not use (a
+//! pinhole's lens, a still scene's time) are skipped, not computed. Every number depends on
+//! (seed, frame, pixel, sample index) alone, never on the order samples are computed in.
 //!
 //! Two samplers implement it, chosen per scene with [`SamplerKind`]:
-//! - [`IndependentSampler`]: independent uniform random numbers, as the books use.
+//! - [`IndependentSampler`]: independent uniform random numbers, as the books use: dimension
+//!   d is number d of a PCG32 stream of the sample.
 //! - [`SobolSampler`]: an Owen-scrambled Sobol sequence for the pixel position, the lens
 //!   position and time, and the first bounce, so each of them is well stratified over a
-//!   pixel's samples.
+//!   pixel's samples; later bounces draw independent numbers.
 
 use std::fmt;
 use std::str::FromStr;
@@ -24,25 +34,81 @@ use sobol_burley::parts::{
 
 use crate::rng::{Pcg32, hash_words, mix64};
 
-/// The interface the tracer draws its random numbers from.
+/// Which of the camera's numbers a frame uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CameraUse {
+    /// The lens position (a lens of non-zero aperture).
+    pub lens: bool,
+    /// The time (something moves during the shutter).
+    pub time: bool,
+}
+
+impl CameraUse {
+    /// Every combination, for tests and measurements.
+    pub const ALL: [CameraUse; 4] = [
+        CameraUse {
+            lens: false,
+            time: false,
+        },
+        CameraUse {
+            lens: true,
+            time: false,
+        },
+        CameraUse {
+            lens: false,
+            time: true,
+        },
+        CameraUse {
+            lens: true,
+            time: true,
+        },
+    ];
+}
+
+/// The numbers of a camera ray, each in [0, 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSample {
+    /// The position inside the pixel (dimensions 0 and 1).
+    pub pixel: (f64, f64),
+    /// The lens position (dimensions 2 and 3); 0.5, 0.5 when not used.
+    pub lens: (f64, f64),
+    /// The time, as a fraction of the shutter interval (dimension 4); 0.5 when not used.
+    pub time: f64,
+}
+
+/// The numbers of one bounce, each in [0, 1): pbrt-v4's `uc` (1-D, for a discrete choice)
+/// and `u` (2-D, for a direction). Every bounce gets all three, whatever its material uses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BounceSample {
+    /// A 1-D number: the glass's choice between reflection and refraction, a fuzzy metal's
+    /// radius in the unit ball.
+    pub uc: f64,
+    /// A 2-D sample: a direction on the unit sphere.
+    pub u: (f64, f64),
+}
+
+/// The interface the renderer and the tracer draw their numbers from.
 pub trait Sampler {
     /// Positions the sampler at sample `index` of pixel (`x`, `y`).
     fn start_sample(&mut self, x: u32, y: u32, index: u32);
-    /// The next number in [0, 1).
-    fn next_1d(&mut self) -> f64;
-    /// The next pair of numbers in [0, 1)^2, meant to be used together.
-    fn next_2d(&mut self) -> (f64, f64) {
-        let a = self.next_1d();
-        let b = self.next_1d();
-        (a, b)
-    }
-    /// The next triple of numbers in [0, 1)^3, meant to be used together (the lens position
-    /// and the time; a direction and a radius).
-    fn next_3d(&mut self) -> (f64, f64, f64) {
-        let (a, b) = self.next_2d();
-        (a, b, self.next_1d())
-    }
+    /// The numbers of the current sample's camera ray: the pixel position, and the lens
+    /// position and time where `uses` asks for them (the others are 0.5 and not computed).
+    /// At most once per sample, before its bounces.
+    fn camera(&mut self, uses: CameraUse) -> CameraSample;
+    /// The numbers of the current sample's next bounce: the k-th call since
+    /// [`start_sample`](Sampler::start_sample) is bounce k (counting from 0), with the same
+    /// numbers whether or not [`camera`](Sampler::camera) was called and with what.
+    fn next_bounce(&mut self) -> BounceSample;
 }
+
+/// Dimension of the lens position (two dimensions) in every sample's layout.
+const LENS_DIMENSION: u64 = 2;
+/// Dimension of the time.
+const TIME_DIMENSION: u64 = 4;
+/// Dimension of the first bounce's numbers.
+const FIRST_BOUNCE_DIMENSION: u64 = 5;
+/// Dimensions a bounce takes: `uc` and `u`.
+const BOUNCE_DIMENSIONS: u64 = 3;
 
 /// The samplers a scene can choose from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -91,11 +157,16 @@ impl FromStr for SamplerKind {
 }
 
 /// Independent uniform random numbers (as the books use): a PCG32 stream per sample, seeded by
-/// a hash of (seed, frame, pixel, sample index).
+/// a hash of (seed, frame, pixel, sample index). Dimension d of the layout is number d of the
+/// stream: numbers not used are stepped over, one step of the generator each.
 #[derive(Clone, Debug)]
 pub struct IndependentSampler {
     key: u64,
     rng: Pcg32,
+    /// The dimension the stream's next number is.
+    next_dimension: u64,
+    /// The next bounce of the current sample.
+    bounce: u64,
 }
 
 impl IndependentSampler {
@@ -104,7 +175,21 @@ impl IndependentSampler {
         IndependentSampler {
             key: hash_words(&[seed, frame as u64]),
             rng: Pcg32::new(0, 0),
+            next_dimension: 0,
+            bounce: 0,
         }
+    }
+
+    /// The number of dimension `d` (not before the last one taken).
+    #[inline]
+    fn at(&mut self, d: u64) -> f64 {
+        debug_assert!(d >= self.next_dimension, "dimension {d} asked for too late");
+        // Step over the dimensions not used; a step without its output is one multiply-add.
+        for _ in self.next_dimension..d {
+            self.rng.next_u32();
+        }
+        self.next_dimension = d + 1;
+        self.rng.next_f64()
     }
 }
 
@@ -114,11 +199,35 @@ impl Sampler for IndependentSampler {
         let pixel = ((y as u64) << 32) | x as u64;
         let h = hash_words(&[self.key, pixel, index as u64]);
         self.rng = Pcg32::new(h, h >> 17);
+        self.next_dimension = 0;
+        self.bounce = 0;
     }
 
     #[inline]
-    fn next_1d(&mut self) -> f64 {
-        self.rng.next_f64()
+    fn camera(&mut self, uses: CameraUse) -> CameraSample {
+        let pixel = (self.at(0), self.at(1));
+        let lens = if uses.lens {
+            (self.at(LENS_DIMENSION), self.at(LENS_DIMENSION + 1))
+        } else {
+            (0.5, 0.5)
+        };
+        let time = if uses.time {
+            self.at(TIME_DIMENSION)
+        } else {
+            0.5
+        };
+        CameraSample { pixel, lens, time }
+    }
+
+    #[inline]
+    fn next_bounce(&mut self) -> BounceSample {
+        let d = FIRST_BOUNCE_DIMENSION + BOUNCE_DIMENSIONS * self.bounce;
+        self.bounce += 1;
+        let uc = self.at(d);
+        BounceSample {
+            uc,
+            u: (self.at(d + 1), self.at(d + 2)),
+        }
     }
 }
 
@@ -127,24 +236,36 @@ impl Sampler for IndependentSampler {
 /// [`SobolSampler`] never asks for an index at or above it (see [`SobolSampler`]).
 pub const SOBOL_SEQUENCE_LENGTH: u32 = 1 << 16;
 
-/// The domains of a sample drawn from the Sobol sequence: the pixel position, the lens
-/// position and time, and the first bounce. Later bounces use independent numbers: their
-/// stratification lowered the error of `scenes/bouncing_spheres.toml` by under 4 percent at
-/// equal samples, less than each domain's cost (docs/convergence.md).
-pub const SOBOL_DOMAINS: u64 = 3;
+/// The bounces drawn from the Sobol sequence: the first. Later bounces use independent
+/// numbers: their stratification lowered the error of `scenes/bouncing_spheres.toml` by under
+/// 4 percent at equal samples, less than each domain's cost (docs/convergence.md).
+pub const SOBOL_BOUNCES: u64 = 1;
+
+/// The domain of the position inside the pixel.
+const PIXEL_DOMAIN: usize = 0;
+/// The domain of the lens position and the time.
+const CAMERA_DOMAIN: usize = 1;
+/// The domain of the first bounce; bounce k has domain `FIRST_BOUNCE_DOMAIN + k`.
+const FIRST_BOUNCE_DOMAIN: usize = 2;
+/// The domains drawn from the Sobol sequence: the pixel position, the lens position and time,
+/// and the first [`SOBOL_BOUNCES`] bounces.
+pub const SOBOL_DOMAINS: u64 = FIRST_BOUNCE_DOMAIN as u64 + SOBOL_BOUNCES;
 
 /// Owen-scrambled Sobol points (the `sobol_burley` crate: Burley, "Practical Hash-based Owen
 /// Scrambling", JCGT 2020, with Joe and Kuo's direction numbers), padded to more dimensions.
 ///
-/// Each request (`next_1d`, `next_2d`, `next_3d`) of a sample is a *domain* and takes the
-/// first one to three dimensions of a Sobol point, Owen-scrambled with a seed hashed from
-/// (seed, frame, pixel, domain). The pixel position (domain 0) takes the point of the sample's
-/// index; every later domain takes the point of the index shuffled by its seed (Burley's
-/// padding). So over a pixel's samples each domain is a (0, m, 2)-net in every pair of its
-/// dimensions: the pixel position, the lens position and time (domain 1, one joint 3-D
-/// sample), the first bounce (domain 2); the domains are independent of each other, and each
-/// pixel's scrambles are independent of every other pixel's: no pattern across the image.
-/// Domains past [`SOBOL_DOMAINS`] (the later bounces) draw independent numbers.
+/// The layout's dimensions are grouped in fixed *domains*, each the first two or three
+/// dimensions of a Sobol point, Owen-scrambled with a seed hashed from (seed, frame, pixel,
+/// domain): domain 0 the pixel position, domain 1 the lens position and time (one joint 3-D
+/// sample), domain 2 the first bounce (`u` in dimensions 0 and 1 of its point, `uc` in
+/// dimension 2). The pixel position takes the point of the sample's index; every later domain
+/// takes the point of the index shuffled by its seed (Burley's padding). So over a pixel's
+/// samples each domain is a (0, m, 2)-net in every pair of its dimensions; the domains are
+/// independent of each other, and each pixel's scrambles are independent of every other
+/// pixel's: no pattern across the image. A domain is found by its index, so one a frame does
+/// not use (the camera's, for a still pinhole) is not computed and moves no other. Bounces
+/// past the first [`SOBOL_BOUNCES`] take three numbers each, in order, from a PCG32 stream of
+/// the sample.
 ///
 /// A sequence has [`SOBOL_SEQUENCE_LENGTH`] points. Sample indices past it start another
 /// sequence with another seed: each block of 2^16 samples is well stratified on its own and
@@ -156,9 +277,9 @@ pub struct SobolSampler {
     sample_seed: u64,
     /// The current sample's index within its block.
     index: u32,
-    /// The next domain of the current sample.
-    domain: u64,
-    /// Independent numbers for the domains past [`SOBOL_DOMAINS`].
+    /// The next bounce of the current sample.
+    bounce: u64,
+    /// Independent numbers for the bounces past [`SOBOL_BOUNCES`].
     rng: Pcg32,
     /// The scrambles of the current pixel's Sobol domains, which do not depend on the sample
     /// index: computed once for all of a pixel's samples.
@@ -175,31 +296,18 @@ impl SobolSampler {
             key: hash_words(&[seed, frame as u64, 0x0005_0b01]),
             sample_seed: 0,
             index: 0,
-            domain: 0,
+            bounce: 0,
             rng: Pcg32::new(0, 0),
             scrambles: [Scramble::new(0, false); SOBOL_DOMAINS as usize],
             scrambles_for: None,
         }
     }
 
-    /// The next domain's first four dimensions, in [0, 1).
+    /// The current sample's point of Sobol domain `domain`: its first four dimensions, in
+    /// [0, 1).
     #[inline]
-    fn next_domain(&mut self) -> [f64; 4] {
-        let d = self.domain;
-        self.domain += 1;
-        if d >= SOBOL_DOMAINS {
-            if d == SOBOL_DOMAINS {
-                let h = mix64(self.sample_seed ^ mix64(self.index as u64));
-                self.rng = Pcg32::new(h, h >> 17);
-            }
-            return [
-                self.rng.next_f64(),
-                self.rng.next_f64(),
-                self.rng.next_f64(),
-                0.0,
-            ];
-        }
-        self.scrambles[d as usize].point(self.index).map(f64::from)
+    fn point(&self, domain: usize) -> [f64; 4] {
+        self.scrambles[domain].point(self.index).map(f64::from)
     }
 }
 
@@ -279,7 +387,7 @@ impl Sampler for SobolSampler {
         let pixel = ((y as u64) << 32) | x as u64;
         let block = (index / SOBOL_SEQUENCE_LENGTH) as u64;
         self.index = index % SOBOL_SEQUENCE_LENGTH;
-        self.domain = 0;
+        self.bounce = 0;
         if self.scrambles_for != Some((pixel, block)) {
             self.scrambles_for = Some((pixel, block));
             self.sample_seed = hash_words(&[self.key, pixel, block]);
@@ -289,26 +397,51 @@ impl Sampler for SobolSampler {
                 // needs no shuffle); later domains are padded: the index shuffled by the
                 // domain's seed (a nested uniform scramble), which makes them independent of
                 // each other.
-                *scramble = Scramble::new((seed ^ (seed >> 32)) as u32, d > 0);
+                *scramble = Scramble::new((seed ^ (seed >> 32)) as u32, d != PIXEL_DOMAIN);
             }
         }
     }
 
     #[inline]
-    fn next_1d(&mut self) -> f64 {
-        self.next_domain()[0]
+    fn camera(&mut self, uses: CameraUse) -> CameraSample {
+        let p = self.point(PIXEL_DOMAIN);
+        let mut sample = CameraSample {
+            pixel: (p[0], p[1]),
+            lens: (0.5, 0.5),
+            time: 0.5,
+        };
+        if uses.lens || uses.time {
+            let c = self.point(CAMERA_DOMAIN);
+            if uses.lens {
+                sample.lens = (c[0], c[1]);
+            }
+            if uses.time {
+                sample.time = c[2];
+            }
+        }
+        sample
     }
 
     #[inline]
-    fn next_2d(&mut self) -> (f64, f64) {
-        let p = self.next_domain();
-        (p[0], p[1])
-    }
-
-    #[inline]
-    fn next_3d(&mut self) -> (f64, f64, f64) {
-        let p = self.next_domain();
-        (p[0], p[1], p[2])
+    fn next_bounce(&mut self) -> BounceSample {
+        let k = self.bounce;
+        self.bounce += 1;
+        if k < SOBOL_BOUNCES {
+            let p = self.point(FIRST_BOUNCE_DOMAIN + k as usize);
+            return BounceSample {
+                uc: p[2],
+                u: (p[0], p[1]),
+            };
+        }
+        if k == SOBOL_BOUNCES {
+            let h = mix64(self.sample_seed ^ mix64(self.index as u64));
+            self.rng = Pcg32::new(h, h >> 17);
+        }
+        let uc = self.rng.next_f64();
+        BounceSample {
+            uc,
+            u: (self.rng.next_f64(), self.rng.next_f64()),
+        }
     }
 }
 
@@ -316,12 +449,24 @@ impl Sampler for SobolSampler {
 mod tests {
     use super::*;
 
+    const EVERYTHING: CameraUse = CameraUse {
+        lens: true,
+        time: true,
+    };
+
+    /// The numbers of `bounces` bounces of the current sample, in order.
+    fn bounces(s: &mut (impl Sampler + ?Sized), bounces: usize) -> Vec<BounceSample> {
+        (0..bounces).map(|_| s.next_bounce()).collect()
+    }
+
+    /// Every number of one sample at (x, y, i) with a lens and time, and 4 bounces.
     fn draw(s: &mut impl Sampler, x: u32, y: u32, i: u32) -> Vec<f64> {
         s.start_sample(x, y, i);
-        let mut v: Vec<f64> = (0..4).map(|_| s.next_1d()).collect();
-        let (a, b) = s.next_2d();
-        let (c, d, e) = s.next_3d();
-        v.extend([a, b, c, d, e]);
+        let c = s.camera(EVERYTHING);
+        let mut v = vec![c.pixel.0, c.pixel.1, c.lens.0, c.lens.1, c.time];
+        for b in bounces(s, 4) {
+            v.extend([b.uc, b.u.0, b.u.1]);
+        }
         v
     }
 
@@ -335,6 +480,14 @@ mod tests {
         [
             Box::new(move |x, y, i| draw(&mut a, x, y, i)),
             Box::new(move |x, y, i| draw(&mut b, x, y, i)),
+        ]
+    }
+
+    /// The two samplers for a seed and frame, as trait objects.
+    fn samplers(seed: u64, frame: u32) -> [Box<dyn Sampler>; 2] {
+        [
+            Box::new(IndependentSampler::new(seed, frame)),
+            Box::new(SobolSampler::new(seed, frame)),
         ]
     }
 
@@ -362,29 +515,76 @@ mod tests {
     }
 
     #[test]
-    fn independent_triples_are_the_pairs_and_singles_in_order() {
-        // next_3d of the independent sampler draws the numbers next_2d + next_1d would, so
-        // images rendered before it existed are unchanged.
-        let mut a = IndependentSampler::new(1, 2);
-        let mut b = IndependentSampler::new(1, 2);
-        a.start_sample(1, 1, 1);
-        b.start_sample(1, 1, 1);
-        let (x, y, z) = a.next_3d();
-        assert_eq!((x, y), b.next_2d());
-        assert_eq!(z, b.next_1d());
+    fn bounce_numbers_do_not_depend_on_what_the_camera_uses() {
+        // Bounce k gets the same numbers with a pinhole or a lens, with or without time, and
+        // when the camera's numbers were not asked for at all.
+        for mut s in samplers(5, 10) {
+            for (x, y, i) in [(3, 4, 7), (0, 0, 0), (100, 2, 70_000)] {
+                s.start_sample(x, y, i);
+                let want = bounces(s.as_mut(), 8);
+                for uses in CameraUse::ALL {
+                    s.start_sample(x, y, i);
+                    s.camera(uses);
+                    assert_eq!(bounces(s.as_mut(), 8), want, "{uses:?}");
+                }
+                // Bounces differ from each other.
+                for k in 1..want.len() {
+                    assert_ne!(want[k], want[k - 1]);
+                }
+            }
+        }
     }
 
-    /// The points of domain `domain` of pixel `pixel`, for samples `0..n`.
+    #[test]
+    fn camera_numbers_do_not_depend_on_which_others_are_used() {
+        // The pixel position is the same whatever the camera uses, the lens position the same
+        // with or without time, the time the same with or without a lens; unused numbers are
+        // 0.5.
+        for mut s in samplers(2, 3) {
+            s.start_sample(9, 8, 7);
+            let all = s.camera(EVERYTHING);
+            for uses in CameraUse::ALL {
+                s.start_sample(9, 8, 7);
+                let c = s.camera(uses);
+                assert_eq!(c.pixel, all.pixel);
+                assert_eq!(c.lens, if uses.lens { all.lens } else { (0.5, 0.5) });
+                assert_eq!(c.time, if uses.time { all.time } else { 0.5 });
+            }
+        }
+    }
+
+    #[test]
+    fn independent_dimensions_are_the_streams_numbers_in_order() {
+        // Dimension d of the layout is number d of the sample's stream, with a full camera
+        // and with none (the numbers skipped are stepped over, not redrawn).
+        let mut s = IndependentSampler::new(1, 2);
+        let numbers = draw(&mut s, 1, 1, 1);
+        let h = hash_words(&[s.key, (1 << 32) | 1, 1]);
+        let mut rng = Pcg32::new(h, h >> 17);
+        let stream: Vec<f64> = (0..numbers.len()).map(|_| rng.next_f64()).collect();
+        assert_eq!(numbers, stream);
+        s.start_sample(1, 1, 1);
+        s.camera(CameraUse::default());
+        let b = s.next_bounce();
+        assert_eq!([b.uc, b.u.0, b.u.1], stream[5..8]);
+    }
+
+    /// The points of domain `domain` of pixel `pixel` (0 the pixel position, 1 the lens
+    /// position and time, 2 the first bounce as (u, uc)), for samples `0..n`.
     fn domain_points(pixel: (u32, u32), domain: usize, n: u32) -> Vec<[f64; 3]> {
         let mut s = SobolSampler::new(42, 3);
         (0..n)
             .map(|i| {
                 s.start_sample(pixel.0, pixel.1, i);
-                for _ in 0..domain {
-                    s.next_1d();
+                let c = s.camera(EVERYTHING);
+                match domain {
+                    0 => [c.pixel.0, c.pixel.1, 0.0],
+                    1 => [c.lens.0, c.lens.1, c.time],
+                    _ => {
+                        let b = s.next_bounce();
+                        [b.u.0, b.u.1, b.uc]
+                    }
                 }
-                let p = s.next_3d();
-                [p.0, p.1, p.2]
             })
             .collect()
     }
@@ -431,7 +631,7 @@ mod tests {
         let mut counts = [0u32; 256];
         for i in 0..256 {
             s.start_sample(0, 0, i);
-            let (a, b) = s.next_2d();
+            let (a, b) = s.camera(CameraUse::default()).pixel;
             counts[(a * 16.0) as usize * 16 + (b * 16.0) as usize] += 1;
         }
         assert!(counts.contains(&0));
@@ -449,15 +649,21 @@ mod tests {
 
     #[test]
     fn domains_are_uncorrelated() {
-        // Within a sample, numbers of different domains are as uncorrelated as independent
-        // ones: |r| < 4 / sqrt(n) (four standard errors).
+        // Within a sample, numbers of different domains (the pixel position, the camera, the
+        // first bounce, later bounces) are as uncorrelated as independent ones: |r| < 4 /
+        // sqrt(n) (four standard errors).
         let n = 4096;
         let mut s = SobolSampler::new(9, 1);
         let mut by_domain = vec![vec![]; 5];
         for i in 0..n {
             s.start_sample(5, 5, i);
-            for d in &mut by_domain {
-                d.push(s.next_1d());
+            let c = s.camera(EVERYTHING);
+            let b = bounces(&mut s, 3);
+            for (d, u) in by_domain
+                .iter_mut()
+                .zip([c.pixel.0, c.lens.0, b[0].uc, b[1].uc, b[2].uc])
+            {
+                d.push(u);
             }
         }
         let bound = 4.0 / (n as f64).sqrt();
@@ -477,10 +683,9 @@ mod tests {
             (0..8)
                 .map(|i| {
                     s.start_sample(x, 7, i);
-                    s.next_2d();
-                    s.next_3d();
-                    let (a, b, c) = s.next_3d();
-                    a * b * c
+                    s.camera(EVERYTHING);
+                    let b = s.next_bounce();
+                    b.u.0 * b.u.1 * b.uc
                 })
                 .sum::<f64>()
                 / 8.0
@@ -504,17 +709,17 @@ mod tests {
         let mut first = vec![];
         for i in 0..256 {
             s.start_sample(2, 2, SOBOL_SEQUENCE_LENGTH + i);
-            let (a, b) = s.next_2d();
+            let (a, b) = s.camera(CameraUse::default()).pixel;
             counts[(a * 16.0) as usize * 16 + (b * 16.0) as usize] += 1;
             s.start_sample(2, 2, i);
-            first.push(s.next_2d());
+            first.push(s.camera(CameraUse::default()).pixel);
         }
         assert!(counts.iter().all(|&c| c == 1));
         s.start_sample(2, 2, SOBOL_SEQUENCE_LENGTH);
-        assert_ne!(s.next_2d(), first[0]);
+        assert_ne!(s.camera(CameraUse::default()).pixel, first[0]);
         // The largest index works too.
         s.start_sample(2, 2, u32::MAX);
-        let (a, b) = s.next_2d();
+        let (a, b) = s.camera(CameraUse::default()).pixel;
         assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
     }
 

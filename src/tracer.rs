@@ -1,11 +1,16 @@
 //! The path tracer: the books' `ray_color`, as a loop.
+//!
+//! Every bounce takes the same numbers from the sampler, its [`BounceSample`] (pbrt-v4's
+//! `uc` and `u`), drawn here and handed to the material, which uses those it needs. So the
+//! numbers of bounce k depend only on the sample and k, not on the materials of the bounces
+//! before it.
 
 use glam::DVec3;
 
 use crate::bvh::TraversalStack;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
-use crate::sampler::Sampler;
+use crate::sampler::{BounceSample, Sampler};
 use crate::world::World;
 
 /// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
@@ -19,6 +24,9 @@ pub struct TraceStats {
 
 /// The radiance arriving along `ray`, following at most `max_depth` bounces; a path that
 /// reaches `max_depth` returns black. The scattered rays keep the camera ray's time.
+///
+/// `sampler` is positioned at the ray's sample: each hit takes the sample's next bounce
+/// ([`Sampler::next_bounce`]), so the k-th hit of the path gets bounce k's numbers.
 #[inline]
 pub fn radiance<S: Sampler>(
     world: &World,
@@ -35,7 +43,8 @@ pub fn radiance<S: Sampler>(
         let Some(hit) = world.hit(&ray, skip, &mut stats.stack) else {
             return throughput * world.background.radiance(ray.dir);
         };
-        match hit.material.scatter(ray.dir, hit.surface.normal, sampler) {
+        let sample: BounceSample = sampler.next_bounce();
+        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
             Scatter::Absorbed => return DVec3::ZERO,
             Scatter::Continue {
                 dir,
@@ -55,4 +64,101 @@ pub fn radiance<S: Sampler>(
         }
     }
     DVec3::ZERO
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::rng::Pcg32;
+    use crate::sampler::{CameraSample, CameraUse, IndependentSampler, SobolSampler};
+    use crate::scene::Scene;
+    use crate::world::StaticGeometry;
+
+    /// A sampler that records the bounce numbers it hands out.
+    struct Recording<S> {
+        inner: S,
+        bounces: Vec<BounceSample>,
+    }
+
+    impl<S: Sampler> Sampler for Recording<S> {
+        fn start_sample(&mut self, x: u32, y: u32, index: u32) {
+            self.inner.start_sample(x, y, index);
+            self.bounces.clear();
+        }
+        fn camera(&mut self, uses: CameraUse) -> CameraSample {
+            self.inner.camera(uses)
+        }
+        fn next_bounce(&mut self) -> BounceSample {
+            let b = self.inner.next_bounce();
+            self.bounces.push(b);
+            b
+        }
+    }
+
+    /// A closed room (the inside of a large diffuse sphere) with a sharp mirror, a fuzzy
+    /// metal and a glass sphere in it: no path escapes, so each ray traced hits something.
+    const ROOM: &str = r#"
+[shot]
+shutter = 0.0
+[background]
+color = [1.0, 1.0, 1.0]
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 10.0
+material = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
+[[sphere]]
+center = [2.0, 0.0, 0.0]
+radius = 1.5
+material = { type = "metal", albedo = [0.9, 0.9, 0.9], fuzz = 0.0 }
+[[sphere]]
+center = [-2.0, 0.0, 0.0]
+radius = 1.5
+material = { type = "dielectric", ior = 1.5 }
+[[sphere]]
+center = [0.0, 2.5, 0.0]
+radius = 1.0
+material = { type = "metal", albedo = [0.9, 0.9, 0.9], fuzz = 0.8 }
+"#;
+
+    fn bounce_numbers_follow_the_hits(sampler: impl Sampler) {
+        let scene = Scene::parse(ROOM, Path::new("room.toml")).unwrap();
+        let statics = StaticGeometry::new(&scene);
+        let world = World::prepare(&scene, &statics, scene.shot.interval(1));
+        let mut sampler = Recording {
+            inner: sampler,
+            bounces: vec![],
+        };
+        let mut r = Pcg32::new(1, 2);
+        let mut stats = TraceStats::default();
+        let mut longest = 0;
+        for i in 0..2000 {
+            let dir = crate::material::unit_vector((r.next_f64(), r.next_f64()));
+            let ray = Ray {
+                origin: DVec3::new(0.0, 0.0, 4.0),
+                dir,
+                time: 0.0,
+            };
+            sampler.start_sample(0, 0, i);
+            let rays = stats.rays;
+            radiance(&world, ray, 12, &mut sampler, &mut stats);
+            // One bounce's numbers per hit, whatever the material (a sharp mirror uses none,
+            // glass one, a fuzzy metal three)...
+            assert_eq!(sampler.bounces.len() as u64, stats.rays - rays);
+            longest = longest.max(sampler.bounces.len());
+            // ...and bounce k's numbers are the sample's bounce k, whatever came before.
+            sampler.inner.start_sample(0, 0, i);
+            for b in &sampler.bounces {
+                assert_eq!(sampler.inner.next_bounce(), *b);
+            }
+        }
+        assert_eq!(longest, 12);
+    }
+
+    #[test]
+    fn every_hit_takes_its_bounces_numbers() {
+        bounce_numbers_follow_the_hits(IndependentSampler::new(3, 1));
+        bounce_numbers_follow_the_hits(SobolSampler::new(3, 1));
+    }
 }

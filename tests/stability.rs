@@ -31,7 +31,7 @@ use raytrace::camera::View;
 use raytrace::material::schlick;
 use raytrace::ray::Ray;
 use raytrace::render::{Budget, FrameResult, render_frame};
-use raytrace::sampler::{IndependentSampler, Sampler};
+use raytrace::sampler::{CameraUse, IndependentSampler, Sampler};
 use raytrace::scene::Scene;
 use raytrace::sphere::{intersect, surface_point};
 use raytrace::tracer::{TraceStats, radiance};
@@ -1111,22 +1111,21 @@ seed = 9
 color = [1.0, 1.0, 1.0]
 "#;
 
-/// The sample times of pixel (x, y) in `frame`, drawn as `render_frame` draws them (jitter,
-/// then the time), as fractions of the shutter; and the largest difference between a time's
-/// fraction and the uniform number it was drawn from.
+/// The sample times of pixel (x, y) in `frame`, drawn as `render_frame` draws them (the
+/// camera's numbers), as fractions of the shutter; and the largest difference between a
+/// time's fraction and the uniform number it was drawn from.
 fn shutter_fractions(sc: &Scene, frame: u32, x: u32, y: u32, n: u32) -> (Vec<f64>, f64) {
-    assert_eq!(
-        sc.camera.aperture, 0.0,
-        "a lens would draw two more numbers first"
-    );
+    let uses = CameraUse {
+        lens: sc.camera.aperture > 0.0,
+        time: true,
+    };
     let interval = sc.shot.interval(frame);
     let mut sampler = IndependentSampler::new(sc.render.seed, frame);
     let mut out = Vec::with_capacity(n as usize);
     let mut quantization: f64 = 0.0;
     for i in 0..n {
         sampler.start_sample(x, y, i);
-        let _jitter = sampler.next_2d();
-        let u = sampler.next_1d();
+        let u = sampler.camera(uses).time;
         let t = interval.at(u);
         assert!(interval.contains(t));
         let frac = (t - interval.open) / interval.duration();
