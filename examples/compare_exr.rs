@@ -3,6 +3,8 @@
 //! ```sh
 //! cargo run --release --example compare_exr -- BLOCK A.exr B.exr [C.exr]
 //! ```
+//! Each image is an EXR, or a PFM (the little-endian float RGB format many renderers write,
+//! rows bottom to top), so another renderer's image can be compared too.
 //! Prints each image's mean per channel and, over BLOCK x BLOCK-pixel blocks, the largest and
 //! the root-mean-square difference of the block means of A and B. With a third image C (A's
 //! frame rendered again with another seed), also the same figures for A against C: the spread
@@ -29,7 +31,12 @@ fn main() -> ExitCode {
     };
     let mut images: Vec<Image> = Vec::new();
     for path in &args[1..] {
-        match read_exr_rgb(path.as_ref()) {
+        let read = if path.ends_with(".pfm") {
+            read_pfm(path)
+        } else {
+            read_exr_rgb(path.as_ref())
+        };
+        match read {
             Ok(image) => images.push(image),
             Err(e) => {
                 eprintln!("{path}: {e}");
@@ -56,6 +63,46 @@ fn main() -> ExitCode {
         println!("A vs C (noise): block means differ by at most {max:.5}, rms {rms:.5}");
     }
     ExitCode::SUCCESS
+}
+
+/// Reads a little-endian RGB PFM file (`PF`, width height, a negative scale, then rows of
+/// 32-bit floats from the bottom row up) as rows from the top.
+fn read_pfm(path: &str) -> Result<Image, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    // The header is three lines of text.
+    let mut lines = 0;
+    let end = bytes
+        .iter()
+        .position(|&b| {
+            lines += (b == b'\n') as u32;
+            lines == 3
+        })
+        .ok_or("not a PFM file")?;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let fields: Vec<&str> = header.split_whitespace().collect();
+    let parse = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok());
+    let (Some("PF"), Some(w), Some(h), Some(scale)) =
+        (fields.first().copied(), parse(1), parse(2), parse(3))
+    else {
+        return Err("not an RGB PFM file".into());
+    };
+    if scale >= 0.0 {
+        return Err("big-endian PFM files are not read".into());
+    }
+    let (w, h) = (w as usize, h as usize);
+    let data = &bytes[end + 1..];
+    if data.len() != w * h * 12 {
+        return Err(format!("{} bytes of pixels for {w}x{h}", data.len()));
+    }
+    let float = |i: usize| f32::from_le_bytes(data[4 * i..4 * i + 4].try_into().unwrap()) as f64;
+    let mut pixels = vec![DVec3::ZERO; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * ((h - 1 - y) * w + x);
+            pixels[y * w + x] = DVec3::new(float(i), float(i + 1), float(i + 2));
+        }
+    }
+    Ok((w, h, pixels))
 }
 
 /// The largest and the root-mean-square difference, over channels and whole blocks, of the
