@@ -11,6 +11,7 @@
 
 pub mod generate;
 mod pieces;
+mod report;
 mod schema;
 mod validate;
 
@@ -128,18 +129,10 @@ impl Scene {
 fn parse_whole(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
     let file = source.display().to_string();
     let mut raw: schema::RawScene = toml::from_str(text).map_err(|e| {
-        let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        Error::Scene(format!("{file}:{line}:{col}: {}", e.message().trim_end()))
+        let e = report::toml_error(text, &e, 0);
+        Error::Scene(report::render(&file, text, e.span, &e.message))
     })?;
     let check = validate::Check::new(&file, overrides);
     check.apply(&mut raw);
     check.scene(raw, source).map_err(Error::Scene)
-}
-
-/// The 1-based line and column of byte `offset` in `text`.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
 }

@@ -6,9 +6,10 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::report::{self, Located};
 use super::schema::{RawScene, RawSphere};
 use super::validate::{Check, Validated, add_spheres};
-use super::{Overrides, Scene, line_col};
+use super::{Overrides, Scene};
 use crate::error::Error;
 
 /// Files at least this large are parsed in pieces, in parallel (when their layout allows).
@@ -127,8 +128,8 @@ struct RawSpheres {
 
 /// What went wrong in a piece.
 enum PieceError {
-    /// Syntax or type, at this offset of the whole text.
-    Syntax(usize, String),
+    /// Syntax or type, at this span of the whole text.
+    Syntax(Located),
     /// A value, with its message.
     Value(String),
 }
@@ -179,12 +180,6 @@ pub(super) fn parse_in_pieces(
     }
     let file = source.display().to_string();
     let check = Check::new(&file, overrides);
-    let syntax = |offset: usize, e: &toml::de::Error| {
-        (
-            offset + e.span().map_or(0, |s| s.start),
-            e.message().trim_end().to_string(),
-        )
-    };
     // The rest as one document, with a map from its offsets back to the text's.
     let mut rest_text = String::new();
     let mut rest_map: Vec<(usize, usize)> = Vec::new();
@@ -196,14 +191,18 @@ pub(super) fn parse_in_pieces(
         let i = rest_map.partition_point(|m| m.0 <= off).max(1) - 1;
         rest_map.get(i).map_or(off, |&(r, t)| t + (off - r))
     };
-    let head: Result<RawScene, (usize, String)> = toml::from_str(&rest_text)
+    let head: Result<RawScene, Located> = toml::from_str(&rest_text)
         .map(|mut raw| {
             check.apply(&mut raw);
             raw
         })
         .map_err(|e| {
-            let (off, msg) = syntax(0, &e);
-            (to_text(off), msg)
+            let e = report::toml_error(&rest_text, &e, 0);
+            let start = to_text(e.span.start);
+            Located {
+                span: start..start + e.span.len(),
+                message: e.message,
+            }
         });
     if let Ok(raw) = &head
         && !raw.sphere.is_empty()
@@ -220,8 +219,11 @@ pub(super) fn parse_in_pieces(
         .par_iter()
         .map(|&(a, b, first)| {
             let raw: RawSpheres = toml::from_str(&text[a..b]).map_err(|e| {
-                let (off, msg) = syntax(a, &e);
-                PieceError::Syntax(off, msg)
+                let e = report::toml_error(&text[a..b], &e, first);
+                PieceError::Syntax(Located {
+                    span: a + e.span.start..a + e.span.end,
+                    message: e.message,
+                })
             })?;
             match names {
                 Some(names) => check
@@ -236,14 +238,13 @@ pub(super) fn parse_in_pieces(
     let first_syntax = results
         .iter()
         .filter_map(|r| match r {
-            Err(PieceError::Syntax(off, msg)) => Some((*off, msg.clone())),
+            Err(PieceError::Syntax(e)) => Some(e.clone()),
             _ => None,
         })
         .chain(head.as_ref().err().cloned())
-        .min_by_key(|e| e.0);
-    if let Some((off, msg)) = first_syntax {
-        let (line, col) = line_col(text, off);
-        return fail(format!("{file}:{line}:{col}: {msg}"));
+        .min_by_key(|e| e.span.start);
+    if let Some(e) = first_syntax {
+        return fail(report::render(&file, text, e.span, &e.message));
     }
     let mut scene = match checked_head? {
         Ok((scene, _)) => scene,

@@ -443,3 +443,242 @@ fn overrides_are_validated_as_the_file_is_and_name_the_flag() {
         .to_string();
     assert_eq!(e, "s.toml: output.width must be in 1..=65536, got 0");
 }
+
+/// The first line of a message (the rest is the source line and the caret).
+fn first_line(e: &str) -> &str {
+    e.lines().next().unwrap_or("")
+}
+
+#[test]
+fn vectors_and_colours_take_exactly_three_numbers() {
+    for (text, want) in [
+        (
+            "[camera]\nlook_from = [0, 0, 0, \"x\", [1], {a = 1}]\n",
+            "s.toml:2:13: camera.look_from: expected 3 numbers, found 6",
+        ),
+        (
+            "[camera]\nlook_from = [0, 0]\n",
+            "s.toml:2:13: camera.look_from: expected 3 numbers, found 2",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, -1, 99]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n",
+            "s.toml:2:10: sphere[0].center: expected 3 numbers, found 4",
+        ),
+        (
+            "[background]\ncolor = [0.1, 0.2, 0.3, nan]\n",
+            "s.toml:2:9: background.color: expected 3 numbers, found 4",
+        ),
+        (
+            "[camera]\nup = []\n",
+            "s.toml:2:6: camera.up: expected 3 numbers, found 0",
+        ),
+        (
+            "[camera]\nup = [0, \"1\", 0]\n",
+            "s.toml:2:10: camera.up[1]: expected a number, found the string \"1\"",
+        ),
+        (
+            "[camera]\nup = 1\n",
+            "s.toml:2:6: camera.up: expected an array of 3 numbers, found the integer 1",
+        ),
+    ] {
+        let e = err(text);
+        assert_eq!(first_line(&e), want, "{text}");
+    }
+}
+
+#[test]
+fn schema_errors_name_the_field_and_say_what_was_expected_and_found() {
+    let e = err("[shot]\nfps = \"big\"\n");
+    assert_eq!(
+        e,
+        "s.toml:2:7: shot.fps: expected a number, found the string \"big\"\n  |\n2 | fps = \"big\"\n  |       ^^^^^"
+    );
+    for (text, want) in [
+        (
+            "[shot]\nshutter_position = \"middle\"\n",
+            "s.toml:2:20: shot.shutter_position: expected one of \"start\", \"center\", \"end\", found \"middle\"",
+        ),
+        (
+            "[render]\nsampler = 3\n",
+            "s.toml:2:11: render.sampler: expected one of \"sobol\", \"independent\", found the integer 3",
+        ),
+        (
+            "[shot]\nfps = 1\nfps = 2\n",
+            "s.toml:3:1: duplicate key `fps`",
+        ),
+        ("[shot]\n[shot]\n", "s.toml:2:2: duplicate table [shot]"),
+        (
+            "[shot]\nfpz = 1\n",
+            "s.toml:2:1: shot: unknown key `fpz`, expected one of fps, frames, first_frame, start_time, shutter, shutter_angle, shutter_position",
+        ),
+        (
+            "camera = 5\n",
+            "s.toml:1:10: camera: expected a table, found the integer 5",
+        ),
+        (
+            "[materials]\nm = 5\n",
+            "s.toml:2:5: materials.m: expected a material table, found the integer 5",
+        ),
+        (
+            "[materials]\nm = { type = \"plastic\" }\n",
+            "s.toml:2:14: materials.m.type: expected one of \"lambertian\", \"metal\", \"dielectric\", found \"plastic\"",
+        ),
+        (
+            "[materials]\nm = { type = \"lambertian\", albedo = [1, 1, 1], ior = 2 }\n",
+            "s.toml:2:5: materials.m: unknown key `ior` for a lambertian material, expected one of type, albedo",
+        ),
+        (
+            "[materials]\nm = { type = \"metal\", albedo = [1, 1, 1], shine = 2 }\n",
+            "s.toml:2:43: materials.m: unknown key `shine`, expected one of type, albedo, fuzz, ior",
+        ),
+        (
+            "[materials]\nm = { albedo = [1, 1, 1] }\n",
+            "s.toml:2:5: materials.m: missing key `type` (one of \"lambertian\", \"metal\", \"dielectric\")",
+        ),
+        (
+            "[materials]\nm = { type = \"dielectric\" }\n",
+            "s.toml:2:5: materials.m: missing key `ior` (a dielectric material needs it)",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, 0]\nmaterial = { type = \"metal\", albedo = [1, true, 1] }\nradius = 1\n",
+            "s.toml:3:43: sphere[0].material.albedo[1]: expected a number, found the boolean true",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, 0]\nmaterial = \"m\"\n",
+            "s.toml:1:1: sphere[0]: missing key `radius`",
+        ),
+        (
+            "[camera]\nkeyframes = [ { time = 1979-05-27 } ]\n",
+            "s.toml:2:24: camera.keyframes[0].time: expected a number, found the date-time 1979-05-27",
+        ),
+        (
+            "[camera]\nkeyframes = 3\n",
+            "s.toml:2:13: camera.keyframes: expected an array, found the integer 3",
+        ),
+        (
+            "[materials]\nm = [1]\n",
+            "s.toml:2:5: materials.m: expected a material table, found an array of 1 value",
+        ),
+        (
+            "sphere = 1\n",
+            "s.toml:1:10: sphere: expected an array, found the integer 1",
+        ),
+    ] {
+        let e = err(text);
+        assert_eq!(first_line(&e), want, "{text}");
+        // The source line follows, with a caret.
+        assert!(e.lines().nth(3).is_some_and(|l| l.contains('^')), "{e}");
+    }
+}
+
+/// No Rust or serde type names in any message, whatever the wrong value.
+#[test]
+fn messages_hold_no_internal_names() {
+    let wrong = [
+        "\"s\"",
+        "1",
+        "1.5",
+        "true",
+        "[1]",
+        "{ a = 1 }",
+        "1979-05-27",
+        "[]",
+    ];
+    let fields = [
+        ("shot", "fps"),
+        ("shot", "frames"),
+        ("shot", "shutter_position"),
+        ("output", "path"),
+        ("render", "sampler"),
+        ("camera", "look_from"),
+        ("camera", "orbit"),
+        ("camera", "keyframes"),
+        ("background", "color"),
+        ("materials", "m"),
+    ];
+    for (table, key) in fields {
+        for w in wrong {
+            let text = format!("[{table}]\n{key} = {w}\n");
+            if let Err(e) = parse(&text, Path::new("s.toml")) {
+                let e = e.to_string();
+                for name in [
+                    "Raw", "struct", "enum", "f64", "i64", "u64", "i128", "sequence", "map",
+                    "variant", "field",
+                ] {
+                    assert!(!e.contains(name), "{text}: {e}");
+                }
+            }
+        }
+        for w in wrong {
+            let text = format!("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = {w}\n");
+            let e = err(&text);
+            assert!(!e.contains("Raw") && !e.contains("enum"), "{text}: {e}");
+        }
+    }
+}
+
+#[test]
+fn numbers_are_shown_short_and_as_written() {
+    let e = err("[render]\nseed = 18446744073709551615\n");
+    assert_eq!(
+        e,
+        "s.toml: render.seed must be in 0..=9223372036854775807, got 18446744073709551615"
+    );
+    let e = err("[render]\nseed = 170141183460469231731687303715884105727\n");
+    assert!(
+        e.ends_with("got 170141183460469231731687303715884105727"),
+        "{e}"
+    );
+    // A tiny fps makes the default shutter angle's shutter overflow: fps is to blame.
+    let e = err("[shot]\nfps = 1e-300\n");
+    assert_eq!(
+        e,
+        "s.toml: shot.fps gives a shutter of 5e299 s (shutter_angle 180 / 360 / fps 1e-300), more than 3.4e38; got 1e-300"
+    );
+    let e = err("[shot]\nfps = 1e-38\nframes = 100\n");
+    assert_eq!(
+        e,
+        "s.toml: shot: the last frame's time (9.925e39 s) is out of range; check shot.fps and shot.frames"
+    );
+    assert_eq!(validate::show_approx(1.0 / 48.0), "0.02083");
+    assert_eq!(validate::show_approx(4.9999999999999995e299), "5e299");
+    assert_eq!(validate::show_approx(123456.0), "123500");
+    assert_eq!(validate::show(2.0), "2");
+    assert_eq!(validate::show(-0.0), "-0");
+    assert_eq!(validate::show(0.1), "0.1");
+    assert_eq!(validate::show(1e300), "1e300");
+    assert_eq!(validate::show(f64::NEG_INFINITY), "-inf");
+}
+
+#[test]
+fn integer_fields_take_whole_floats() {
+    let s = ok("[shot]\nframes = 2.0\nfirst_frame = 0.0\n[output]\nwidth = 8e0\n");
+    assert_eq!(
+        (s.shot.frames, s.shot.first_frame, s.output.width),
+        (2, 0, 8)
+    );
+    for (text, want) in [
+        (
+            "[shot]\nframes = 2.5\n",
+            "s.toml: shot.frames must be an integer, got 2.5",
+        ),
+        (
+            "[shot]\nfirst_frame = -0.0\n",
+            "s.toml: shot.first_frame must be an integer, got -0 (negative zero)",
+        ),
+        (
+            "[shot]\nframes = 1e16\n",
+            "s.toml: shot.frames must be an integer, got 1e16",
+        ),
+        (
+            "[shot]\nframes = 1e15\n",
+            "s.toml: shot.frames must be in 1..=4294967295, got 1000000000000000",
+        ),
+        (
+            "[render]\nsamples = nan\n",
+            "s.toml: render.samples must be an integer, got nan",
+        ),
+    ] {
+        assert_eq!(err(text), want, "{text}");
+    }
+}

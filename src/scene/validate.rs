@@ -21,14 +21,39 @@ use crate::sampler::SamplerKind;
 use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
 use crate::sphere::SphereDesc;
 
-/// Formats a number as the scene file would, with negative zero shown as `-0`.
-fn show(x: f64) -> String {
+/// Formats a number as the scene file would, shortest first: `2`, `0.25`, `-0`, and in
+/// scientific form when very large or small (`1e-300`, `1.8446744073709552e19`), never as
+/// hundreds of digits.
+pub(super) fn show(x: f64) -> String {
     if x.is_nan() {
-        "nan".into()
+        return "nan".into();
+    }
+    let debug = format!("{x:?}");
+    if debug.contains('e') || x.is_infinite() {
+        debug
     } else {
         format!("{x}")
     }
 }
+
+/// Formats a computed number (not one written in the file) to 4 significant digits:
+/// `5e299`, `1.98e39`, `0.02083`.
+pub(super) fn show_approx(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return show(x);
+    }
+    let sci = format!("{x:.3e}");
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+    match exp.parse::<i32>() {
+        Ok(e) if (-4..16).contains(&e) => show(format!("{mantissa}e{e}").parse().unwrap_or(x)),
+        _ => format!("{mantissa}e{exp}"),
+    }
+}
+
+/// Largest integer a float field may stand for in an integer field: floats hold every
+/// integer exactly up to 2^53, and no larger one is likely to be meant exactly.
+const EXACT_INTEGERS: f64 = 9_007_199_254_740_992.0;
 
 /// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
 pub(super) type Validated = (Vec<SphereDesc>, Vec<Material>);
@@ -76,7 +101,7 @@ impl<'a> Check<'a> {
     /// Writes the overrides into the file's raw values, to be validated with them.
     pub(super) fn apply(&self, raw: &mut RawScene) {
         let o = self.overrides;
-        let int = |x: u64| Some(i64::try_from(x).map_or(Number::Float(x as f64), Number::Int));
+        let int = |x: u64| Some(Number::Int(x.into()));
         if let Some(p) = &o.output {
             raw.output.path = Some(p.clone());
         }
@@ -149,6 +174,7 @@ impl<'a> Check<'a> {
     }
 
     fn vec(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        let v = v.0;
         for (i, x) in v.iter().enumerate() {
             self.num(&format!("{field}[{i}]"), *x)?;
         }
@@ -177,12 +203,15 @@ impl<'a> Check<'a> {
     }
 
     fn color(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        let v = v.0;
         for (i, x) in v.iter().enumerate() {
             self.non_negative(&format!("{field}[{i}]"), *x)?;
         }
         Ok(DVec3::from_array(v))
     }
 
+    /// An integer field. A float written for it counts when it is a whole number that floats
+    /// hold exactly (`2.0`); `2.5`, `nan`, `1e39` and `-0.0` are refused by name.
     fn int(
         &self,
         field: &str,
@@ -192,17 +221,28 @@ impl<'a> Check<'a> {
         max: i64,
     ) -> Result<i64, String> {
         let field = self.name(field);
-        let x = match x {
-            None => default,
+        let x: i128 = match x {
+            None => default.into(),
             Some(Number::Int(x)) => x,
+            Some(Number::Huge(x)) => {
+                return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
+            }
             Some(Number::Float(f)) => {
-                return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+                if f == 0.0 && f.is_sign_negative() {
+                    return self.err(format_args!(
+                        "{field} must be an integer, got -0 (negative zero)"
+                    ));
+                }
+                if f.fract() != 0.0 || f.abs() > EXACT_INTEGERS || !f.is_finite() {
+                    return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+                }
+                f as i128
             }
         };
-        if x < min || x > max {
+        if x < min.into() || x > max.into() {
             return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
         }
-        Ok(x)
+        Ok(x as i64)
     }
 
     pub(super) fn scene(&self, raw: RawScene, source: &Path) -> Result<Scene, String> {
@@ -293,7 +333,7 @@ impl<'a> Check<'a> {
                 }
             };
             spheres.push(SphereDesc {
-                radius: self.positive(&format!("{field}.radius"), s.radius)?,
+                radius: self.positive(&format!("{field}.radius"), s.radius.0)?,
                 motion: self.sphere_motion(&field, s)?,
                 material,
             });
@@ -302,7 +342,7 @@ impl<'a> Check<'a> {
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
-        let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
+        let fps = self.positive("shot.fps", s.fps.map_or(24.0, |f| f.0))?;
         let frames = self.int("shot.frames", s.frames, 1, 1, u32::MAX as i64)?;
         let first_frame = self.int("shot.first_frame", s.first_frame, 1, 0, u32::MAX as i64)?;
         if first_frame + frames - 1 > u32::MAX as i64 {
@@ -316,13 +356,27 @@ impl<'a> Check<'a> {
             (Some(_), Some(_)) => {
                 return self.err("shot: give at most one of shutter and shutter_angle");
             }
-            (Some(x), None) => self.non_negative("shot.shutter", x)?,
-            (None, a) => shutter_from_angle(
-                self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?,
-                fps,
-            ),
+            (Some(x), None) => self.non_negative("shot.shutter", x.0)?,
+            (None, a) => {
+                let angle = self.non_negative("shot.shutter_angle", a.map_or(180.0, |a| a.0))?;
+                let shutter = shutter_from_angle(angle, fps);
+                // Only a tiny fps makes the shutter overflow: blame the keys written.
+                if !shutter.is_finite() || shutter > f32::MAX as f64 {
+                    let (field, x) = match s.fps {
+                        Some(_) => ("shot.fps", fps),
+                        None => ("shot.shutter_angle", angle),
+                    };
+                    return self.err(format_args!(
+                        "{field} gives a shutter of {} s (shutter_angle {} / 360 / fps {}), more than 3.4e38; got {}",
+                        show_approx(shutter),
+                        show(angle),
+                        show(fps),
+                        show(x)
+                    ));
+                }
+                shutter
+            }
         };
-        let shutter = self.num("shot.shutter", shutter)?;
         let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
             RawShutterPosition::Start => ShutterPosition::Start,
             RawShutterPosition::Center => ShutterPosition::Center,
@@ -332,7 +386,7 @@ impl<'a> Check<'a> {
             fps,
             frames: frames as u32,
             first_frame: first_frame as u32,
-            start_time: self.num("shot.start_time", s.start_time.unwrap_or(0.0))?,
+            start_time: self.num("shot.start_time", s.start_time.map_or(0.0, |t| t.0))?,
             shutter,
             position,
         };
@@ -341,8 +395,8 @@ impl<'a> Check<'a> {
         for t in [whole.open, whole.close] {
             if !t.is_finite() || t.abs() > f32::MAX as f64 {
                 return self.err(format_args!(
-                    "shot: the last frame's time ({}) is out of range; check shot.fps and shot.frames",
-                    show(t)
+                    "shot: the last frame's time ({} s) is out of range; check shot.fps and shot.frames",
+                    show_approx(t)
                 ));
             }
         }
@@ -387,7 +441,7 @@ impl<'a> Check<'a> {
                 albedo: self.color(&format!("{field}.albedo"), *albedo)?,
             },
             RawMaterial::Metal { albedo, fuzz } => {
-                let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
+                let fuzz = self.non_negative(&format!("{field}.fuzz"), fuzz.0)?;
                 if fuzz > 1.0 {
                     return self.err(format_args!(
                         "{field}.fuzz must be in [0, 1], got {}",
@@ -400,7 +454,7 @@ impl<'a> Check<'a> {
                 }
             }
             RawMaterial::Dielectric { ior } => Material::Dielectric {
-                ior: self.positive(&format!("{field}.ior"), *ior)?,
+                ior: self.positive(&format!("{field}.ior"), ior.0)?,
             },
         })
     }
@@ -445,7 +499,7 @@ impl<'a> Check<'a> {
                 ));
             }
             let kf = format!("{field}.keyframes");
-            let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
+            let times = self.keys(&kf, keys.iter().map(|k| k.time.0))?;
             let keys = keys
                 .iter()
                 .zip(times)
@@ -474,7 +528,7 @@ impl<'a> Check<'a> {
                 &format!("{field}.orbit"),
                 o.pivot,
                 o.axis,
-                o.degrees_per_second,
+                o.degrees_per_second.0,
             )?;
             return Ok(Motion::Orbit { origin, orbit });
         }
@@ -519,20 +573,23 @@ impl<'a> Check<'a> {
     }
 
     fn camera(&self, c: &RawCamera) -> Result<CameraRig, String> {
-        let from = self.vec("camera.look_from", c.look_from.unwrap_or([0.0, 0.0, 0.0]))?;
-        let at = self.vec("camera.look_at", c.look_at.unwrap_or([0.0, 0.0, -1.0]))?;
-        let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
-        let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
+        let from = self.vec(
+            "camera.look_from",
+            c.look_from.unwrap_or(V3([0.0, 0.0, 0.0])),
+        )?;
+        let at = self.vec("camera.look_at", c.look_at.unwrap_or(V3([0.0, 0.0, -1.0])))?;
+        let up = self.vec("camera.up", c.up.unwrap_or(V3([0.0, 1.0, 0.0])))?;
+        let vfov = self.positive("camera.vfov", c.vfov.map_or(90.0, |v| v.0))?;
         if vfov >= 180.0 {
             return self.err(format_args!(
                 "camera.vfov must be < 180, got {}",
                 show(vfov)
             ));
         }
-        let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
+        let aperture = self.non_negative("camera.aperture", c.aperture.map_or(0.0, |a| a.0))?;
         let focus_distance = c
             .focus_distance
-            .map(|f| self.positive("camera.focus_distance", f))
+            .map(|f| self.positive("camera.focus_distance", f.0))
             .transpose()?;
         if c.orbit.is_some() && c.keyframes.is_some() {
             return self.err("camera: give at most one of orbit and keyframes");
@@ -541,9 +598,9 @@ impl<'a> Check<'a> {
             self.view("camera", from, at, up)?;
             let orbit = self.orbit(
                 "camera.orbit",
-                at.to_array(),
-                up.to_array(),
-                o.degrees_per_second,
+                V3(at.to_array()),
+                V3(up.to_array()),
+                o.degrees_per_second.0,
             )?;
             (
                 Motion::Orbit {
@@ -553,7 +610,7 @@ impl<'a> Check<'a> {
                 Motion::Still(at),
             )
         } else if let Some(keys) = &c.keyframes {
-            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
+            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time.0))?;
             let (mut f, mut a) = (from, at);
             let (mut fk, mut ak) = (Vec::new(), Vec::new());
             for (i, (k, time)) in keys.iter().zip(times).enumerate() {
