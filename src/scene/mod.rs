@@ -7,11 +7,15 @@
 //!   them first) to a [`Scene`], naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
 //!
+//! Before any document is parsed, [`scan`] checks it against limits that bound the parse's
+//! memory; [`report`] words the errors found in the text.
+//!
 //! [`generate`] writes large random test scenes as scene-file text.
 
 pub mod generate;
 mod pieces;
 mod report;
+mod scan;
 mod schema;
 mod validate;
 
@@ -128,10 +132,11 @@ impl Scene {
 /// Parses the whole document at once.
 fn parse_whole(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
     let file = source.display().to_string();
-    let mut raw: schema::RawScene = toml::from_str(text).map_err(|e| {
-        let e = report::toml_error(text, &e, 0);
-        Error::Scene(report::render(&file, text, e.span, &e.message))
-    })?;
+    let located =
+        |e: report::Located| Error::Scene(report::render(&file, text, e.span, &e.message));
+    scan::scan(text, 0).map_err(located)?;
+    let mut raw: schema::RawScene =
+        toml::from_str(text).map_err(|e| located(report::toml_error(text, &e, 0)))?;
     let check = validate::Check::new(&file, overrides);
     check.apply(&mut raw);
     check.scene(raw, source).map_err(Error::Scene)

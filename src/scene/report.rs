@@ -55,6 +55,13 @@ pub(super) fn toml_error(doc: &str, e: &toml::de::Error, first_sphere: usize) ->
     }
 }
 
+/// The path of the key or value at `span` in the document `doc`, if it parses.
+pub(super) fn path_at(doc: &str, span: &Range<usize>, first_sphere: usize) -> Option<String> {
+    let (root, _) = DeTable::parse_recoverable(doc);
+    let node = node_at(root.get_ref(), span)?;
+    Some(path_string(&node.path, first_sphere)).filter(|p| !p.is_empty())
+}
+
 /// One step of a path: a key or an array index.
 #[derive(Clone, Debug)]
 enum Step {
@@ -404,14 +411,14 @@ pub(super) fn format_place(
     width: usize,
     message: &str,
 ) -> String {
-    let chars: Vec<char> = source.chars().collect();
-    let at = (col - 1).min(chars.len());
+    let len = source.chars().count();
+    let at = (col - 1).min(len);
     // A window around the place when the line is long.
-    let (from, to) = if chars.len() <= LINE_CHARS {
-        (0, chars.len())
+    let (from, to) = if len <= LINE_CHARS {
+        (0, len)
     } else {
         let from = at.saturating_sub(LINE_CHARS / 3);
-        (from, (from + LINE_CHARS).min(chars.len()))
+        (from, (from + LINE_CHARS).min(len))
     };
     let mut shown = String::new();
     let mut under = String::new();
@@ -419,7 +426,7 @@ pub(super) fn format_place(
         shown.push_str("...");
         under.push_str("   ");
     }
-    for (i, &c) in chars[from..to].iter().enumerate() {
+    for (i, c) in source.chars().skip(from).take(to - from).enumerate() {
         // Tabs are kept so the caret lines up; other control characters (and NUL) are shown
         // as a replacement character.
         let shown_c = if c == '\t' {
@@ -434,7 +441,7 @@ pub(super) fn format_place(
             under.push(if c == '\t' { '\t' } else { ' ' });
         }
     }
-    if to < chars.len() {
+    if to < len {
         shown.push_str("...");
     }
     let carets = width.clamp(1, (to.max(at + 1) - at).max(1));
@@ -527,5 +534,24 @@ mod tests {
         // Offsets inside a character or past the end do not panic.
         let _ = render("s.toml", "é", 1..9, "m");
         assert_eq!(line_col("a\nbé\nc", 4), (2, 2));
+    }
+
+    #[test]
+    fn paths_come_from_spans() {
+        let doc = "[shot]\nfps = 1\n[[sphere]]\nradius = 1\n[[sphere]]\nmaterial = { albedo = [1, \"x\", 1] }\n";
+        let at = doc.find("\"x\"").unwrap();
+        assert_eq!(
+            path_at(doc, &(at..at + 3), 0).as_deref(),
+            Some("sphere[1].material.albedo[1]")
+        );
+        assert_eq!(
+            path_at(doc, &(at..at + 3), 10).as_deref(),
+            Some("sphere[11].material.albedo[1]")
+        );
+        let at = doc.find("1\n").unwrap();
+        assert_eq!(path_at(doc, &(at..at + 1), 0).as_deref(), Some("shot.fps"));
+        // A key names the table that holds it.
+        let at = doc.find("fps").unwrap();
+        assert_eq!(path_at(doc, &(at..at + 3), 0).as_deref(), Some("shot"));
     }
 }

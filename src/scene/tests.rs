@@ -682,3 +682,36 @@ fn integer_fields_take_whole_floats() {
         assert_eq!(err(text), want, "{text}");
     }
 }
+
+#[test]
+fn long_arrays_are_refused_before_the_parse_whole_or_in_pieces() {
+    let text = format!("[camera]\nlook_from = [{}0]\n", "0, ".repeat(4_999_999));
+    // The scan's message: the parse (1 GB and seconds for this line) never ran.
+    let e = err(&text);
+    assert_eq!(
+        first_line(&e),
+        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (no key takes more than 3 numbers), found 5000000 values"
+    );
+    // In a sphere, and in the settings after the spheres, pieces give the same message.
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n";
+    let long = format!("[{}0]", "0, ".repeat(5000));
+    let cases = [
+        format!(
+            "{}[[sphere]]\nradius = 1\nvelocity = {long}\n{}",
+            sphere.repeat(3),
+            sphere.repeat(2)
+        ),
+        format!("{}[camera]\nup = {long}\n", sphere.repeat(3)),
+        // A limit passed late in the file is reported before an earlier syntax error.
+        format!(
+            "{}[[sphere]]\nradius = \n{}[camera]\nup = {long}\n",
+            sphere.repeat(3),
+            sphere.repeat(2)
+        ),
+    ];
+    for text in &cases {
+        same_both_ways(text, true);
+        let e = err(text);
+        assert!(e.contains("found 5001 values"), "{e}");
+    }
+}
