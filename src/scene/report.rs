@@ -42,6 +42,23 @@ pub(super) fn toml_error(doc: &str, e: &toml::de::Error, first_sphere: usize) ->
         Ok(root) => node_at(root.get_ref(), &span),
         Err(_) => None,
     };
+    // A control character TOML does not allow (NUL, escape, ...) is the likeliest cause of a
+    // syntax error whose span holds one: say so, at that character.
+    if node.is_none()
+        && let Some((i, c)) = doc.get(span.clone()).and_then(|s| {
+            s.char_indices()
+                .find(|&(_, c)| c.is_control() && !matches!(c, '\t' | '\n' | '\r'))
+        })
+    {
+        let at = span.start + i;
+        return Located {
+            span: at..at + c.len_utf8(),
+            message: format!(
+                "control character U+{:04X} in the text: TOML allows it only escaped in a string (\\u{:04X})",
+                c as u32, c as u32
+            ),
+        };
+    }
     let mut message = humanize(raw, node.as_ref().and_then(|n| n.found.clone()), doc, &span);
     if let Some(node) = node {
         let path = path_string(&node.path, first_sphere);
@@ -328,7 +345,7 @@ fn unexpected_words(unexp: &str) -> String {
 
 /// Cuts quoted values longer than [`QUOTE_CHARS`] and escapes control characters, so a
 /// message stays one readable line whatever the file holds.
-fn clean(message: &str) -> String {
+pub(super) fn clean(message: &str) -> String {
     let chars: Vec<char> = message.chars().collect();
     let mut out = String::with_capacity(message.len().min(1024));
     let mut i = 0;
@@ -399,6 +416,36 @@ pub(super) fn render(file: &str, text: &str, span: Range<usize>, message: &str) 
     let source = text[line_start..line_end].trim_end_matches('\r');
     let width = text[start..end.min(line_end)].chars().count();
     format_place(file, line, col, source, width, message)
+}
+
+/// The message for bytes that are not UTF-8: the place of the first bad byte, and its value.
+pub(super) fn not_utf8(file: &str, bytes: &[u8], e: &std::str::Utf8Error) -> String {
+    let at = e.valid_up_to();
+    // Everything before the bad byte is valid.
+    let before = std::str::from_utf8(&bytes[..at]).unwrap_or("");
+    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let col = before[line_start..].chars().count() + 1;
+    let line_end = bytes[at..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or(bytes.len(), |i| at + i);
+    let source = String::from_utf8_lossy(&bytes[line_start..line_end]);
+    let bad = &bytes[at..at + e.error_len().unwrap_or(bytes.len() - at)];
+    let shown: Vec<String> = bad.iter().take(4).map(|b| format!("0x{b:02X}")).collect();
+    let hint = if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        " (the file looks like UTF-16; scenes are UTF-8)"
+    } else {
+        ""
+    };
+    let message = match e.error_len() {
+        Some(_) => format!("the file is not UTF-8 text: byte {}{hint}", shown.join(" ")),
+        None => format!(
+            "the file ends inside a UTF-8 character: {}{hint}",
+            shown.join(" ")
+        ),
+    };
+    format_place(file, line, col, source.trim_end_matches('\r'), 1, &message)
 }
 
 /// [`render`] for a place given as line, column (1-based, in characters), the line's text and

@@ -715,3 +715,115 @@ fn long_arrays_are_refused_before_the_parse_whole_or_in_pieces() {
         assert!(e.contains("found 5001 values"), "{e}");
     }
 }
+
+#[test]
+fn binary_garbage_gets_a_place() {
+    let e = Scene::parse_bytes(b"[shot]\nfps = 1\n# caf\xe9\n", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "s.toml:3:6: the file is not UTF-8 text: byte 0xE9\n  |\n3 | # caf\u{fffd}\n  |      ^"
+    );
+    let e = Scene::parse_bytes(b"\xff\xfe[\x00s", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.toml:1:1: the file is not UTF-8 text: byte 0xFF (the file looks like UTF-16; scenes are UTF-8)"),
+        "{e}"
+    );
+    let e = Scene::parse_bytes(b"a = 1 # \xe2\x82", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.toml:1:9: the file ends inside a UTF-8 character: 0xE2 0x82"),
+        "{e}"
+    );
+    for (text, want) in [
+        (
+            "[shot]\nfps = 1\0\n",
+            "s.toml:2:8: control character U+0000 in the text",
+        ),
+        (
+            "[shot]\nf\0ps = 1\n",
+            "s.toml:2:2: control character U+0000 in the text",
+        ),
+        (
+            "[output]\npath = \"a\u{1b}b.png\"\n",
+            "s.toml:2:10: control character U+001B",
+        ),
+    ] {
+        let e = err(text);
+        assert!(e.starts_with(want), "{text:?}: {e}");
+    }
+    // Escaped, a control character is a string's business (here: no file extension).
+    let e = err("[output]\npath = \"a\\u0000b\"\n");
+    assert!(e.starts_with("s.toml: output.path \"a\\u{0}b\""), "{e}");
+    // Long names are cut, long lists shortened.
+    let mut text = String::from("[materials]\n");
+    for i in 0..20 {
+        text.push_str(&format!(
+            "m{i:02} = {{ type = \"dielectric\", ior = 1.5 }}\n"
+        ));
+    }
+    text.push_str(&format!(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"{}\"\n",
+        "x".repeat(1000)
+    ));
+    let e = err(&text);
+    assert!(e.len() < 200, "{e}");
+    assert!(
+        e.contains("(known: m00, m01, m02, m03, m04, m05, m06, m07, m08, m09, and 10 more)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn only_regular_files_of_bounded_size_are_read() {
+    use std::time::Duration;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let refused = |p: &Path, want: &str| {
+        let e = Scene::load(p).unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{e}");
+        let e = e.to_string();
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+        assert!(e.contains(want), "{e}");
+    };
+    refused(d, "is a directory, not a scene file");
+    refused(&d.join("missing.toml"), "No such file");
+    std::os::unix::fs::symlink(d.join("b.toml"), d.join("a.toml")).unwrap();
+    std::os::unix::fs::symlink(d.join("a.toml"), d.join("b.toml")).unwrap();
+    refused(&d.join("a.toml"), "symbolic links");
+    refused(Path::new("/dev/zero"), "is a device");
+    // A sparse file larger than the limit is refused from its size, unread.
+    let big = d.join("big.toml");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(MAX_FILE_BYTES + 1)
+        .unwrap();
+    refused(&big, "is 2.0 GiB, more than the 2 GiB a scene file may be");
+    // A file whose size says 0 (as /proc files do) is still read no further than the limit.
+    let e = read_scene(Path::new("/proc/self/status"), 16).unwrap_err();
+    assert!(
+        e.to_string()
+            .ends_with("is longer than its size says, more than the 16 bytes a scene file may be"),
+        "{e}"
+    );
+    // A named pipe is refused without waiting for a writer.
+    let fifo = d.join("pipe.toml");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let f = fifo.clone();
+        std::thread::spawn(move || tx.send(Scene::load(&f).map(|_| ()).map_err(|e| e.to_string())));
+        let e = rx
+            .recv_timeout(Duration::from_secs(20))
+            .expect("loading a named pipe blocked")
+            .unwrap_err();
+        assert!(e.contains("is a named pipe, not a scene file"), "{e}");
+    }
+    let good = d.join("good.toml");
+    std::fs::write(&good, "[shot]\nframes = 2\n").unwrap();
+    assert_eq!(Scene::load(&good).unwrap().shot.frames, 2);
+}

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::report;
 use super::schema::{
     MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawSampler, RawScene, RawShot,
     RawShutterPosition, RawSphere, V3,
@@ -146,9 +147,10 @@ impl<'a> Check<'a> {
         }
     }
 
-    /// A message about the file, or only about a flag when a flag gave the value.
+    /// A message about the file, or only about a flag when a flag gave the value. Quoted
+    /// values are cut short and control characters escaped ([`report::clean`]).
     fn err<T>(&self, msg: impl fmt::Display) -> Result<T, String> {
-        let msg = msg.to_string();
+        let msg = report::clean(&msg.to_string());
         if msg.starts_with("--") {
             Err(msg)
         } else {
@@ -316,7 +318,11 @@ impl<'a> Check<'a> {
                 MaterialRef::Name(n) => match names.get(n.as_str()) {
                     Some(&m) => m,
                     None => {
-                        let known: Vec<&str> = names.keys().copied().collect();
+                        let mut known: Vec<&str> = names.keys().copied().take(10).collect();
+                        let more = format!("and {} more", names.len().saturating_sub(10));
+                        if names.len() > 10 {
+                            known.push(&more);
+                        }
                         let known = if known.is_empty() {
                             "none defined".to_string()
                         } else {
