@@ -827,3 +827,82 @@ fn only_regular_files_of_bounded_size_are_read() {
     std::fs::write(&good, "[shot]\nframes = 2\n").unwrap();
     assert_eq!(Scene::load(&good).unwrap().shot.frames, 2);
 }
+
+#[test]
+fn camera_paths_are_checked_between_keys_exactly() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, -1]\nradius = 0.5\nmaterial = {type = \"lambertian\", albedo = [0.5, 0.5, 0.5]}\n";
+    // look_from passes through look_at half-way between two keys where both views are fine.
+    let text = format!(
+        "[shot]\nfps = 1\nstart_time = 0.5\nshutter = 0\n[camera]\nlook_from = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{{time = 0}}, {{time = 1, look_from = [0, 0, -1]}}]\n{sphere}"
+    );
+    assert_eq!(
+        err(&text),
+        "s.toml: camera.keyframes[0..1]: look_from meets look_at at t = 0.5 s"
+    );
+    // The view turns through straight down (parallel to up) between the keys.
+    let text = "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 2, look_from = [-1, 1, 0]}, {time = 4, look_from = [1, 1, 0]}]\n";
+    assert_eq!(
+        err(text),
+        "s.toml: camera.keyframes[0..1]: the view direction [0, -1, 0] is parallel to camera.up [0, 1, 0] at t = 3 s"
+    );
+    // Within the tolerance, not exactly.
+    let text = "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-12, 0]}, {time = 1, look_from = [1, 1e-12, 0]}]\n";
+    assert_eq!(
+        err(text),
+        "s.toml: camera.keyframes[0..1]: look_from comes within 1e-12 of look_at at t = 0.5 s, too close to give a view direction (at most 1e-9 of their distance from the origin, or 1e-100)"
+    );
+    let text = "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1, 1e-12]}, {time = 1, look_from = [1, 1, 1e-12]}]\n";
+    assert!(
+        err(text).starts_with(
+            "s.toml: camera.keyframes[0..1]: the view direction [0, -1, -1e-12] is within 5.73e-11 degrees of camera.up [0, 1, 0] at t = 0.5 s"
+        ),
+        "{}",
+        err(text)
+    );
+    // The same paths just clear of the tolerance are fine, and the third segment is checked.
+    ok(
+        "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-8, 0]}, {time = 1, look_from = [1, 1e-8, 0]}]\n",
+    );
+    let e = err(
+        "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [0, 0, 1]}, {time = 1, look_from = [1, 0, 1]}, {time = 2, look_from = [1, 0, 2]}, {time = 3, look_from = [-1, 0, -2]}]\n",
+    );
+    assert_eq!(
+        e,
+        "s.toml: camera.keyframes[2..3]: look_from meets look_at at t = 2.5 s"
+    );
+    // Near-coincident points far from the origin: the view is lost to rounding.
+    let e = err("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-4]\n");
+    assert!(
+        e.starts_with("s.toml: camera: look_from comes within 0.0001 of look_at, too close"),
+        "{e}"
+    );
+    ok("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-2]\n");
+    // An orbit starting on its axis looks along up all the way round.
+    let e = err(
+        "[camera]\nlook_from = [0, 5, 0]\nlook_at = [0, 0, 0]\norbit = { degrees_per_second = 10 }\n",
+    );
+    assert_eq!(
+        e,
+        "s.toml: camera: the view direction [0, -5, 0] is parallel to camera.up [0, 1, 0]"
+    );
+    // An up vector too short to normalize.
+    let e = err("[camera]\nup = [0, 1e-200, 0]\n");
+    assert_eq!(
+        e,
+        "s.toml: camera.up [0, 1e-200, 0] is too short (1e-200), at least 1e-100"
+    );
+    ok("[camera]\nup = [0, 1e-50, 0]\n");
+}
+
+#[test]
+fn orbit_axes_of_any_length_are_normalised_exactly() {
+    for scale in ["1e-300", "1e-160", "1", "3e38"] {
+        let s = ok(&format!(
+            "[[sphere]]\ncenter = [1, 0, 0]\nradius = 0.1\nmaterial = {{ type = \"lambertian\", albedo = [1, 1, 1] }}\norbit = {{ pivot = [0, 0, 0], axis = [0, {scale}, 0], degrees_per_second = 10 }}\n"
+        ));
+        let Motion::Orbit { orbit, .. } = &s.spheres[0].motion else {
+            panic!()
+        };
+        assert_eq!(orbit.axis, DVec3::Y, "{scale}");
+    }
+}

@@ -14,7 +14,9 @@ use super::schema::{
     RawShutterPosition, RawSphere, V3,
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
-use crate::camera::CameraRig;
+use crate::camera::{
+    CameraRig, DEGENERATE, TINY, most_parallel_on_segment, robust_length, shortest_on_segment,
+};
 use crate::io::{FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
@@ -545,7 +547,7 @@ impl<'a> Check<'a> {
         let pivot = self.vec(&format!("{field}.pivot"), pivot)?;
         let axis = self.vec(&format!("{field}.axis"), axis)?;
         let degrees_per_second = self.num(&format!("{field}.degrees_per_second"), dps)?;
-        let len = axis.length();
+        let len = robust_length(axis);
         if !(len > 0.0 && len.is_finite()) {
             return self.err(format_args!("{field}.axis must be a non-zero vector"));
         }
@@ -556,23 +558,87 @@ impl<'a> Check<'a> {
         })
     }
 
-    /// Checks that a view is not degenerate.
-    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
-        let view = at - from;
-        if view.length() == 0.0 {
-            return self.err(format_args!(
-                "{field}: look_from and look_at must differ, both are {}",
-                fmt_v(from)
-            ));
-        }
-        if up.length() == 0.0 {
+    /// Checks that `up` can orient a camera: not zero, nor so short that it underflows.
+    fn up(&self, up: DVec3) -> Result<(), String> {
+        let len = robust_length(up);
+        if len == 0.0 {
             return self.err("camera.up must be a non-zero vector");
         }
-        if up.normalize().cross(view.normalize()).length() < 1e-9 {
+        if len <= TINY {
             return self.err(format_args!(
-                "{field}: camera.up {} is parallel to the view direction {}",
+                "camera.up {} is too short ({}), at least {TINY:e}",
                 fmt_v(up),
-                fmt_v(view)
+                show_approx(len)
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks that a view is not degenerate at one instant (see [`DEGENERATE`]).
+    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
+        self.views(field, (from, at), (from, at), up, None)
+    }
+
+    /// Checks that the view is not degenerate at any time while look_from and look_at move
+    /// linearly from `a` to `b` (each a pair (look_from, look_at)) between `times`, or at the
+    /// one instant of `a` when `times` is `None`: the view direction never vanishes (nor comes
+    /// within [`DEGENERATE`] of the points' size, nor [`TINY`]) and is never parallel to `up`
+    /// (the sine of their angle never [`DEGENERATE`] or less). Both are found exactly per
+    /// segment, where the direction is linear in time.
+    fn views(
+        &self,
+        field: &str,
+        a: (DVec3, DVec3),
+        b: (DVec3, DVec3),
+        up: DVec3,
+        times: Option<(f64, f64)>,
+    ) -> Result<(), String> {
+        let (d0, d1) = (a.1 - a.0, b.1 - b.0);
+        let scale = [a.0, a.1, b.0, b.1]
+            .into_iter()
+            .map(robust_length)
+            .fold(0.0, f64::max);
+        let limit = (DEGENERATE * scale).max(TINY);
+        let at_time = |s: f64| match times {
+            Some((t0, t1)) => format!(" at t = {} s", show_approx(t0 + s * (t1 - t0))),
+            None => String::new(),
+        };
+        let (s, dist) = shortest_on_segment(d0, d1);
+        if dist == 0.0 {
+            return match times {
+                None => self.err(format_args!(
+                    "{field}: look_from and look_at must differ, both are {}",
+                    fmt_v(a.0)
+                )),
+                Some(_) => self.err(format_args!(
+                    "{field}: look_from meets look_at{}",
+                    at_time(s)
+                )),
+            };
+        }
+        if dist <= limit {
+            return self.err(format_args!(
+                "{field}: look_from comes within {} of look_at{}, too close to give a view direction (at most {DEGENERATE:e} of their distance from the origin, or {TINY:e})",
+                show_approx(dist),
+                at_time(s)
+            ));
+        }
+        let (s, sine) = most_parallel_on_segment(up, d0, d1);
+        if sine <= DEGENERATE {
+            let view = d0.lerp(d1, s);
+            let how = if sine == 0.0 {
+                "is parallel to".to_string()
+            } else {
+                format!(
+                    "is within {} degrees of",
+                    show_approx(sine.asin().to_degrees())
+                )
+            };
+            return self.err(format_args!(
+                "{field}: the view direction {} {how} camera.up {}{}",
+                fmt_v(view),
+                fmt_v(up),
+                at_time(s)
             ));
         }
         Ok(())
@@ -600,7 +666,10 @@ impl<'a> Check<'a> {
         if c.orbit.is_some() && c.keyframes.is_some() {
             return self.err("camera: give at most one of orbit and keyframes");
         }
+        self.up(up)?;
         let (look_from, look_at) = if let Some(o) = &c.orbit {
+            // An orbit turns look_from about the line through look_at along up: the distance
+            // between them and the view's angle to up never change, so the start decides.
             self.view("camera", from, at, up)?;
             let orbit = self.orbit(
                 "camera.orbit",
@@ -618,7 +687,7 @@ impl<'a> Check<'a> {
         } else if let Some(keys) = &c.keyframes {
             let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time.0))?;
             let (mut f, mut a) = (from, at);
-            let (mut fk, mut ak) = (Vec::new(), Vec::new());
+            let (mut fk, mut ak) = (Vec::<Key>::new(), Vec::<Key>::new());
             for (i, (k, time)) in keys.iter().zip(times).enumerate() {
                 let field = format!("camera.keyframes[{i}]");
                 if let Some(v) = k.look_from {
@@ -628,6 +697,17 @@ impl<'a> Check<'a> {
                     a = self.vec(&format!("{field}.look_at"), v)?;
                 }
                 self.view(&field, f, a, up)?;
+                // Between keys both points move linearly; before the first key and after the
+                // last they are held, at views just checked.
+                if let (Some(pf), Some(pa)) = (fk.last(), ak.last()) {
+                    self.views(
+                        &format!("camera.keyframes[{}..{i}]", i - 1),
+                        (pf.position, pa.position),
+                        (f, a),
+                        up,
+                        Some((pf.time, time)),
+                    )?;
+                }
                 fk.push(Key { time, position: f });
                 ak.push(Key { time, position: a });
             }
