@@ -906,3 +906,27 @@ fn orbit_axes_of_any_length_are_normalised_exactly() {
         assert_eq!(orbit.axis, DVec3::Y, "{scale}");
     }
 }
+
+#[test]
+fn colours_are_bounded_so_no_pixel_can_overflow() {
+    for (text, want) in [
+        (
+            "[background]\ncolor = [3e38, 1, 1]\n",
+            "s.toml: background.color[0] must be in [0, 1000000], got 3e38",
+        ),
+        (
+            "[materials]\nm = { type = \"metal\", albedo = [1, 3e38, 1] }\n",
+            "s.toml: materials.m.albedo[1] must be in [0, 1], got 3e38",
+        ),
+        (
+            "[materials]\nm = { type = \"lambertian\", albedo = [1, 1, 1.0000001] }\n",
+            "s.toml: materials.m.albedo[2] must be in [0, 1], got 1.0000001",
+        ),
+    ] {
+        assert_eq!(err(text), want);
+    }
+    let s = ok(
+        "[background]\ncolor = [1e6, 0, 1]\n[materials]\nm = { type = \"metal\", albedo = [1, 0, 1] }\n",
+    );
+    assert_eq!(s.background, Background::Uniform(DVec3::new(1e6, 0.0, 1.0)));
+}

@@ -58,6 +58,17 @@ pub(super) fn show_approx(x: f64) -> String {
 /// integer exactly up to 2^53, and no larger one is likely to be meant exactly.
 const EXACT_INTEGERS: f64 = 9_007_199_254_740_992.0;
 
+/// Largest albedo component. A surface reflects at most the light it receives, so every path's
+/// throughput stays at most 1 (glass attenuates by 1) and no pixel can exceed the brightest
+/// light; an albedo above 1 would multiply a path by up to albedo^max_depth (3e38 twice
+/// overflowed 32-bit frames to infinity).
+pub(super) const MAX_ALBEDO: f64 = 1.0;
+
+/// Largest background radiance component: with throughput at most 1 no sample exceeds it, and
+/// sums of squares over 2^32 samples (noise estimates) stay below 1e22, far inside 32-bit
+/// range. A million times a white sky is brighter than any scene the format can light.
+pub(super) const MAX_RADIANCE: f64 = 1e6;
+
 /// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
 pub(super) type Validated = (Vec<SphereDesc>, Vec<Material>);
 
@@ -206,10 +217,18 @@ impl<'a> Check<'a> {
         }
     }
 
-    fn color(&self, field: &str, v: V3) -> Result<DVec3, String> {
+    /// A colour whose components are in [0, `max`].
+    fn color(&self, field: &str, v: V3, max: f64) -> Result<DVec3, String> {
         let v = v.0;
         for (i, x) in v.iter().enumerate() {
-            self.non_negative(&format!("{field}[{i}]"), *x)?;
+            let field = format!("{field}[{i}]");
+            if self.non_negative(&field, *x)? > max {
+                return self.err(format_args!(
+                    "{field} must be in [0, {}], got {}",
+                    show(max),
+                    show(*x)
+                ));
+            }
         }
         Ok(DVec3::from_array(v))
     }
@@ -283,7 +302,9 @@ impl<'a> Check<'a> {
         let camera = self.camera(&raw.camera)?;
         let background = match &raw.background {
             None => Background::Sky,
-            Some(b) => Background::Uniform(self.color("background.color", b.color)?),
+            Some(b) => {
+                Background::Uniform(self.color("background.color", b.color, MAX_RADIANCE)?)
+            }
         };
         let mut materials = Vec::new();
         let mut names = BTreeMap::new();
@@ -446,7 +467,7 @@ impl<'a> Check<'a> {
     fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
         Ok(match m {
             RawMaterial::Lambertian { albedo } => Material::Lambertian {
-                albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                albedo: self.color(&format!("{field}.albedo"), *albedo, MAX_ALBEDO)?,
             },
             RawMaterial::Metal { albedo, fuzz } => {
                 let fuzz = self.non_negative(&format!("{field}.fuzz"), fuzz.0)?;
@@ -457,7 +478,7 @@ impl<'a> Check<'a> {
                     ));
                 }
                 Material::Metal {
-                    albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                    albedo: self.color(&format!("{field}.albedo"), *albedo, MAX_ALBEDO)?,
                     fuzz,
                 }
             }
