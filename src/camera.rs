@@ -130,6 +130,108 @@ pub fn concentric_disk((a, b): (f64, f64)) -> (f64, f64) {
     (r * c, r * s)
 }
 
+/// A view direction (`look_at - look_from`) no longer than this fraction of the larger of
+/// `|look_from|` and `|look_at|`, or a view direction whose angle to `up` has a sine no larger
+/// than this, is degenerate. The points are known to 2.2e-16 of their size (one rounding), so
+/// such a direction, or the camera's sideways axis `up x view`, is known only to about 2.2e-7
+/// radians, a fraction of a pixel at every resolution up to 65536 pixels across a 1 degree
+/// field; at zero it is undefined and the camera's basis is NaN.
+pub const DEGENERATE: f64 = 1e-9;
+
+/// The shortest view direction or `up` vector, whatever the scale: squares of shorter vectors
+/// approach the subnormal range (below 2.2e-308), where normalizing loses digits or returns
+/// NaN.
+pub const TINY: f64 = 1e-100;
+
+/// The length of `v`, without overflow or underflow in the squares.
+pub fn robust_length(v: DVec3) -> f64 {
+    let m = v.abs().max_element();
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    (v / m).length() * m
+}
+
+/// For a vector moving linearly from `d0` to `d1` (`d(s) = (1 - s) d0 + s d1`, s in [0, 1]),
+/// where it is shortest: `(s, |d(s)|)`. Between two camera keys look_from and look_at move
+/// linearly, so the view direction `look_at - look_from` does too.
+pub fn shortest_on_segment(d0: DVec3, d1: DVec3) -> (f64, f64) {
+    // Scaled so that no square overflows or underflows; s does not depend on the scale.
+    let m = d0.abs().max_element().max(d1.abs().max_element());
+    if m == 0.0 || !m.is_finite() {
+        return (0.0, m);
+    }
+    let (a, b) = (d0 / m, d1 / m);
+    let e = b - a;
+    let ee = e.length_squared();
+    let s = if ee > 0.0 {
+        (-a.dot(e) / ee).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (s, ((1.0 - s) * a + s * b).length() * m)
+}
+
+/// For a direction moving linearly from `d0` to `d1` as in [`shortest_on_segment`] (and never
+/// vanishing on the way), where it is most nearly parallel (or antiparallel) to `up`:
+/// `(s, sine of the angle between them)`.
+///
+/// The squared sine is `N(s) / D(s)` with `N = |up x d(s)|^2` and `D = |d(s)|^2` (`up` of unit
+/// length), both quadratic in s; its extremes inside [0, 1] are the roots of the quadratic
+/// `N'D - ND'` (the cubic terms cancel), so the minimum is found exactly among those roots and
+/// the ends.
+pub fn most_parallel_on_segment(up: DVec3, d0: DVec3, d1: DVec3) -> (f64, f64) {
+    let ul = robust_length(up);
+    let m = d0.abs().max_element().max(d1.abs().max_element());
+    if ul == 0.0 || m == 0.0 || !ul.is_finite() || !m.is_finite() {
+        return (0.0, 0.0);
+    }
+    let u = (up / up.abs().max_element()).normalize();
+    let (a, b) = (d0 / m, d1 / m);
+    let sine = |s: f64| {
+        let d = (1.0 - s) * a + s * b;
+        let len = d.length();
+        if len > 0.0 {
+            u.cross(d).length() / len
+        } else {
+            0.0
+        }
+    };
+    let (c0, c1) = (u.cross(a), u.cross(b));
+    let (ce, de) = (c1 - c0, b - a);
+    let (n2, n1, n0) = (ce.length_squared(), 2.0 * c0.dot(ce), c0.length_squared());
+    let (q2, q1, q0) = (de.length_squared(), 2.0 * a.dot(de), a.length_squared());
+    let qa = n2 * q1 - n1 * q2;
+    let qb = 2.0 * (n2 * q0 - n0 * q2);
+    let qc = n1 * q0 - n0 * q1;
+    let mut candidates = vec![0.0, 1.0];
+    let scale = qa.abs().max(qb.abs()).max(qc.abs());
+    if scale > 0.0 {
+        let (qa, qb, qc) = (qa / scale, qb / scale, qc / scale);
+        if qa.abs() > 1e-12 {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc >= 0.0 {
+                // The stable pair of roots.
+                let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+                candidates.push(q / qa);
+                if q != 0.0 {
+                    candidates.push(qc / q);
+                }
+            }
+        } else if qb != 0.0 {
+            candidates.push(-qc / qb);
+        }
+    }
+    candidates
+        .into_iter()
+        .filter(|s| (0.0..=1.0).contains(s))
+        .map(|s| (s, sine(s)))
+        .fold(
+            (0.0, f64::INFINITY),
+            |best, c| if c.1 < best.1 { c } else { best },
+        )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -181,6 +283,58 @@ mod tests {
             assert!(x * x + y * y <= 1.0 + 1e-12);
         }
         assert_eq!(concentric_disk((0.5, 0.5)), (0.0, 0.0));
+    }
+
+    #[test]
+    fn shortest_on_segment_finds_where_the_view_vanishes() {
+        // look_from from (0, 0, 1) to (0, 0, -1), look_at at the origin: meets it half-way.
+        let (s, d) = shortest_on_segment(DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, 1.0));
+        assert_eq!((s, d), (0.5, 0.0));
+        // Misses by 0.1 at a quarter of the way.
+        let (s, d) = shortest_on_segment(DVec3::new(-1.0, 0.1, 0.0), DVec3::new(3.0, 0.1, 0.0));
+        assert_eq!(s, 0.25);
+        assert!((d - 0.1).abs() < 1e-15);
+        // Ends: the nearest end when the closest point lies outside.
+        assert_eq!(shortest_on_segment(DVec3::X, DVec3::X * 2.0), (0.0, 1.0));
+        assert_eq!(shortest_on_segment(DVec3::X * 2.0, DVec3::X), (1.0, 1.0));
+        // No overflow or underflow at the ends of the range.
+        let (s, d) = shortest_on_segment(DVec3::splat(3e38), DVec3::splat(-3e38));
+        assert_eq!((s, d), (0.5, 0.0));
+        let (_, d) = shortest_on_segment(DVec3::splat(1e-300), DVec3::splat(1e-300));
+        assert!((d / (1e-300 * 3f64.sqrt()) - 1.0).abs() < 1e-12, "{d}");
+        assert_eq!(robust_length(DVec3::new(3e300, 4e300, 0.0)), 5e300);
+        assert_eq!(robust_length(DVec3::new(3e-300, 4e-300, 0.0)), 5e-300);
+    }
+
+    #[test]
+    fn most_parallel_on_segment_finds_where_the_view_meets_up() {
+        // look_from from (-1, 1, 0) to (1, 1, 0), look_at at the origin: straight down at s = 0.5.
+        let (s, sine) = most_parallel_on_segment(
+            DVec3::Y,
+            DVec3::new(1.0, -1.0, 0.0),
+            DVec3::new(-1.0, -1.0, 0.0),
+        );
+        assert!((s - 0.5).abs() < 1e-12 && sine < 1e-15, "{s} {sine}");
+        // Passing 26.6 degrees from up half-way, with no root of the sine: from (1, 1, 0.5) to
+        // (-1, 1, 0.5) against up (0, 1, 0); compared with a fine search.
+        let up = DVec3::Y;
+        let (a, b) = (DVec3::new(1.0, 1.0, 0.5), DVec3::new(-1.0, 1.0, 0.5));
+        let (s, sine) = most_parallel_on_segment(up, a, b);
+        let brute = (0..=100_000)
+            .map(|i| {
+                let s = i as f64 / 100_000.0;
+                let d = a.lerp(b, s);
+                (s, up.cross(d).length() / d.length())
+            })
+            .fold((0.0, f64::INFINITY), |x, y| if y.1 < x.1 { y } else { x });
+        assert!((s - 0.5).abs() < 1e-12, "{s}");
+        assert!((sine - 0.5 / 1.25f64.sqrt()).abs() < 1e-15, "{sine}");
+        assert!(sine <= brute.1, "{brute:?}");
+        // A still direction; up of any length.
+        let (_, sine) = most_parallel_on_segment(DVec3::Y * 1e-200, DVec3::X, DVec3::X);
+        assert!((sine - 1.0).abs() < 1e-15);
+        let (_, sine) = most_parallel_on_segment(DVec3::Y * 3e38, DVec3::Y, DVec3::Y * 2.0);
+        assert_eq!(sine, 0.0);
     }
 
     #[test]

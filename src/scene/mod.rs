@@ -7,10 +7,15 @@
 //!   them first) to a [`Scene`], naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
 //!
+//! Before any document is parsed, [`scan`] checks it against limits that bound the parse's
+//! memory; [`report`] words the errors found in the text.
+//!
 //! [`generate`] writes large random test scenes as scene-file text.
 
 pub mod generate;
 mod pieces;
+mod report;
+mod scan;
 mod schema;
 mod validate;
 
@@ -28,6 +33,10 @@ use crate::sphere::SphereDesc;
 
 /// Largest image side, in pixels, from a scene file or the command line.
 pub const MAX_SIDE: u32 = 65536;
+
+/// Largest scene file read, in bytes (2 GiB). A million spheres as `raytrace generate` writes
+/// them take 101 MB.
+pub const MAX_FILE_BYTES: u64 = 2 << 30;
 
 /// Where and how big frames are written.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,16 +99,33 @@ impl Scene {
         Scene::load_with(path, &Overrides::default())
     }
 
-    /// Reads a scene file, applies `overrides` and validates the result.
+    /// Reads a scene file, applies `overrides` and validates the result. Only a regular file
+    /// of at most [`MAX_FILE_BYTES`] is read (see [`read_scene`]).
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
-            // A scene that is not there is bad input, not an output failure.
-            std::io::ErrorKind::NotFound | std::io::ErrorKind::InvalidData => {
-                Error::Scene(format!("{}: {e}", path.display()))
-            }
-            _ => Error::io(path, e),
-        })?;
-        Scene::parse_with(&text, path, overrides)
+        let bytes = read_scene(path, MAX_FILE_BYTES)?;
+        Scene::parse_bytes_with(&bytes, path, overrides)
+    }
+
+    /// Parses and validates a scene file's contents: text that is not UTF-8 is refused with
+    /// the line and column of the first byte that is not.
+    pub fn parse_bytes(bytes: &[u8], source: &Path) -> Result<Scene, Error> {
+        Scene::parse_bytes_with(bytes, source, &Overrides::default())
+    }
+
+    /// [`Scene::parse_bytes`] with overrides.
+    pub fn parse_bytes_with(
+        bytes: &[u8],
+        source: &Path,
+        overrides: &Overrides,
+    ) -> Result<Scene, Error> {
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Scene::parse_with(text, source, overrides),
+            Err(e) => Err(Error::Scene(report::not_utf8(
+                &source.display().to_string(),
+                bytes,
+                &e,
+            ))),
+        }
     }
 
     /// Parses and validates scene text; `source` is used in messages and for the default
@@ -124,22 +150,102 @@ impl Scene {
     }
 }
 
+/// Reads a scene file of at most `max` bytes. Only a regular file is opened: a directory, a
+/// named pipe (whose opening would wait for a writer), a device (`/dev/zero` never ends) or a
+/// socket is refused from its metadata, as is a path that cannot be resolved (missing, a loop
+/// of links). At most `max + 1` bytes are read, whatever the file claims or becomes. Every
+/// refusal is bad input ([`Error::Scene`], exit status 2), except a file that exists but cannot
+/// be read ([`Error::Io`]).
+fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
+    use std::io::Read;
+    let bad = |what: &dyn std::fmt::Display| Error::Scene(format!("{}: {what}", path.display()));
+    let meta = std::fs::metadata(path).map_err(|e| bad(&e))?;
+    let kind = file_kind(&meta.file_type());
+    if !meta.is_file() {
+        return Err(bad(&format_args!(
+            "is {kind}, not a scene file (scenes are read from regular files only)"
+        )));
+    }
+    let too_big = |size: &dyn std::fmt::Display| {
+        bad(&format_args!(
+            "is {size}, more than the {} a scene file may be",
+            bytes_text(max)
+        ))
+    };
+    if meta.len() > max {
+        return Err(too_big(&bytes_text(meta.len())));
+    }
+    let file = std::fs::File::open(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => bad(&e),
+        _ => Error::io(path, e),
+    })?;
+    // The path may have been replaced since its metadata was read.
+    let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(bad(&format_args!(
+            "is {}, not a scene file (scenes are read from regular files only)",
+            file_kind(&meta.file_type())
+        )));
+    }
+    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
+    file.take(max + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    if bytes.len() as u64 > max {
+        return Err(too_big(&format_args!("longer than its size says")));
+    }
+    Ok(bytes)
+}
+
+/// What kind of file system object a path is, for messages.
+fn file_kind(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a named pipe";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else if t.is_file() {
+        "a file"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// `2 GiB`, `3.5 GiB`, `100 MiB`, `12 bytes`.
+fn bytes_text(n: u64) -> String {
+    let units = [(1u64 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")];
+    for (size, unit) in units {
+        if n >= size {
+            let x = n as f64 / size as f64;
+            return if x.fract() == 0.0 {
+                format!("{x} {unit}")
+            } else {
+                format!("{x:.1} {unit}")
+            };
+        }
+    }
+    format!("{n} bytes")
+}
+
 /// Parses the whole document at once.
 fn parse_whole(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
     let file = source.display().to_string();
-    let mut raw: schema::RawScene = toml::from_str(text).map_err(|e| {
-        let (line, col) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        Error::Scene(format!("{file}:{line}:{col}: {}", e.message().trim_end()))
-    })?;
+    let located =
+        |e: report::Located| Error::Scene(report::render(&file, text, e.span, &e.message));
+    scan::scan(text, 0).map_err(located)?;
+    let mut raw: schema::RawScene =
+        toml::from_str(text).map_err(|e| located(report::toml_error(text, &e, 0)))?;
     let check = validate::Check::new(&file, overrides);
     check.apply(&mut raw);
     check.scene(raw, source).map_err(Error::Scene)
-}
-
-/// The 1-based line and column of byte `offset` in `text`.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
 }

@@ -6,9 +6,11 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::report::{self, Located};
+use super::scan;
 use super::schema::{RawScene, RawSphere};
 use super::validate::{Check, Validated, add_spheres};
-use super::{Overrides, Scene, line_col};
+use super::{Overrides, Scene};
 use crate::error::Error;
 
 /// Files at least this large are parsed in pieces, in parallel (when their layout allows).
@@ -127,8 +129,10 @@ struct RawSpheres {
 
 /// What went wrong in a piece.
 enum PieceError {
-    /// Syntax or type, at this offset of the whole text.
-    Syntax(usize, String),
+    /// A limit of the scan before the parse ([`scan`]), at this span of the whole text.
+    Limit(Located),
+    /// Syntax or type, at this span of the whole text.
+    Syntax(Located),
     /// A value, with its message.
     Value(String),
 }
@@ -179,12 +183,6 @@ pub(super) fn parse_in_pieces(
     }
     let file = source.display().to_string();
     let check = Check::new(&file, overrides);
-    let syntax = |offset: usize, e: &toml::de::Error| {
-        (
-            offset + e.span().map_or(0, |s| s.start),
-            e.message().trim_end().to_string(),
-        )
-    };
     // The rest as one document, with a map from its offsets back to the text's.
     let mut rest_text = String::new();
     let mut rest_map: Vec<(usize, usize)> = Vec::new();
@@ -196,15 +194,22 @@ pub(super) fn parse_in_pieces(
         let i = rest_map.partition_point(|m| m.0 <= off).max(1) - 1;
         rest_map.get(i).map_or(off, |&(r, t)| t + (off - r))
     };
-    let head: Result<RawScene, (usize, String)> = toml::from_str(&rest_text)
-        .map(|mut raw| {
-            check.apply(&mut raw);
-            raw
-        })
-        .map_err(|e| {
-            let (off, msg) = syntax(0, &e);
-            (to_text(off), msg)
-        });
+    let rest_to_text = |e: Located| {
+        let start = to_text(e.span.start);
+        Located {
+            span: start..start + e.span.len(),
+            message: e.message,
+        }
+    };
+    let head: Result<RawScene, PieceError> = match scan::scan(&rest_text, 0) {
+        Err(e) => Err(PieceError::Limit(rest_to_text(e))),
+        Ok(()) => toml::from_str(&rest_text)
+            .map(|mut raw| {
+                check.apply(&mut raw);
+                raw
+            })
+            .map_err(|e| PieceError::Syntax(rest_to_text(report::toml_error(&rest_text, &e, 0)))),
+    };
     if let Ok(raw) = &head
         && !raw.sphere.is_empty()
         && !pieces.is_empty()
@@ -219,10 +224,14 @@ pub(super) fn parse_in_pieces(
     let results: Vec<Result<Validated, PieceError>> = pieces
         .par_iter()
         .map(|&(a, b, first)| {
-            let raw: RawSpheres = toml::from_str(&text[a..b]).map_err(|e| {
-                let (off, msg) = syntax(a, &e);
-                PieceError::Syntax(off, msg)
-            })?;
+            let doc = &text[a..b];
+            let to_text = |e: Located| Located {
+                span: a + e.span.start..a + e.span.end,
+                message: e.message,
+            };
+            scan::scan(doc, first).map_err(|e| PieceError::Limit(to_text(e)))?;
+            let raw: RawSpheres = toml::from_str(doc)
+                .map_err(|e| PieceError::Syntax(to_text(report::toml_error(doc, &e, first))))?;
             match names {
                 Some(names) => check
                     .spheres(&raw.sphere, first, names)
@@ -232,18 +241,24 @@ pub(super) fn parse_in_pieces(
         })
         .collect();
     let fail = |msg: String| Some(Err(Error::Scene(msg)));
-    // The first syntax error in the text.
-    let first_syntax = results
-        .iter()
-        .filter_map(|r| match r {
-            Err(PieceError::Syntax(off, msg)) => Some((*off, msg.clone())),
-            _ => None,
-        })
-        .chain(head.as_ref().err().cloned())
-        .min_by_key(|e| e.0);
-    if let Some((off, msg)) = first_syntax {
-        let (line, col) = line_col(text, off);
-        return fail(format!("{file}:{line}:{col}: {msg}"));
+    // The first limit passed in the text (a whole parse scans the text before parsing it),
+    // else the first syntax error.
+    let errors = || {
+        results
+            .iter()
+            .filter_map(|r| r.as_ref().err())
+            .chain(head.as_ref().err())
+    };
+    let first = |limit: bool| {
+        errors()
+            .filter_map(|e| match (e, limit) {
+                (PieceError::Limit(l), true) | (PieceError::Syntax(l), false) => Some(l),
+                _ => None,
+            })
+            .min_by_key(|l| l.span.start)
+    };
+    if let Some(e) = first(true).or_else(|| first(false)) {
+        return fail(report::render(&file, text, e.span.clone(), &e.message));
     }
     let mut scene = match checked_head? {
         Ok((scene, _)) => scene,
@@ -254,7 +269,10 @@ pub(super) fn parse_in_pieces(
         match r {
             Ok((s, inline)) => add_spheres(&mut scene, s, inline),
             Err(PieceError::Value(msg)) => return fail(msg),
-            Err(PieceError::Syntax(..)) => unreachable!("reported above"),
+            // Reported above.
+            Err(PieceError::Limit(e) | PieceError::Syntax(e)) => {
+                return fail(report::render(&file, text, e.span, &e.message));
+            }
         }
     }
     Some(Ok(scene))

@@ -1,16 +1,138 @@
 //! The scene file's format as typed serde structs: what TOML a scene may hold, with unknown
 //! keys rejected. Values are checked by [`super::validate`], not here.
+//!
+//! Every type a message can name says what it expects in the words of the format ("a number",
+//! "a table", "an array of 3 numbers", the allowed keywords), so no serde or Rust type name
+//! reaches a message (see [`super::report`], which also adds the field path).
 
 use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::Deserialize;
-use serde::de::{self, MapAccess, Visitor};
+use serde::de::{self, IgnoredAny, MapAccess, SeqAccess, Visitor};
 
-pub(super) type V3 = [f64; 3];
+/// A number field: any TOML integer or float. Range checks are the validator's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct F(pub(super) f64);
+
+impl<'de> Deserialize<'de> for F {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = F;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number")
+            }
+            fn visit_i64<E: de::Error>(self, x: i64) -> Result<F, E> {
+                Ok(F(x as f64))
+            }
+            fn visit_u64<E: de::Error>(self, x: u64) -> Result<F, E> {
+                Ok(F(x as f64))
+            }
+            fn visit_i128<E: de::Error>(self, x: i128) -> Result<F, E> {
+                Ok(F(x as f64))
+            }
+            fn visit_u128<E: de::Error>(self, x: u128) -> Result<F, E> {
+                Ok(F(x as f64))
+            }
+            fn visit_f64<E: de::Error>(self, x: f64) -> Result<F, E> {
+                Ok(F(x))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A 3-vector or colour: an array of exactly 3 numbers. Any other length is refused from the
+/// array's length alone, before any element is read, so a long array costs no more than its
+/// parse (the scan before the parse refuses very long arrays; see [`super::scan`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct V3(pub(super) [f64; 3]);
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = V3;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of 3 numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<V3, A::Error> {
+                let wrong =
+                    |n: usize| de::Error::custom(format_args!("expected 3 numbers, found {n}"));
+                if let Some(n) = seq.size_hint()
+                    && n != 3
+                {
+                    return Err(wrong(n));
+                }
+                let mut v = [0.0; 3];
+                for (i, x) in v.iter_mut().enumerate() {
+                    match seq.next_element::<F>()? {
+                        Some(f) => *x = f.0,
+                        None => return Err(wrong(i)),
+                    }
+                }
+                // Without a size hint: count the rest without keeping it.
+                let mut n = 3;
+                while seq.next_element::<IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(wrong(n));
+                }
+                Ok(V3(v))
+            }
+        }
+        d.deserialize_seq(V)
+    }
+}
+
+/// A keyword value: one of a fixed set of strings.
+pub(super) trait Keyword: Sized + Copy + 'static {
+    const NAMES: &'static [(&'static str, Self)];
+
+    /// `one of "a", "b", "c"`.
+    fn expected() -> String {
+        let names: Vec<String> = Self::NAMES
+            .iter()
+            .map(|(n, _)| format!("\"{n}\""))
+            .collect();
+        format!("one of {}", names.join(", "))
+    }
+
+    fn deserialize_keyword<'de, D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<T>(std::marker::PhantomData<T>);
+        impl<T: Keyword> Visitor<'_> for V<T> {
+            type Value = T;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(&T::expected())
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<T, E> {
+                T::NAMES
+                    .iter()
+                    .find(|(n, _)| *n == s)
+                    .map(|(_, k)| *k)
+                    .ok_or_else(|| {
+                        E::custom(format_args!("expected {}, found {s:?}", T::expected()))
+                    })
+            }
+        }
+        d.deserialize_any(V(std::marker::PhantomData))
+    }
+}
+
+macro_rules! keyword {
+    ($t:ty) => {
+        impl<'de> Deserialize<'de> for $t {
+            fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                <$t as Keyword>::deserialize_keyword(d)
+            }
+        }
+    };
+}
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawScene {
     #[serde(default)]
     pub(super) shot: RawShot,
@@ -28,27 +150,35 @@ pub(super) struct RawScene {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawShot {
-    pub(super) fps: Option<f64>,
+    pub(super) fps: Option<F>,
     pub(super) frames: Option<Number>,
     pub(super) first_frame: Option<Number>,
-    pub(super) start_time: Option<f64>,
-    pub(super) shutter: Option<f64>,
-    pub(super) shutter_angle: Option<f64>,
+    pub(super) start_time: Option<F>,
+    pub(super) shutter: Option<F>,
+    pub(super) shutter_angle: Option<F>,
     pub(super) shutter_position: Option<RawShutterPosition>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy)]
 pub(super) enum RawShutterPosition {
     Start,
     Center,
     End,
 }
 
+impl Keyword for RawShutterPosition {
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("start", Self::Start),
+        ("center", Self::Center),
+        ("end", Self::End),
+    ];
+}
+keyword!(RawShutterPosition);
+
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawOutput {
     pub(super) path: Option<String>,
     pub(super) width: Option<Number>,
@@ -56,7 +186,7 @@ pub(super) struct RawOutput {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawRender {
     pub(super) samples: Option<Number>,
     pub(super) max_depth: Option<Number>,
@@ -64,67 +194,200 @@ pub(super) struct RawRender {
     pub(super) sampler: Option<RawSampler>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy)]
 pub(super) enum RawSampler {
     Independent,
     Sobol,
 }
 
+impl Keyword for RawSampler {
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("sobol", Self::Sobol), ("independent", Self::Independent)];
+}
+keyword!(RawSampler);
+
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawCamera {
     pub(super) look_from: Option<V3>,
     pub(super) look_at: Option<V3>,
     pub(super) up: Option<V3>,
-    pub(super) vfov: Option<f64>,
-    pub(super) aperture: Option<f64>,
-    pub(super) focus_distance: Option<f64>,
+    pub(super) vfov: Option<F>,
+    pub(super) aperture: Option<F>,
+    pub(super) focus_distance: Option<F>,
     pub(super) orbit: Option<RawCameraOrbit>,
     pub(super) keyframes: Option<Vec<RawCameraKey>>,
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawCameraOrbit {
-    pub(super) degrees_per_second: f64,
+    pub(super) degrees_per_second: F,
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawCameraKey {
-    pub(super) time: f64,
+    pub(super) time: F,
     pub(super) look_from: Option<V3>,
     pub(super) look_at: Option<V3>,
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawBackground {
     pub(super) color: V3,
 }
 
-#[derive(Deserialize, Clone)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+/// A material as written: `type` and the keys of that type.
+#[derive(Clone)]
 pub(super) enum RawMaterial {
-    Lambertian {
-        albedo: V3,
-    },
-    Metal {
-        albedo: V3,
-        #[serde(default)]
-        fuzz: f64,
-    },
-    Dielectric {
-        ior: f64,
-    },
+    Lambertian { albedo: V3 },
+    Metal { albedo: V3, fuzz: F },
+    Dielectric { ior: F },
 }
 
-/// A number as written in the file, so that a float where an integer belongs can be reported
-/// with its field's name.
+#[derive(Clone, Copy)]
+enum MaterialType {
+    Lambertian,
+    Metal,
+    Dielectric,
+}
+
+impl Keyword for MaterialType {
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("lambertian", Self::Lambertian),
+        ("metal", Self::Metal),
+        ("dielectric", Self::Dielectric),
+    ];
+}
+keyword!(MaterialType);
+
+/// The keys a material table may hold (the type decides which it needs).
+#[derive(Clone, Copy, PartialEq)]
+enum MaterialKey {
+    Type,
+    Albedo,
+    Fuzz,
+    Ior,
+}
+
+impl MaterialKey {
+    const ALL: [MaterialKey; 4] = [
+        MaterialKey::Type,
+        MaterialKey::Albedo,
+        MaterialKey::Fuzz,
+        MaterialKey::Ior,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            MaterialKey::Type => "type",
+            MaterialKey::Albedo => "albedo",
+            MaterialKey::Fuzz => "fuzz",
+            MaterialKey::Ior => "ior",
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for MaterialKey {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = MaterialKey;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a material key")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<MaterialKey, E> {
+                MaterialKey::ALL
+                    .into_iter()
+                    .find(|k| k.name() == s)
+                    .ok_or_else(|| {
+                        E::custom(format_args!(
+                            "unknown key `{s}`, expected one of type, albedo, fuzz, ior"
+                        ))
+                    })
+            }
+        }
+        d.deserialize_identifier(V)
+    }
+}
+
+/// Reads a material table key by key, with no buffering, so an error in a value is reported
+/// at that value (with its path), not at the whole table.
+struct MaterialVisitor;
+
+impl<'de> Visitor<'de> for MaterialVisitor {
+    type Value = RawMaterial;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a material table")
+    }
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<RawMaterial, A::Error> {
+        let (mut ty, mut albedo, mut fuzz, mut ior) = (None, None, None, None);
+        let mut keys = Vec::new();
+        while let Some(key) = map.next_key::<MaterialKey>()? {
+            keys.push(key);
+            match key {
+                MaterialKey::Type => ty = Some(map.next_value::<MaterialType>()?),
+                MaterialKey::Albedo => albedo = Some(map.next_value::<V3>()?),
+                MaterialKey::Fuzz => fuzz = Some(map.next_value::<F>()?),
+                MaterialKey::Ior => ior = Some(map.next_value::<F>()?),
+            }
+        }
+        let Some(ty) = ty else {
+            return Err(de::Error::custom(format_args!(
+                "missing key `type` ({})",
+                MaterialType::expected()
+            )));
+        };
+        let (name, allowed): (&str, &[MaterialKey]) = match ty {
+            MaterialType::Lambertian => ("a lambertian", &[MaterialKey::Type, MaterialKey::Albedo]),
+            MaterialType::Metal => (
+                "a metal",
+                &[MaterialKey::Type, MaterialKey::Albedo, MaterialKey::Fuzz],
+            ),
+            MaterialType::Dielectric => ("a dielectric", &[MaterialKey::Type, MaterialKey::Ior]),
+        };
+        if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
+            let allowed: Vec<&str> = allowed.iter().map(|k| k.name()).collect();
+            return Err(de::Error::custom(format_args!(
+                "unknown key `{}` for {name} material, expected one of {}",
+                k.name(),
+                allowed.join(", ")
+            )));
+        }
+        let missing = |k: &str| {
+            de::Error::custom(format_args!("missing key `{k}` ({name} material needs it)"))
+        };
+        Ok(match ty {
+            MaterialType::Lambertian => RawMaterial::Lambertian {
+                albedo: albedo.ok_or_else(|| missing("albedo"))?,
+            },
+            MaterialType::Metal => RawMaterial::Metal {
+                albedo: albedo.ok_or_else(|| missing("albedo"))?,
+                fuzz: fuzz.unwrap_or(F(0.0)),
+            },
+            MaterialType::Dielectric => RawMaterial::Dielectric {
+                ior: ior.ok_or_else(|| missing("ior"))?,
+            },
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for RawMaterial {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_map(MaterialVisitor)
+    }
+}
+
+/// An integer field as written, so that a float where an integer belongs can be reported
+/// with its field's name, and a large integer is shown exactly.
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Number {
-    Int(i64),
+    /// Any TOML integer up to 2^127 - 1.
+    Int(i128),
+    /// An integer beyond `i128` (TOML allows none; the parser reads up to `u128`).
+    Huge(u128),
     Float(f64),
 }
 
@@ -137,10 +400,16 @@ impl<'de> Deserialize<'de> for Number {
                 f.write_str("an integer")
             }
             fn visit_i64<E: de::Error>(self, x: i64) -> Result<Number, E> {
-                Ok(Number::Int(x))
+                Ok(Number::Int(x.into()))
             }
             fn visit_u64<E: de::Error>(self, x: u64) -> Result<Number, E> {
-                Ok(i64::try_from(x).map_or(Number::Float(x as f64), Number::Int))
+                Ok(Number::Int(x.into()))
+            }
+            fn visit_i128<E: de::Error>(self, x: i128) -> Result<Number, E> {
+                Ok(Number::Int(x))
+            }
+            fn visit_u128<E: de::Error>(self, x: u128) -> Result<Number, E> {
+                Ok(i128::try_from(x).map_or(Number::Huge(x), Number::Int))
             }
             fn visit_f64<E: de::Error>(self, x: f64) -> Result<Number, E> {
                 Ok(Number::Float(x))
@@ -168,8 +437,7 @@ impl<'de> Deserialize<'de> for MaterialRef {
                 Ok(MaterialRef::Name(s.to_string()))
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
-                RawMaterial::deserialize(de::value::MapAccessDeserializer::new(map))
-                    .map(MaterialRef::Inline)
+                MaterialVisitor.visit_map(map).map(MaterialRef::Inline)
             }
         }
         d.deserialize_any(V)
@@ -177,10 +445,10 @@ impl<'de> Deserialize<'de> for MaterialRef {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawSphere {
     pub(super) center: Option<V3>,
-    pub(super) radius: f64,
+    pub(super) radius: F,
     pub(super) material: MaterialRef,
     pub(super) velocity: Option<V3>,
     pub(super) keyframes: Option<Vec<RawSphereKey>>,
@@ -188,16 +456,16 @@ pub(super) struct RawSphere {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawSphereKey {
-    pub(super) time: f64,
+    pub(super) time: F,
     pub(super) center: V3,
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawOrbit {
     pub(super) pivot: V3,
     pub(super) axis: V3,
-    pub(super) degrees_per_second: f64,
+    pub(super) degrees_per_second: F,
 }

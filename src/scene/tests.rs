@@ -443,3 +443,490 @@ fn overrides_are_validated_as_the_file_is_and_name_the_flag() {
         .to_string();
     assert_eq!(e, "s.toml: output.width must be in 1..=65536, got 0");
 }
+
+/// The first line of a message (the rest is the source line and the caret).
+fn first_line(e: &str) -> &str {
+    e.lines().next().unwrap_or("")
+}
+
+#[test]
+fn vectors_and_colours_take_exactly_three_numbers() {
+    for (text, want) in [
+        (
+            "[camera]\nlook_from = [0, 0, 0, \"x\", [1], {a = 1}]\n",
+            "s.toml:2:13: camera.look_from: expected 3 numbers, found 6",
+        ),
+        (
+            "[camera]\nlook_from = [0, 0]\n",
+            "s.toml:2:13: camera.look_from: expected 3 numbers, found 2",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, -1, 99]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n",
+            "s.toml:2:10: sphere[0].center: expected 3 numbers, found 4",
+        ),
+        (
+            "[background]\ncolor = [0.1, 0.2, 0.3, nan]\n",
+            "s.toml:2:9: background.color: expected 3 numbers, found 4",
+        ),
+        (
+            "[camera]\nup = []\n",
+            "s.toml:2:6: camera.up: expected 3 numbers, found 0",
+        ),
+        (
+            "[camera]\nup = [0, \"1\", 0]\n",
+            "s.toml:2:10: camera.up[1]: expected a number, found the string \"1\"",
+        ),
+        (
+            "[camera]\nup = 1\n",
+            "s.toml:2:6: camera.up: expected an array of 3 numbers, found the integer 1",
+        ),
+    ] {
+        let e = err(text);
+        assert_eq!(first_line(&e), want, "{text}");
+    }
+}
+
+#[test]
+fn schema_errors_name_the_field_and_say_what_was_expected_and_found() {
+    let e = err("[shot]\nfps = \"big\"\n");
+    assert_eq!(
+        e,
+        "s.toml:2:7: shot.fps: expected a number, found the string \"big\"\n  |\n2 | fps = \"big\"\n  |       ^^^^^"
+    );
+    for (text, want) in [
+        (
+            "[shot]\nshutter_position = \"middle\"\n",
+            "s.toml:2:20: shot.shutter_position: expected one of \"start\", \"center\", \"end\", found \"middle\"",
+        ),
+        (
+            "[render]\nsampler = 3\n",
+            "s.toml:2:11: render.sampler: expected one of \"sobol\", \"independent\", found the integer 3",
+        ),
+        (
+            "[shot]\nfps = 1\nfps = 2\n",
+            "s.toml:3:1: duplicate key `fps`",
+        ),
+        ("[shot]\n[shot]\n", "s.toml:2:2: duplicate table [shot]"),
+        (
+            "[shot]\nfpz = 1\n",
+            "s.toml:2:1: shot: unknown key `fpz`, expected one of fps, frames, first_frame, start_time, shutter, shutter_angle, shutter_position",
+        ),
+        (
+            "camera = 5\n",
+            "s.toml:1:10: camera: expected a table, found the integer 5",
+        ),
+        (
+            "[materials]\nm = 5\n",
+            "s.toml:2:5: materials.m: expected a material table, found the integer 5",
+        ),
+        (
+            "[materials]\nm = { type = \"plastic\" }\n",
+            "s.toml:2:14: materials.m.type: expected one of \"lambertian\", \"metal\", \"dielectric\", found \"plastic\"",
+        ),
+        (
+            "[materials]\nm = { type = \"lambertian\", albedo = [1, 1, 1], ior = 2 }\n",
+            "s.toml:2:5: materials.m: unknown key `ior` for a lambertian material, expected one of type, albedo",
+        ),
+        (
+            "[materials]\nm = { type = \"metal\", albedo = [1, 1, 1], shine = 2 }\n",
+            "s.toml:2:43: materials.m: unknown key `shine`, expected one of type, albedo, fuzz, ior",
+        ),
+        (
+            "[materials]\nm = { albedo = [1, 1, 1] }\n",
+            "s.toml:2:5: materials.m: missing key `type` (one of \"lambertian\", \"metal\", \"dielectric\")",
+        ),
+        (
+            "[materials]\nm = { type = \"dielectric\" }\n",
+            "s.toml:2:5: materials.m: missing key `ior` (a dielectric material needs it)",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, 0]\nmaterial = { type = \"metal\", albedo = [1, true, 1] }\nradius = 1\n",
+            "s.toml:3:43: sphere[0].material.albedo[1]: expected a number, found the boolean true",
+        ),
+        (
+            "[[sphere]]\ncenter = [0, 0, 0]\nmaterial = \"m\"\n",
+            "s.toml:1:1: sphere[0]: missing key `radius`",
+        ),
+        (
+            "[camera]\nkeyframes = [ { time = 1979-05-27 } ]\n",
+            "s.toml:2:24: camera.keyframes[0].time: expected a number, found the date-time 1979-05-27",
+        ),
+        (
+            "[camera]\nkeyframes = 3\n",
+            "s.toml:2:13: camera.keyframes: expected an array, found the integer 3",
+        ),
+        (
+            "[materials]\nm = [1]\n",
+            "s.toml:2:5: materials.m: expected a material table, found an array of 1 value",
+        ),
+        (
+            "sphere = 1\n",
+            "s.toml:1:10: sphere: expected an array, found the integer 1",
+        ),
+    ] {
+        let e = err(text);
+        assert_eq!(first_line(&e), want, "{text}");
+        // The source line follows, with a caret.
+        assert!(e.lines().nth(3).is_some_and(|l| l.contains('^')), "{e}");
+    }
+}
+
+/// No Rust or serde type names in any message, whatever the wrong value.
+#[test]
+fn messages_hold_no_internal_names() {
+    let wrong = [
+        "\"s\"",
+        "1",
+        "1.5",
+        "true",
+        "[1]",
+        "{ a = 1 }",
+        "1979-05-27",
+        "[]",
+    ];
+    let fields = [
+        ("shot", "fps"),
+        ("shot", "frames"),
+        ("shot", "shutter_position"),
+        ("output", "path"),
+        ("render", "sampler"),
+        ("camera", "look_from"),
+        ("camera", "orbit"),
+        ("camera", "keyframes"),
+        ("background", "color"),
+        ("materials", "m"),
+    ];
+    for (table, key) in fields {
+        for w in wrong {
+            let text = format!("[{table}]\n{key} = {w}\n");
+            if let Err(e) = parse(&text, Path::new("s.toml")) {
+                let e = e.to_string();
+                for name in [
+                    "Raw", "struct", "enum", "f64", "i64", "u64", "i128", "sequence", "map",
+                    "variant", "field",
+                ] {
+                    assert!(!e.contains(name), "{text}: {e}");
+                }
+            }
+        }
+        for w in wrong {
+            let text = format!("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = {w}\n");
+            let e = err(&text);
+            assert!(!e.contains("Raw") && !e.contains("enum"), "{text}: {e}");
+        }
+    }
+}
+
+#[test]
+fn numbers_are_shown_short_and_as_written() {
+    let e = err("[render]\nseed = 18446744073709551615\n");
+    assert_eq!(
+        e,
+        "s.toml: render.seed must be in 0..=9223372036854775807, got 18446744073709551615"
+    );
+    let e = err("[render]\nseed = 170141183460469231731687303715884105727\n");
+    assert!(
+        e.ends_with("got 170141183460469231731687303715884105727"),
+        "{e}"
+    );
+    // A tiny fps makes the default shutter angle's shutter overflow: fps is to blame.
+    let e = err("[shot]\nfps = 1e-300\n");
+    assert_eq!(
+        e,
+        "s.toml: shot.fps gives a shutter of 5e299 s (shutter_angle 180 / 360 / fps 1e-300), more than 3.4e38; got 1e-300"
+    );
+    let e = err("[shot]\nfps = 1e-38\nframes = 100\n");
+    assert_eq!(
+        e,
+        "s.toml: shot: the last frame's time (9.925e39 s) is out of range; check shot.fps and shot.frames"
+    );
+    assert_eq!(validate::show_approx(1.0 / 48.0), "0.02083");
+    assert_eq!(validate::show_approx(4.9999999999999995e299), "5e299");
+    assert_eq!(validate::show_approx(123456.0), "123500");
+    assert_eq!(validate::show(2.0), "2");
+    assert_eq!(validate::show(-0.0), "-0");
+    assert_eq!(validate::show(0.1), "0.1");
+    assert_eq!(validate::show(1e300), "1e300");
+    assert_eq!(validate::show(f64::NEG_INFINITY), "-inf");
+}
+
+#[test]
+fn integer_fields_take_whole_floats() {
+    let s = ok("[shot]\nframes = 2.0\nfirst_frame = 0.0\n[output]\nwidth = 8e0\n");
+    assert_eq!(
+        (s.shot.frames, s.shot.first_frame, s.output.width),
+        (2, 0, 8)
+    );
+    for (text, want) in [
+        (
+            "[shot]\nframes = 2.5\n",
+            "s.toml: shot.frames must be an integer, got 2.5",
+        ),
+        (
+            "[shot]\nfirst_frame = -0.0\n",
+            "s.toml: shot.first_frame must be an integer, got -0 (negative zero)",
+        ),
+        (
+            "[shot]\nframes = 1e16\n",
+            "s.toml: shot.frames must be an integer, got 1e16",
+        ),
+        (
+            "[shot]\nframes = 1e15\n",
+            "s.toml: shot.frames must be in 1..=4294967295, got 1000000000000000",
+        ),
+        (
+            "[render]\nsamples = nan\n",
+            "s.toml: render.samples must be an integer, got nan",
+        ),
+    ] {
+        assert_eq!(err(text), want, "{text}");
+    }
+}
+
+#[test]
+fn long_arrays_are_refused_before_the_parse_whole_or_in_pieces() {
+    let text = format!("[camera]\nlook_from = [{}0]\n", "0, ".repeat(4_999_999));
+    // The scan's message: the parse (1 GB and seconds for this line) never ran.
+    let e = err(&text);
+    assert_eq!(
+        first_line(&e),
+        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (no key takes more than 3 numbers), found 5000000 values"
+    );
+    // In a sphere, and in the settings after the spheres, pieces give the same message.
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n";
+    let long = format!("[{}0]", "0, ".repeat(5000));
+    let cases = [
+        format!(
+            "{}[[sphere]]\nradius = 1\nvelocity = {long}\n{}",
+            sphere.repeat(3),
+            sphere.repeat(2)
+        ),
+        format!("{}[camera]\nup = {long}\n", sphere.repeat(3)),
+        // A limit passed late in the file is reported before an earlier syntax error.
+        format!(
+            "{}[[sphere]]\nradius = \n{}[camera]\nup = {long}\n",
+            sphere.repeat(3),
+            sphere.repeat(2)
+        ),
+    ];
+    for text in &cases {
+        same_both_ways(text, true);
+        let e = err(text);
+        assert!(e.contains("found 5001 values"), "{e}");
+    }
+}
+
+#[test]
+fn binary_garbage_gets_a_place() {
+    let e = Scene::parse_bytes(b"[shot]\nfps = 1\n# caf\xe9\n", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "s.toml:3:6: the file is not UTF-8 text: byte 0xE9\n  |\n3 | # caf\u{fffd}\n  |      ^"
+    );
+    let e = Scene::parse_bytes(b"\xff\xfe[\x00s", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.toml:1:1: the file is not UTF-8 text: byte 0xFF (the file looks like UTF-16; scenes are UTF-8)"),
+        "{e}"
+    );
+    let e = Scene::parse_bytes(b"a = 1 # \xe2\x82", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("s.toml:1:9: the file ends inside a UTF-8 character: 0xE2 0x82"),
+        "{e}"
+    );
+    for (text, want) in [
+        (
+            "[shot]\nfps = 1\0\n",
+            "s.toml:2:8: control character U+0000 in the text",
+        ),
+        (
+            "[shot]\nf\0ps = 1\n",
+            "s.toml:2:2: control character U+0000 in the text",
+        ),
+        (
+            "[output]\npath = \"a\u{1b}b.png\"\n",
+            "s.toml:2:10: control character U+001B",
+        ),
+    ] {
+        let e = err(text);
+        assert!(e.starts_with(want), "{text:?}: {e}");
+    }
+    // Escaped, a control character is a string's business (here: no file extension).
+    let e = err("[output]\npath = \"a\\u0000b\"\n");
+    assert!(e.starts_with("s.toml: output.path \"a\\u{0}b\""), "{e}");
+    // Long names are cut, long lists shortened.
+    let mut text = String::from("[materials]\n");
+    for i in 0..20 {
+        text.push_str(&format!(
+            "m{i:02} = {{ type = \"dielectric\", ior = 1.5 }}\n"
+        ));
+    }
+    text.push_str(&format!(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"{}\"\n",
+        "x".repeat(1000)
+    ));
+    let e = err(&text);
+    assert!(e.len() < 200, "{e}");
+    assert!(
+        e.contains("(known: m00, m01, m02, m03, m04, m05, m06, m07, m08, m09, and 10 more)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn only_regular_files_of_bounded_size_are_read() {
+    use std::time::Duration;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let refused = |p: &Path, want: &str| {
+        let e = Scene::load(p).unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{e}");
+        let e = e.to_string();
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+        assert!(e.contains(want), "{e}");
+    };
+    refused(d, "is a directory, not a scene file");
+    refused(&d.join("missing.toml"), "No such file");
+    std::os::unix::fs::symlink(d.join("b.toml"), d.join("a.toml")).unwrap();
+    std::os::unix::fs::symlink(d.join("a.toml"), d.join("b.toml")).unwrap();
+    refused(&d.join("a.toml"), "symbolic links");
+    refused(Path::new("/dev/zero"), "is a device");
+    // A sparse file larger than the limit is refused from its size, unread.
+    let big = d.join("big.toml");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(MAX_FILE_BYTES + 1)
+        .unwrap();
+    refused(&big, "is 2.0 GiB, more than the 2 GiB a scene file may be");
+    // A file whose size says 0 (as /proc files do) is still read no further than the limit.
+    let e = read_scene(Path::new("/proc/self/status"), 16).unwrap_err();
+    assert!(
+        e.to_string()
+            .ends_with("is longer than its size says, more than the 16 bytes a scene file may be"),
+        "{e}"
+    );
+    // A named pipe is refused without waiting for a writer.
+    let fifo = d.join("pipe.toml");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let f = fifo.clone();
+        std::thread::spawn(move || tx.send(Scene::load(&f).map(|_| ()).map_err(|e| e.to_string())));
+        let e = rx
+            .recv_timeout(Duration::from_secs(20))
+            .expect("loading a named pipe blocked")
+            .unwrap_err();
+        assert!(e.contains("is a named pipe, not a scene file"), "{e}");
+    }
+    let good = d.join("good.toml");
+    std::fs::write(&good, "[shot]\nframes = 2\n").unwrap();
+    assert_eq!(Scene::load(&good).unwrap().shot.frames, 2);
+}
+
+#[test]
+fn camera_paths_are_checked_between_keys_exactly() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, -1]\nradius = 0.5\nmaterial = {type = \"lambertian\", albedo = [0.5, 0.5, 0.5]}\n";
+    // look_from passes through look_at half-way between two keys where both views are fine.
+    let text = format!(
+        "[shot]\nfps = 1\nstart_time = 0.5\nshutter = 0\n[camera]\nlook_from = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{{time = 0}}, {{time = 1, look_from = [0, 0, -1]}}]\n{sphere}"
+    );
+    assert_eq!(
+        err(&text),
+        "s.toml: camera.keyframes[0..1]: look_from meets look_at at t = 0.5 s"
+    );
+    // The view turns through straight down (parallel to up) between the keys.
+    let text = "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 2, look_from = [-1, 1, 0]}, {time = 4, look_from = [1, 1, 0]}]\n";
+    assert_eq!(
+        err(text),
+        "s.toml: camera.keyframes[0..1]: the view direction [0, -1, 0] is parallel to camera.up [0, 1, 0] at t = 3 s"
+    );
+    // Within the tolerance, not exactly.
+    let text = "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-12, 0]}, {time = 1, look_from = [1, 1e-12, 0]}]\n";
+    assert_eq!(
+        err(text),
+        "s.toml: camera.keyframes[0..1]: look_from comes within 1e-12 of look_at at t = 0.5 s, too close to give a view direction (at most 1e-9 of their distance from the origin, or 1e-100)"
+    );
+    let text = "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1, 1e-12]}, {time = 1, look_from = [1, 1, 1e-12]}]\n";
+    assert!(
+        err(text).starts_with(
+            "s.toml: camera.keyframes[0..1]: the view direction [0, -1, -1e-12] is within 5.73e-11 degrees of camera.up [0, 1, 0] at t = 0.5 s"
+        ),
+        "{}",
+        err(text)
+    );
+    // The same paths just clear of the tolerance are fine, and the third segment is checked.
+    ok(
+        "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-8, 0]}, {time = 1, look_from = [1, 1e-8, 0]}]\n",
+    );
+    let e = err(
+        "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [0, 0, 1]}, {time = 1, look_from = [1, 0, 1]}, {time = 2, look_from = [1, 0, 2]}, {time = 3, look_from = [-1, 0, -2]}]\n",
+    );
+    assert_eq!(
+        e,
+        "s.toml: camera.keyframes[2..3]: look_from meets look_at at t = 2.5 s"
+    );
+    // Near-coincident points far from the origin: the view is lost to rounding.
+    let e = err("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-4]\n");
+    assert!(
+        e.starts_with("s.toml: camera: look_from comes within 0.0001 of look_at, too close"),
+        "{e}"
+    );
+    ok("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-2]\n");
+    // An orbit starting on its axis looks along up all the way round.
+    let e = err(
+        "[camera]\nlook_from = [0, 5, 0]\nlook_at = [0, 0, 0]\norbit = { degrees_per_second = 10 }\n",
+    );
+    assert_eq!(
+        e,
+        "s.toml: camera: the view direction [0, -5, 0] is parallel to camera.up [0, 1, 0]"
+    );
+    // An up vector too short to normalize.
+    let e = err("[camera]\nup = [0, 1e-200, 0]\n");
+    assert_eq!(
+        e,
+        "s.toml: camera.up [0, 1e-200, 0] is too short (1e-200), at least 1e-100"
+    );
+    ok("[camera]\nup = [0, 1e-50, 0]\n");
+}
+
+#[test]
+fn orbit_axes_of_any_length_are_normalised_exactly() {
+    for scale in ["1e-300", "1e-160", "1", "3e38"] {
+        let s = ok(&format!(
+            "[[sphere]]\ncenter = [1, 0, 0]\nradius = 0.1\nmaterial = {{ type = \"lambertian\", albedo = [1, 1, 1] }}\norbit = {{ pivot = [0, 0, 0], axis = [0, {scale}, 0], degrees_per_second = 10 }}\n"
+        ));
+        let Motion::Orbit { orbit, .. } = &s.spheres[0].motion else {
+            panic!()
+        };
+        assert_eq!(orbit.axis, DVec3::Y, "{scale}");
+    }
+}
+
+#[test]
+fn colours_are_bounded_so_no_pixel_can_overflow() {
+    for (text, want) in [
+        (
+            "[background]\ncolor = [3e38, 1, 1]\n",
+            "s.toml: background.color[0] must be in [0, 1000000], got 3e38",
+        ),
+        (
+            "[materials]\nm = { type = \"metal\", albedo = [1, 3e38, 1] }\n",
+            "s.toml: materials.m.albedo[1] must be in [0, 1], got 3e38",
+        ),
+        (
+            "[materials]\nm = { type = \"lambertian\", albedo = [1, 1, 1.0000001] }\n",
+            "s.toml: materials.m.albedo[2] must be in [0, 1], got 1.0000001",
+        ),
+    ] {
+        assert_eq!(err(text), want);
+    }
+    let s = ok(
+        "[background]\ncolor = [1e6, 0, 1]\n[materials]\nm = { type = \"metal\", albedo = [1, 0, 1] }\n",
+    );
+    assert_eq!(s.background, Background::Uniform(DVec3::new(1e6, 0.0, 1.0)));
+}

@@ -8,12 +8,15 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::report;
 use super::schema::{
     MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawSampler, RawScene, RawShot,
     RawShutterPosition, RawSphere, V3,
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
-use crate::camera::CameraRig;
+use crate::camera::{
+    CameraRig, DEGENERATE, TINY, most_parallel_on_segment, robust_length, shortest_on_segment,
+};
 use crate::io::{FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
@@ -21,14 +24,50 @@ use crate::sampler::SamplerKind;
 use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
 use crate::sphere::SphereDesc;
 
-/// Formats a number as the scene file would, with negative zero shown as `-0`.
-fn show(x: f64) -> String {
+/// Formats a number as the scene file would, shortest first: `2`, `0.25`, `-0`, and in
+/// scientific form when very large or small (`1e-300`, `1.8446744073709552e19`), never as
+/// hundreds of digits.
+pub(super) fn show(x: f64) -> String {
     if x.is_nan() {
-        "nan".into()
+        return "nan".into();
+    }
+    let debug = format!("{x:?}");
+    if debug.contains('e') || x.is_infinite() {
+        debug
     } else {
         format!("{x}")
     }
 }
+
+/// Formats a computed number (not one written in the file) to 4 significant digits:
+/// `5e299`, `1.98e39`, `0.02083`.
+pub(super) fn show_approx(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return show(x);
+    }
+    let sci = format!("{x:.3e}");
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+    match exp.parse::<i32>() {
+        Ok(e) if (-4..16).contains(&e) => show(format!("{mantissa}e{e}").parse().unwrap_or(x)),
+        _ => format!("{mantissa}e{exp}"),
+    }
+}
+
+/// Largest integer a float field may stand for in an integer field: floats hold every
+/// integer exactly up to 2^53, and no larger one is likely to be meant exactly.
+const EXACT_INTEGERS: f64 = 9_007_199_254_740_992.0;
+
+/// Largest albedo component. A surface reflects at most the light it receives, so every path's
+/// throughput stays at most 1 (glass attenuates by 1) and no pixel can exceed the brightest
+/// light; an albedo above 1 would multiply a path by up to albedo^max_depth (3e38 twice
+/// overflowed 32-bit frames to infinity).
+pub(super) const MAX_ALBEDO: f64 = 1.0;
+
+/// Largest background radiance component: with throughput at most 1 no sample exceeds it, and
+/// sums of squares over 2^32 samples (noise estimates) stay below 1e22, far inside 32-bit
+/// range. A million times a white sky is brighter than any scene the format can light.
+pub(super) const MAX_RADIANCE: f64 = 1e6;
 
 /// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
 pub(super) type Validated = (Vec<SphereDesc>, Vec<Material>);
@@ -76,7 +115,7 @@ impl<'a> Check<'a> {
     /// Writes the overrides into the file's raw values, to be validated with them.
     pub(super) fn apply(&self, raw: &mut RawScene) {
         let o = self.overrides;
-        let int = |x: u64| Some(i64::try_from(x).map_or(Number::Float(x as f64), Number::Int));
+        let int = |x: u64| Some(Number::Int(x.into()));
         if let Some(p) = &o.output {
             raw.output.path = Some(p.clone());
         }
@@ -121,9 +160,10 @@ impl<'a> Check<'a> {
         }
     }
 
-    /// A message about the file, or only about a flag when a flag gave the value.
+    /// A message about the file, or only about a flag when a flag gave the value. Quoted
+    /// values are cut short and control characters escaped ([`report::clean`]).
     fn err<T>(&self, msg: impl fmt::Display) -> Result<T, String> {
-        let msg = msg.to_string();
+        let msg = report::clean(&msg.to_string());
         if msg.starts_with("--") {
             Err(msg)
         } else {
@@ -149,6 +189,7 @@ impl<'a> Check<'a> {
     }
 
     fn vec(&self, field: &str, v: V3) -> Result<DVec3, String> {
+        let v = v.0;
         for (i, x) in v.iter().enumerate() {
             self.num(&format!("{field}[{i}]"), *x)?;
         }
@@ -176,13 +217,24 @@ impl<'a> Check<'a> {
         }
     }
 
-    fn color(&self, field: &str, v: V3) -> Result<DVec3, String> {
+    /// A colour whose components are in [0, `max`].
+    fn color(&self, field: &str, v: V3, max: f64) -> Result<DVec3, String> {
+        let v = v.0;
         for (i, x) in v.iter().enumerate() {
-            self.non_negative(&format!("{field}[{i}]"), *x)?;
+            let field = format!("{field}[{i}]");
+            if self.non_negative(&field, *x)? > max {
+                return self.err(format_args!(
+                    "{field} must be in [0, {}], got {}",
+                    show(max),
+                    show(*x)
+                ));
+            }
         }
         Ok(DVec3::from_array(v))
     }
 
+    /// An integer field. A float written for it counts when it is a whole number that floats
+    /// hold exactly (`2.0`); `2.5`, `nan`, `1e39` and `-0.0` are refused by name.
     fn int(
         &self,
         field: &str,
@@ -192,17 +244,28 @@ impl<'a> Check<'a> {
         max: i64,
     ) -> Result<i64, String> {
         let field = self.name(field);
-        let x = match x {
-            None => default,
+        let x: i128 = match x {
+            None => default.into(),
             Some(Number::Int(x)) => x,
+            Some(Number::Huge(x)) => {
+                return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
+            }
             Some(Number::Float(f)) => {
-                return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+                if f == 0.0 && f.is_sign_negative() {
+                    return self.err(format_args!(
+                        "{field} must be an integer, got -0 (negative zero)"
+                    ));
+                }
+                if f.fract() != 0.0 || f.abs() > EXACT_INTEGERS || !f.is_finite() {
+                    return self.err(format_args!("{field} must be an integer, got {}", show(f)));
+                }
+                f as i128
             }
         };
-        if x < min || x > max {
+        if x < min.into() || x > max.into() {
             return self.err(format_args!("{field} must be in {min}..={max}, got {x}"));
         }
-        Ok(x)
+        Ok(x as i64)
     }
 
     pub(super) fn scene(&self, raw: RawScene, source: &Path) -> Result<Scene, String> {
@@ -239,7 +302,9 @@ impl<'a> Check<'a> {
         let camera = self.camera(&raw.camera)?;
         let background = match &raw.background {
             None => Background::Sky,
-            Some(b) => Background::Uniform(self.color("background.color", b.color)?),
+            Some(b) => {
+                Background::Uniform(self.color("background.color", b.color, MAX_RADIANCE)?)
+            }
         };
         let mut materials = Vec::new();
         let mut names = BTreeMap::new();
@@ -276,7 +341,11 @@ impl<'a> Check<'a> {
                 MaterialRef::Name(n) => match names.get(n.as_str()) {
                     Some(&m) => m,
                     None => {
-                        let known: Vec<&str> = names.keys().copied().collect();
+                        let mut known: Vec<&str> = names.keys().copied().take(10).collect();
+                        let more = format!("and {} more", names.len().saturating_sub(10));
+                        if names.len() > 10 {
+                            known.push(&more);
+                        }
                         let known = if known.is_empty() {
                             "none defined".to_string()
                         } else {
@@ -293,7 +362,7 @@ impl<'a> Check<'a> {
                 }
             };
             spheres.push(SphereDesc {
-                radius: self.positive(&format!("{field}.radius"), s.radius)?,
+                radius: self.positive(&format!("{field}.radius"), s.radius.0)?,
                 motion: self.sphere_motion(&field, s)?,
                 material,
             });
@@ -302,7 +371,7 @@ impl<'a> Check<'a> {
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {
-        let fps = self.positive("shot.fps", s.fps.unwrap_or(24.0))?;
+        let fps = self.positive("shot.fps", s.fps.map_or(24.0, |f| f.0))?;
         let frames = self.int("shot.frames", s.frames, 1, 1, u32::MAX as i64)?;
         let first_frame = self.int("shot.first_frame", s.first_frame, 1, 0, u32::MAX as i64)?;
         if first_frame + frames - 1 > u32::MAX as i64 {
@@ -316,13 +385,27 @@ impl<'a> Check<'a> {
             (Some(_), Some(_)) => {
                 return self.err("shot: give at most one of shutter and shutter_angle");
             }
-            (Some(x), None) => self.non_negative("shot.shutter", x)?,
-            (None, a) => shutter_from_angle(
-                self.non_negative("shot.shutter_angle", a.unwrap_or(180.0))?,
-                fps,
-            ),
+            (Some(x), None) => self.non_negative("shot.shutter", x.0)?,
+            (None, a) => {
+                let angle = self.non_negative("shot.shutter_angle", a.map_or(180.0, |a| a.0))?;
+                let shutter = shutter_from_angle(angle, fps);
+                // Only a tiny fps makes the shutter overflow: blame the keys written.
+                if !shutter.is_finite() || shutter > f32::MAX as f64 {
+                    let (field, x) = match s.fps {
+                        Some(_) => ("shot.fps", fps),
+                        None => ("shot.shutter_angle", angle),
+                    };
+                    return self.err(format_args!(
+                        "{field} gives a shutter of {} s (shutter_angle {} / 360 / fps {}), more than 3.4e38; got {}",
+                        show_approx(shutter),
+                        show(angle),
+                        show(fps),
+                        show(x)
+                    ));
+                }
+                shutter
+            }
         };
-        let shutter = self.num("shot.shutter", shutter)?;
         let position = match s.shutter_position.unwrap_or(RawShutterPosition::Center) {
             RawShutterPosition::Start => ShutterPosition::Start,
             RawShutterPosition::Center => ShutterPosition::Center,
@@ -332,7 +415,7 @@ impl<'a> Check<'a> {
             fps,
             frames: frames as u32,
             first_frame: first_frame as u32,
-            start_time: self.num("shot.start_time", s.start_time.unwrap_or(0.0))?,
+            start_time: self.num("shot.start_time", s.start_time.map_or(0.0, |t| t.0))?,
             shutter,
             position,
         };
@@ -341,8 +424,8 @@ impl<'a> Check<'a> {
         for t in [whole.open, whole.close] {
             if !t.is_finite() || t.abs() > f32::MAX as f64 {
                 return self.err(format_args!(
-                    "shot: the last frame's time ({}) is out of range; check shot.fps and shot.frames",
-                    show(t)
+                    "shot: the last frame's time ({} s) is out of range; check shot.fps and shot.frames",
+                    show_approx(t)
                 ));
             }
         }
@@ -384,10 +467,10 @@ impl<'a> Check<'a> {
     fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {
         Ok(match m {
             RawMaterial::Lambertian { albedo } => Material::Lambertian {
-                albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                albedo: self.color(&format!("{field}.albedo"), *albedo, MAX_ALBEDO)?,
             },
             RawMaterial::Metal { albedo, fuzz } => {
-                let fuzz = self.non_negative(&format!("{field}.fuzz"), *fuzz)?;
+                let fuzz = self.non_negative(&format!("{field}.fuzz"), fuzz.0)?;
                 if fuzz > 1.0 {
                     return self.err(format_args!(
                         "{field}.fuzz must be in [0, 1], got {}",
@@ -395,12 +478,12 @@ impl<'a> Check<'a> {
                     ));
                 }
                 Material::Metal {
-                    albedo: self.color(&format!("{field}.albedo"), *albedo)?,
+                    albedo: self.color(&format!("{field}.albedo"), *albedo, MAX_ALBEDO)?,
                     fuzz,
                 }
             }
             RawMaterial::Dielectric { ior } => Material::Dielectric {
-                ior: self.positive(&format!("{field}.ior"), *ior)?,
+                ior: self.positive(&format!("{field}.ior"), ior.0)?,
             },
         })
     }
@@ -445,7 +528,7 @@ impl<'a> Check<'a> {
                 ));
             }
             let kf = format!("{field}.keyframes");
-            let times = self.keys(&kf, keys.iter().map(|k| k.time))?;
+            let times = self.keys(&kf, keys.iter().map(|k| k.time.0))?;
             let keys = keys
                 .iter()
                 .zip(times)
@@ -474,7 +557,7 @@ impl<'a> Check<'a> {
                 &format!("{field}.orbit"),
                 o.pivot,
                 o.axis,
-                o.degrees_per_second,
+                o.degrees_per_second.0,
             )?;
             return Ok(Motion::Orbit { origin, orbit });
         }
@@ -485,7 +568,7 @@ impl<'a> Check<'a> {
         let pivot = self.vec(&format!("{field}.pivot"), pivot)?;
         let axis = self.vec(&format!("{field}.axis"), axis)?;
         let degrees_per_second = self.num(&format!("{field}.degrees_per_second"), dps)?;
-        let len = axis.length();
+        let len = robust_length(axis);
         if !(len > 0.0 && len.is_finite()) {
             return self.err(format_args!("{field}.axis must be a non-zero vector"));
         }
@@ -496,54 +579,124 @@ impl<'a> Check<'a> {
         })
     }
 
-    /// Checks that a view is not degenerate.
-    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
-        let view = at - from;
-        if view.length() == 0.0 {
-            return self.err(format_args!(
-                "{field}: look_from and look_at must differ, both are {}",
-                fmt_v(from)
-            ));
-        }
-        if up.length() == 0.0 {
+    /// Checks that `up` can orient a camera: not zero, nor so short that it underflows.
+    fn up(&self, up: DVec3) -> Result<(), String> {
+        let len = robust_length(up);
+        if len == 0.0 {
             return self.err("camera.up must be a non-zero vector");
         }
-        if up.normalize().cross(view.normalize()).length() < 1e-9 {
+        if len <= TINY {
             return self.err(format_args!(
-                "{field}: camera.up {} is parallel to the view direction {}",
+                "camera.up {} is too short ({}), at least {TINY:e}",
                 fmt_v(up),
-                fmt_v(view)
+                show_approx(len)
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks that a view is not degenerate at one instant (see [`DEGENERATE`]).
+    fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
+        self.views(field, (from, at), (from, at), up, None)
+    }
+
+    /// Checks that the view is not degenerate at any time while look_from and look_at move
+    /// linearly from `a` to `b` (each a pair (look_from, look_at)) between `times`, or at the
+    /// one instant of `a` when `times` is `None`: the view direction never vanishes (nor comes
+    /// within [`DEGENERATE`] of the points' size, nor [`TINY`]) and is never parallel to `up`
+    /// (the sine of their angle never [`DEGENERATE`] or less). Both are found exactly per
+    /// segment, where the direction is linear in time.
+    fn views(
+        &self,
+        field: &str,
+        a: (DVec3, DVec3),
+        b: (DVec3, DVec3),
+        up: DVec3,
+        times: Option<(f64, f64)>,
+    ) -> Result<(), String> {
+        let (d0, d1) = (a.1 - a.0, b.1 - b.0);
+        let scale = [a.0, a.1, b.0, b.1]
+            .into_iter()
+            .map(robust_length)
+            .fold(0.0, f64::max);
+        let limit = (DEGENERATE * scale).max(TINY);
+        let at_time = |s: f64| match times {
+            Some((t0, t1)) => format!(" at t = {} s", show_approx(t0 + s * (t1 - t0))),
+            None => String::new(),
+        };
+        let (s, dist) = shortest_on_segment(d0, d1);
+        if dist == 0.0 {
+            return match times {
+                None => self.err(format_args!(
+                    "{field}: look_from and look_at must differ, both are {}",
+                    fmt_v(a.0)
+                )),
+                Some(_) => self.err(format_args!(
+                    "{field}: look_from meets look_at{}",
+                    at_time(s)
+                )),
+            };
+        }
+        if dist <= limit {
+            return self.err(format_args!(
+                "{field}: look_from comes within {} of look_at{}, too close to give a view direction (at most {DEGENERATE:e} of their distance from the origin, or {TINY:e})",
+                show_approx(dist),
+                at_time(s)
+            ));
+        }
+        let (s, sine) = most_parallel_on_segment(up, d0, d1);
+        if sine <= DEGENERATE {
+            let view = d0.lerp(d1, s);
+            let how = if sine == 0.0 {
+                "is parallel to".to_string()
+            } else {
+                format!(
+                    "is within {} degrees of",
+                    show_approx(sine.asin().to_degrees())
+                )
+            };
+            return self.err(format_args!(
+                "{field}: the view direction {} {how} camera.up {}{}",
+                fmt_v(view),
+                fmt_v(up),
+                at_time(s)
             ));
         }
         Ok(())
     }
 
     fn camera(&self, c: &RawCamera) -> Result<CameraRig, String> {
-        let from = self.vec("camera.look_from", c.look_from.unwrap_or([0.0, 0.0, 0.0]))?;
-        let at = self.vec("camera.look_at", c.look_at.unwrap_or([0.0, 0.0, -1.0]))?;
-        let up = self.vec("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
-        let vfov = self.positive("camera.vfov", c.vfov.unwrap_or(90.0))?;
+        let from = self.vec(
+            "camera.look_from",
+            c.look_from.unwrap_or(V3([0.0, 0.0, 0.0])),
+        )?;
+        let at = self.vec("camera.look_at", c.look_at.unwrap_or(V3([0.0, 0.0, -1.0])))?;
+        let up = self.vec("camera.up", c.up.unwrap_or(V3([0.0, 1.0, 0.0])))?;
+        let vfov = self.positive("camera.vfov", c.vfov.map_or(90.0, |v| v.0))?;
         if vfov >= 180.0 {
             return self.err(format_args!(
                 "camera.vfov must be < 180, got {}",
                 show(vfov)
             ));
         }
-        let aperture = self.non_negative("camera.aperture", c.aperture.unwrap_or(0.0))?;
+        let aperture = self.non_negative("camera.aperture", c.aperture.map_or(0.0, |a| a.0))?;
         let focus_distance = c
             .focus_distance
-            .map(|f| self.positive("camera.focus_distance", f))
+            .map(|f| self.positive("camera.focus_distance", f.0))
             .transpose()?;
         if c.orbit.is_some() && c.keyframes.is_some() {
             return self.err("camera: give at most one of orbit and keyframes");
         }
+        self.up(up)?;
         let (look_from, look_at) = if let Some(o) = &c.orbit {
+            // An orbit turns look_from about the line through look_at along up: the distance
+            // between them and the view's angle to up never change, so the start decides.
             self.view("camera", from, at, up)?;
             let orbit = self.orbit(
                 "camera.orbit",
-                at.to_array(),
-                up.to_array(),
-                o.degrees_per_second,
+                V3(at.to_array()),
+                V3(up.to_array()),
+                o.degrees_per_second.0,
             )?;
             (
                 Motion::Orbit {
@@ -553,9 +706,9 @@ impl<'a> Check<'a> {
                 Motion::Still(at),
             )
         } else if let Some(keys) = &c.keyframes {
-            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time))?;
+            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time.0))?;
             let (mut f, mut a) = (from, at);
-            let (mut fk, mut ak) = (Vec::new(), Vec::new());
+            let (mut fk, mut ak) = (Vec::<Key>::new(), Vec::<Key>::new());
             for (i, (k, time)) in keys.iter().zip(times).enumerate() {
                 let field = format!("camera.keyframes[{i}]");
                 if let Some(v) = k.look_from {
@@ -565,6 +718,17 @@ impl<'a> Check<'a> {
                     a = self.vec(&format!("{field}.look_at"), v)?;
                 }
                 self.view(&field, f, a, up)?;
+                // Between keys both points move linearly; before the first key and after the
+                // last they are held, at views just checked.
+                if let (Some(pf), Some(pa)) = (fk.last(), ak.last()) {
+                    self.views(
+                        &format!("camera.keyframes[{}..{i}]", i - 1),
+                        (pf.position, pa.position),
+                        (f, a),
+                        up,
+                        Some((pf.time, time)),
+                    )?;
+                }
                 fk.push(Key { time, position: f });
                 ak.push(Key { time, position: a });
             }
