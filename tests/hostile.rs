@@ -405,12 +405,12 @@ fn scene_paths_that_name_no_readable_file_are_bad_arguments() {
     let fifo = Command::new("mkfifo").arg(p.join("pipe.toml")).status();
     assert!(fifo.is_ok_and(|s| s.success()), "mkfifo");
     let cases = [
-        ("folder.toml", "is a folder"),
-        ("loop_a.toml", "cannot read the scene"),
+        ("folder.toml", "is a directory, not a scene file"),
+        ("loop_a.toml", "Too many levels of symbolic links"),
         // Opening a pipe without a writer would wait for ever.
-        ("pipe.toml", "not a regular file"),
-        ("/dev/zero", "not a regular file"),
-        ("shot.toml/inner.toml", "cannot read the scene"),
+        ("pipe.toml", "is a named pipe, not a scene file"),
+        ("/dev/zero", "is a device, not a scene file"),
+        ("shot.toml/inner.toml", "Not a directory"),
         ("missing.toml", "missing.toml"),
     ];
     let long = format!("{}.toml", "s".repeat(5000));

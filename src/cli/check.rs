@@ -14,7 +14,6 @@ use crate::scene::Scene;
 /// rendering (its frames and their files, with the same code), and describes it.
 pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     let scene_path = &args.scene;
-    super::check_scene_path(scene_path)?;
     let scene = Scene::load(scene_path)?;
     let selected = targets(&scene, None, None)?.frames;
     let shot = &scene.shot;

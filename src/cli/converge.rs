@@ -127,7 +127,6 @@ pub(crate) fn schedule(max_samples: u32) -> Vec<u32> {
 
 /// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
 pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
-    super::check_scene_path(&args.scene)?;
     let mut scene = Scene::load_with(&args.scene, &args.scene_args.overrides())?;
     let frame = args.frame.unwrap_or(scene.shot.first_frame);
     if !scene.shot.contains_frame(frame) {

@@ -15,7 +15,7 @@ mod interrupt;
 mod progress;
 mod render;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -301,29 +301,6 @@ pub fn thread_pool(threads: Option<u16>) -> Result<rayon::ThreadPool, Error> {
         .num_threads(threads.map_or(0, usize::from))
         .build()
         .map_err(|e| Error::Resource(format!("cannot start worker threads: {e}")))
-}
-
-/// Refuses a scene path that names no regular file, before anything reads it: a folder, a
-/// symbolic link loop, a path through a regular file, a name too long, an unreadable file
-/// (exit 2, as a missing file is). A pipe or a device is refused too: reading one could
-/// wait for ever (a pipe without a writer) or never end (`/dev/zero`).
-pub(crate) fn check_scene_path(path: &Path) -> Result<(), Error> {
-    let shown = crate::error::clip_path(path);
-    let refuse = |why: String| Err(Error::Usage(format!("{shown}: {why}")));
-    match std::fs::metadata(path) {
-        Ok(m) if m.is_dir() => refuse("is a folder, not a scene file".to_string()),
-        Ok(m) if !m.is_file() => refuse(
-            "is not a regular file (a scene is read from a file, not a pipe or a device)"
-                .to_string(),
-        ),
-        Ok(_) => match std::fs::File::open(path) {
-            Ok(_) => Ok(()),
-            Err(e) => refuse(format!("cannot read the scene: {e}")),
-        },
-        // The loader says it in its own words (exit 2 as well).
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => refuse(format!("cannot read the scene: {e}")),
-    }
 }
 
 /// Clap's value parser of a whole number `T` (a negative or fractional one is refused with a

@@ -98,7 +98,6 @@ pub(crate) fn targets(
 /// Renders the selected frames of a scene and writes them. Everything that can be checked
 /// before rendering (scene, arguments, output names) is checked before anything is written.
 pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
-    super::check_scene_path(&args.scene)?;
     let scene = Scene::load_with(&args.scene, &args.overrides())?;
     let targets = targets(
         &scene,

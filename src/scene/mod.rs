@@ -158,7 +158,9 @@ impl Scene {
 /// be read ([`Error::Io`]).
 fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
     use std::io::Read;
-    let bad = |what: &dyn std::fmt::Display| Error::Scene(format!("{}: {what}", path.display()));
+    // A path of any length is named by its start and end (see `clip_path`).
+    let shown = crate::error::clip_path(path);
+    let bad = |what: &dyn std::fmt::Display| Error::Scene(format!("{shown}: {what}"));
     let meta = std::fs::metadata(path).map_err(|e| bad(&e))?;
     let kind = file_kind(&meta.file_type());
     if !meta.is_file() {
@@ -175,10 +177,8 @@ fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
     if meta.len() > max {
         return Err(too_big(&bytes_text(meta.len())));
     }
-    let file = std::fs::File::open(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => bad(&e),
-        _ => Error::io(path, e),
-    })?;
+    // A scene that cannot be opened (gone, or not readable) is bad input, as a missing one is.
+    let file = std::fs::File::open(path).map_err(|e| bad(&e))?;
     // The path may have been replaced since its metadata was read.
     let meta = file.metadata().map_err(|e| Error::io(path, e))?;
     if !meta.is_file() {
