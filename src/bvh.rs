@@ -51,6 +51,16 @@ const _: () = assert!(
     "a leaf's count fits its bits"
 );
 
+/// Bytes per primitive of a hierarchy, about: its place in the leaf order, and a 4-wide
+/// moving node's children and boxes per three primitives (leaves hold one to four).
+pub const BYTES_PER_PRIMITIVE: usize =
+    4 + (std::mem::size_of::<Links>() + std::mem::size_of::<[Boxes4; 2]>()) / 3;
+
+/// Bytes per primitive a build holds at its peak, about: its working item, and a node of
+/// the binary tree (about one per primitive).
+pub const BUILD_BYTES_PER_PRIMITIVE: usize =
+    std::mem::size_of::<BuildItem>() + std::mem::size_of::<Build>();
+
 /// Scratch space for traversals. Made once per thread of work and reused for every ray:
 /// clearing a fresh stack array per ray cost about 8% of a render.
 #[derive(Clone, Debug)]
@@ -504,7 +514,10 @@ impl<'a> BvhView<'a> {
         let links = &self.topology.links[..];
         let still = &self.boxes.still[..];
         let moving_boxes = &self.boxes.moving[..];
-        if links.is_empty() {
+        // A ray with a NaN or infinite origin or direction has no meaningful hit, and its
+        // slab tests give NaN everywhere (which `max` and `min` below ignore): it would enter
+        // every box. Checked once per ray.
+        if links.is_empty() || !(origin.is_finite() && dir.is_finite() && !s.is_nan()) {
             return None;
         }
         let moving = !moving_boxes.is_empty();
@@ -585,6 +598,15 @@ impl<'a> BvhView<'a> {
                 let e = stack.entry[sp];
                 let count = e >> COUNT_SHIFT;
                 if count == 0 {
+                    // An empty slot (0), entered only through NaN boxes, would read as the
+                    // root, and descending into it would push the root again and again until
+                    // the stack overflowed. Skipped, every descent is one level down, so the
+                    // stack holds at most 3 entries per level of a tree `STACK` is sized for.
+                    // Checked here, on nodes popped, rather than on every child tested: that
+                    // cost nothing measurable.
+                    if e == 0 {
+                        continue;
+                    }
                     current = e as usize;
                     node = stack.links[sp];
                     break;
@@ -868,6 +890,58 @@ mod tests {
                 );
                 let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
                 assert_eq!(got, brute(&centers, &ray));
+            }
+        }
+    }
+
+    /// Rays with NaN or infinite parts, and boxes with NaN sides, find nothing and never
+    /// overflow the traversal stack, in still and moving hierarchies of any size.
+    #[test]
+    fn non_finite_rays_and_boxes_find_nothing() {
+        let mut r = Pcg32::new(13, 5);
+        let mut stack = TraversalStack::default();
+        let (nan, inf) = (f64::NAN, f64::INFINITY);
+        let rays = [
+            (DVec3::splat(nan), DVec3::X),
+            (DVec3::ZERO, DVec3::splat(nan)),
+            (DVec3::new(0.0, nan, 0.0), DVec3::new(0.0, 0.0, 1.0)),
+            (DVec3::splat(inf), DVec3::X),
+            (DVec3::ZERO, DVec3::splat(inf)),
+            (DVec3::ZERO, DVec3::new(-inf, 1.0, 0.0)),
+            (DVec3::splat(-inf), DVec3::splat(inf)),
+        ];
+        for &n in &[1usize, 5, 300, 9000] {
+            let boxes: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
+                    Aabb::point(c).grow(0.5)
+                })
+                .collect();
+            let still = Bvh::build(&boxes);
+            let moving = Bvh::build_moving(&boxes, &boxes);
+            for bvh in [&still, &moving] {
+                for s in [0.0, 0.5, nan] {
+                    for &(origin, dir) in &rays {
+                        let got = bvh.closest_hit(origin, dir, s, inf, &mut stack, |_, _| {
+                            panic!("a non-finite ray reached a primitive")
+                        });
+                        assert_eq!(got, None);
+                    }
+                }
+            }
+            // Boxes with NaN sides (refitted onto the topology) are entered by every ray, since
+            // the slab test ignores NaN: the traversal still visits each leaf once, no more.
+            let bad = vec![Aabb::point(DVec3::splat(nan)); n];
+            let boxes = moving.topology().refit_moving(&bad, &bad);
+            let view = BvhView::new(moving.topology(), &boxes);
+            for ray in random_rays(&mut r, 20) {
+                let mut visits = 0;
+                let got = view.closest_hit(ray.origin, ray.dir, 0.5, inf, &mut stack, |_, _| {
+                    visits += 1;
+                    None
+                });
+                assert_eq!(got, None);
+                assert!(visits <= n, "{visits} visits of {n} primitives");
             }
         }
     }

@@ -35,12 +35,23 @@ impl Film {
         &self.pixels
     }
 
-    /// Interleaved RGB as `f32`, the layout the writers take.
-    pub fn to_rgb_f32(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-            .collect()
+    /// Interleaved RGB as `f32`, the layout the writers take, and the number of pixels
+    /// written as black because a component was not finite as an `f32`: NaN, infinite, or a
+    /// mean beyond `f32::MAX` that the conversion rounds to infinity. Every value returned is
+    /// finite.
+    pub fn to_rgb_f32(&self) -> (Vec<f32>, u64) {
+        let mut non_finite = 0;
+        let mut rgb = Vec::with_capacity(self.pixels.len() * 3);
+        for p in &self.pixels {
+            let v = [p.x as f32, p.y as f32, p.z as f32];
+            if v.iter().all(|c| c.is_finite()) {
+                rgb.extend_from_slice(&v);
+            } else {
+                non_finite += 1;
+                rgb.extend_from_slice(&[0.0; 3]);
+            }
+        }
+        (rgb, non_finite)
     }
 }
 
@@ -138,7 +149,23 @@ mod tests {
         let mut f = Film::new(3, 2);
         f.set(2, 1, DVec3::new(1.0, 2.0, 3.0));
         assert_eq!(f.get(2, 1), DVec3::new(1.0, 2.0, 3.0));
-        let rgb = f.to_rgb_f32();
+        let (rgb, non_finite) = f.to_rgb_f32();
         assert_eq!(&rgb[15..18], &[1.0, 2.0, 3.0]);
+        assert_eq!(non_finite, 0);
+    }
+
+    #[test]
+    fn values_beyond_f32_are_written_as_black_and_counted() {
+        let mut f = Film::new(2, 2);
+        // A finite f64 mean that overflows f32, a NaN and an infinity; one pixel fine.
+        f.set(0, 0, DVec3::new(1.0, 1e300, 1.0));
+        f.set(1, 0, DVec3::new(f64::NAN, 0.0, 0.0));
+        f.set(0, 1, DVec3::new(0.0, 0.0, f64::NEG_INFINITY));
+        f.set(1, 1, DVec3::new(0.5, f32::MAX as f64, 0.25));
+        let (rgb, non_finite) = f.to_rgb_f32();
+        assert_eq!(non_finite, 3);
+        assert!(rgb.iter().all(|c| c.is_finite()));
+        assert_eq!(&rgb[..9], &[0.0; 9]);
+        assert_eq!(&rgb[9..], &[0.5, f32::MAX, 0.25]);
     }
 }

@@ -27,6 +27,9 @@ pub struct TraceStats {
 ///
 /// `sampler` is positioned at the ray's sample: each hit takes the sample's next bounce
 /// ([`Sampler::next_bounce`]), so the k-th hit of the path gets bounce k's numbers.
+///
+/// A ray whose origin, direction or time is NaN or infinite (a degenerate camera view, say)
+/// is not traced: its radiance is NaN, which the pixel's accumulator drops and counts.
 #[inline]
 pub fn radiance<S: Sampler>(
     world: &World,
@@ -35,6 +38,9 @@ pub fn radiance<S: Sampler>(
     sampler: &mut S,
     stats: &mut TraceStats,
 ) -> DVec3 {
+    if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
+        return DVec3::NAN;
+    }
     let mut throughput = DVec3::ONE;
     // The sphere the ray just left through its outside, which it cannot hit again.
     let mut skip = u32::MAX;
@@ -154,6 +160,31 @@ material = { type = "metal", albedo = [0.9, 0.9, 0.9], fuzz = 0.8 }
             }
         }
         assert_eq!(longest, 12);
+    }
+
+    #[test]
+    fn non_finite_rays_give_nan_and_find_nothing() {
+        let scene = Scene::parse(ROOM, Path::new("room.toml")).unwrap();
+        let statics = StaticGeometry::new(&scene);
+        let world = World::prepare(&scene, &statics, scene.shot.interval(1));
+        let mut stats = TraceStats::default();
+        let (nan, inf) = (f64::NAN, f64::INFINITY);
+        for (origin, dir, time) in [
+            (DVec3::splat(nan), DVec3::Z, 0.0),
+            (DVec3::ZERO, DVec3::splat(nan), 0.0),
+            (DVec3::new(inf, 0.0, 0.0), DVec3::Z, 0.0),
+            (DVec3::ZERO, DVec3::new(0.0, -inf, 0.0), 0.0),
+            (DVec3::ZERO, DVec3::Z, nan),
+        ] {
+            let ray = Ray { origin, dir, time };
+            if time.is_finite() {
+                assert!(world.hit(&ray, u32::MAX, &mut stats.stack).is_none());
+            }
+            let mut sampler = IndependentSampler::new(1, 1);
+            sampler.start_sample(0, 0, 0);
+            assert!(radiance(&world, ray, 8, &mut sampler, &mut stats).is_nan());
+        }
+        assert_eq!(stats.rays, 0);
     }
 
     #[test]

@@ -45,6 +45,10 @@ const SHARED_FRACTION: f64 = 0.25;
 /// above this factor of those the topology was built with builds a hierarchy of its own.
 const REBUILD_AREA: f64 = 2.0;
 
+/// Bytes per sphere of the tracer's copy of it, at most (as an animated sphere, with its
+/// index in the scene's list of animated ones).
+pub const PRIM_BYTES: usize = std::mem::size_of::<MovingPrim>() + 4;
+
 /// A sphere that never moves, as the tracer sees it.
 #[derive(Clone, Copy, Debug)]
 struct StillPrim {

@@ -515,3 +515,67 @@ fn a_closed_stdout_does_not_stop_the_render() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(files(&d.path().join("out")).len(), 4);
 }
+
+/// A figure `about 12.3 MiB` or `peak memory 12.3 MiB` in `text`, after `label`, in MiB.
+fn mib_after(text: &str, label: &str) -> f64 {
+    let rest = text
+        .split(label)
+        .nth(1)
+        .unwrap_or_else(|| panic!("no {label:?} in {text}"));
+    rest.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+// Peak and available memory are read from /proc.
+#[cfg(target_os = "linux")]
+#[test]
+fn memory_estimate_is_within_a_quarter_of_the_peak() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bouncing_spheres.toml");
+    let out = d.path().join("f_####.exr");
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--samples",
+            "2",
+            "--stats",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    let estimate = mib_after(&out, "memory: about ");
+    let peak = mib_after(&out, "peak memory ");
+    assert!(
+        (estimate - peak).abs() <= 0.25 * peak,
+        "estimate {estimate} MiB, peak {peak} MiB"
+    );
+    let o = run(d.path(), &["check", scene.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(mib_after(&text(&o), "memory: about "), estimate);
+}
+
+// Peak and available memory are read from /proc.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_frame_too_large_for_memory_exits_2_and_writes_nothing() {
+    let d = setup(SMALL);
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--width",
+            "65536",
+            "--height",
+            "65536",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("65536x65536") && t.contains("MiB"), "{t}");
+    assert!(t.contains("--width/--height"), "{t}");
+    assert_eq!(files(d.path()), vec![PathBuf::from("shot.toml")]);
+}

@@ -5,7 +5,7 @@ use std::fmt::Write;
 
 use super::CheckArgs;
 use super::frames;
-use super::render::targets;
+use super::render::{check_memory, mib, targets};
 use crate::error::{Error, clip, clip_path};
 use crate::motion::Motion;
 use crate::scene::Scene;
@@ -16,6 +16,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     let scene_path = &args.scene;
     let scene = Scene::load(scene_path)?;
     let selected = targets(&scene, None, None)?.frames;
+    let memory = check_memory(&scene)?;
     let shot = &scene.shot;
     let mut s = String::new();
     let _ = writeln!(s, "{}: ok", clip_path(scene_path));
@@ -67,6 +68,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         scene.render.seed,
         clip(&scene.output.path)
     );
+    let _ = writeln!(s, "memory: about {}", mib(memory));
     // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.
     let _ = writeln!(
         s,

@@ -274,7 +274,12 @@ fn reference(
     ));
     let result = render_frame(&reference, statics, frame, &Budget::default(), &|_| {});
     let info = frame_info(&reference, frame, samples);
-    io::write_frame(&path, width, height, &result.film.to_rgb_f32(), &info)?;
+    let non_finite = super::render::write_film(&path, &result.film, info)?;
+    if non_finite > 0 {
+        say(&format!(
+            "reference: {non_finite} non-finite pixels written as 0"
+        ));
+    }
     say(&format!(
         "reference: {:.2} s, written to {}",
         result.stats.render_seconds + result.stats.prepare_seconds,

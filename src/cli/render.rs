@@ -2,15 +2,16 @@
 //! selects the frames, renders each and writes it atomically, with a progress bar and a line
 //! per frame.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::frames::Selection;
 use super::progress::Progress;
 use super::{RenderArgs, interrupt};
 use crate::error::{Error, clip_path};
+use crate::film::Film;
 use crate::io::{self, FrameInfo};
-use crate::render::{FrameStats, render_frame};
+use crate::render::{FrameStats, memory_estimate, render_frame};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
@@ -104,7 +105,42 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
         args.frames.as_ref(),
         args.chunk_size.zip(args.chunk),
     )?;
+    let estimate = check_memory(&scene)?;
+    if args.stats && !args.scene_args.quiet {
+        super::progress::print_line(&format!("memory: about {}", mib(estimate)));
+    }
     super::thread_pool(args.scene_args.threads)?.install(|| render_targets(&scene, &targets, args))
+}
+
+/// The memory a render of `scene` needs ([`memory_estimate`]), or, if that is more than the
+/// machine has available (Linux: `MemAvailable`; elsewhere not checked), a usage error that
+/// says what to lower.
+pub(crate) fn check_memory(scene: &Scene) -> Result<u64, Error> {
+    let estimate = memory_estimate(scene);
+    match available_memory_bytes() {
+        Some(available) if estimate > available => Err(Error::Usage(format!(
+            "a frame of {}x{} pixels with {} spheres needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            scene.output.width,
+            scene.output.height,
+            scene.spheres.len(),
+            mib(estimate),
+            mib(available)
+        ))),
+        _ => Ok(estimate),
+    }
+}
+
+/// Bytes in MiB, as `12.3 MiB`.
+pub(crate) fn mib(bytes: u64) -> String {
+    format!("{:.1} MiB", bytes as f64 / 1048576.0)
+}
+
+/// The memory available to a new process (Linux: `MemAvailable` in `/proc/meminfo`).
+fn available_memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
 }
 
 fn render_targets(
@@ -160,13 +196,7 @@ fn render_targets(
         if let Some(t) = budget.time_limit {
             info.extra.push(("timeLimit".to_string(), t));
         }
-        io::write_frame(
-            &path,
-            scene.output.width,
-            scene.output.height,
-            &result.film.to_rgb_f32(),
-            &info,
-        )?;
+        let non_finite = write_film(&path, &result.film, info)?;
         let seconds = st.prepare_seconds + st.render_seconds;
         let stop = if budget.is_set() {
             format!(" ({})", st.stop.describe())
@@ -174,11 +204,12 @@ fn render_targets(
             String::new()
         };
         progress.line(&format!(
-            "frame {frame}: {seconds:.2} s, {} spp{stop}, est. error {}, {:.2} M samples/s, {} dropped, {}",
+            "frame {frame}: {seconds:.2} s, {} spp{stop}, est. error {}, {:.2} M samples/s, {} dropped, {}{}",
             st.samples_per_pixel,
             percent(st.relative_error),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
             st.dropped,
+            non_finite_note(non_finite),
             clip_path(&path)
         ));
         if args.stats {
@@ -228,6 +259,28 @@ pub(crate) fn frame_info(scene: &Scene, frame: u32, samples: u32) -> FrameInfo {
     }
 }
 
+/// Writes `film` to `path` with the attributes `info`. A pixel that is not finite as an
+/// `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written black; their number is
+/// returned and, when not 0, recorded in the file as `nonFinitePixels`.
+pub(crate) fn write_film(path: &Path, film: &Film, mut info: FrameInfo) -> Result<u64, Error> {
+    let (rgb, non_finite) = film.to_rgb_f32();
+    if non_finite > 0 {
+        info.extra
+            .push(("nonFinitePixels".to_string(), non_finite as f64));
+    }
+    io::write_frame(path, film.width, film.height, &rgb, &info)?;
+    Ok(non_finite)
+}
+
+/// The frame line's note of pixels written as black because they were not finite, if any.
+fn non_finite_note(pixels: u64) -> String {
+    if pixels == 0 {
+        String::new()
+    } else {
+        format!("{pixels} non-finite pixels written as 0, ")
+    }
+}
+
 /// An estimated relative error as a percentage, or why there is none.
 fn percent(relative_error: f64) -> String {
     if relative_error.is_finite() {
@@ -240,9 +293,7 @@ fn percent(relative_error: f64) -> String {
 /// The `--stats` line of a frame.
 fn stats_line(frame: u32, st: &FrameStats) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
-    let memory = peak_memory_bytes().map_or("unknown".to_string(), |b| {
-        format!("{:.1} MiB", b as f64 / 1048576.0)
-    });
+    let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
     // The share of the render time the worker threads spent in tiles: what is missing is
     // time a core sat idle (waiting for the last tile) or spent scheduling.
     let busy = st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64);
@@ -266,4 +317,40 @@ pub(crate) fn peak_memory_bytes() -> Option<u64> {
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+
+    #[test]
+    fn pixels_beyond_f32_are_written_finite_and_counted() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        let scene = Scene::parse("", Path::new("empty.toml")).unwrap();
+        let mut film = Film::new(3, 2);
+        film.set(0, 0, DVec3::splat(0.5));
+        // Finite means in f64 that no f32 holds, and a NaN.
+        film.set(1, 0, DVec3::new(1e39, 0.0, 0.0));
+        film.set(2, 1, DVec3::new(0.0, -1e300, f64::NAN));
+        let info = frame_info(&scene, 1, 4);
+        assert_eq!(write_film(&path, &film, info).unwrap(), 2);
+        let (w, h, pixels) = io::read_exr_rgb(&path).unwrap();
+        assert_eq!((w, h), (3, 2));
+        assert!(pixels.iter().all(|p| p.is_finite()));
+        assert_eq!(pixels[0], DVec3::splat(0.5));
+        assert_eq!(pixels[1], DVec3::ZERO);
+        let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
+        let count = image.layer_data[0]
+            .attributes
+            .other
+            .get(&::exr::meta::attribute::Text::from("nonFinitePixels"))
+            .cloned();
+        assert_eq!(
+            count,
+            Some(::exr::meta::attribute::AttributeValue::F64(2.0))
+        );
+    }
 }
