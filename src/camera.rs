@@ -131,12 +131,18 @@ pub fn concentric_disk((a, b): (f64, f64)) -> (f64, f64) {
 }
 
 /// A view direction (`look_at - look_from`) no longer than this fraction of the larger of
-/// `|look_from|` and `|look_at|`, or a view direction whose angle to `up` has a sine no larger
-/// than this, is degenerate. The points are known to 2.2e-16 of their size (one rounding), so
-/// such a direction, or the camera's sideways axis `up x view`, is known only to about 2.2e-7
-/// radians, a fraction of a pixel at every resolution up to 65536 pixels across a 1 degree
-/// field; at zero it is undefined and the camera's basis is NaN.
-pub const DEGENERATE: f64 = 1e-9;
+/// `|look_from|` and `|look_at|` (about 4500 units in the last place of the points) is
+/// degenerate. Within a few units in the last place the image plane, which lies that far from
+/// `look_from` when no focus distance is given, rounds onto `look_from` itself and camera rays
+/// come out 0/0 (NaN); at this bound the view is resolved to 2.2e-4 relative at worst. The
+/// stability suite's closest camera, 2e-4 from a sphere 1e6 from the origin (2e-10 relative,
+/// rendered exactly), is 200 times above it.
+pub const DEGENERATE_VIEW: f64 = 1e-12;
+
+/// A view direction whose angle to `up` has a sine no larger than this is degenerate: the
+/// camera's sideways axis `normalize(up x view)` is then known only to about 2.2e-7 radians
+/// (the cross product's rounding, 2.2e-16, over 1e-9), and at zero it is NaN.
+pub const DEGENERATE_UP: f64 = 1e-9;
 
 /// The shortest view direction or `up` vector, whatever the scale: squares of shorter vectors
 /// approach the subnormal range (below 2.2e-308), where normalizing loses digits or returns

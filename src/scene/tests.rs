@@ -846,10 +846,10 @@ fn camera_paths_are_checked_between_keys_exactly() {
         "s.toml: camera.keyframes[0..1]: the view direction [0, -1, 0] is parallel to camera.up [0, 1, 0] at t = 3 s"
     );
     // Within the tolerance, not exactly.
-    let text = "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-12, 0]}, {time = 1, look_from = [1, 1e-12, 0]}]\n";
+    let text = "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-13, 0]}, {time = 1, look_from = [1, 1e-13, 0]}]\n";
     assert_eq!(
         err(text),
-        "s.toml: camera.keyframes[0..1]: look_from comes within 1e-12 of look_at at t = 0.5 s, too close to give a view direction (at most 1e-9 of their distance from the origin, or 1e-100)"
+        "s.toml: camera.keyframes[0..1]: look_from comes within 1e-13 of look_at at t = 0.5 s, too close to give a view direction (at most 1e-12 of their distance from the origin, or 1e-100)"
     );
     let text = "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1, 1e-12]}, {time = 1, look_from = [1, 1, 1e-12]}]\n";
     assert!(
@@ -861,7 +861,7 @@ fn camera_paths_are_checked_between_keys_exactly() {
     );
     // The same paths just clear of the tolerance are fine, and the third segment is checked.
     ok(
-        "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-8, 0]}, {time = 1, look_from = [1, 1e-8, 0]}]\n",
+        "[camera]\nup = [0, 0, 1]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [-1, 1e-11, 0]}, {time = 1, look_from = [1, 1e-11, 0]}]\n",
     );
     let e = err(
         "[camera]\nlook_at = [0, 0, 0]\nkeyframes = [{time = 0, look_from = [0, 0, 1]}, {time = 1, look_from = [1, 0, 1]}, {time = 2, look_from = [1, 0, 2]}, {time = 3, look_from = [-1, 0, -2]}]\n",
@@ -871,12 +871,12 @@ fn camera_paths_are_checked_between_keys_exactly() {
         "s.toml: camera.keyframes[2..3]: look_from meets look_at at t = 2.5 s"
     );
     // Near-coincident points far from the origin: the view is lost to rounding.
-    let e = err("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-4]\n");
+    let e = err("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-7]\n");
     assert!(
-        e.starts_with("s.toml: camera: look_from comes within 0.0001 of look_at, too close"),
+        e.starts_with("s.toml: camera: look_from comes within 1e-7 of look_at, too close"),
         "{e}"
     );
-    ok("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-2]\n");
+    ok("[camera]\nlook_from = [1e6, 0, 0]\nlook_at = [1e6, 0, 1e-5]\n");
     // An orbit starting on its axis looks along up all the way round.
     let e = err(
         "[camera]\nlook_from = [0, 5, 0]\nlook_at = [0, 0, 0]\norbit = { degrees_per_second = 10 }\n",

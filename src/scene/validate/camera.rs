@@ -19,7 +19,7 @@ impl Check<'_> {
         Ok(())
     }
 
-    /// Checks that a view is not degenerate at one instant (see [`DEGENERATE`]).
+    /// Checks that a view is not degenerate at one instant (see [`views`](Self::views)).
     fn view(&self, field: &str, from: DVec3, at: DVec3, up: DVec3) -> Result<(), String> {
         self.views(field, (from, at), (from, at), up, None)
     }
@@ -27,8 +27,8 @@ impl Check<'_> {
     /// Checks that the view is not degenerate at any time while look_from and look_at move
     /// linearly from `a` to `b` (each a pair (look_from, look_at)) between `times`, or at the
     /// one instant of `a` when `times` is `None`: the view direction never vanishes (nor comes
-    /// within [`DEGENERATE`] of the points' size, nor [`TINY`]) and is never parallel to `up`
-    /// (the sine of their angle never [`DEGENERATE`] or less). Both are found exactly per
+    /// within [`DEGENERATE_VIEW`] of the points' size, nor [`TINY`]) and is never parallel to
+    /// `up` (the sine of their angle never [`DEGENERATE_UP`] or less). Both are found exactly per
     /// segment, where the direction is linear in time.
     fn views(
         &self,
@@ -43,7 +43,7 @@ impl Check<'_> {
             .into_iter()
             .map(robust_length)
             .fold(0.0, f64::max);
-        let limit = (DEGENERATE * scale).max(TINY);
+        let limit = (DEGENERATE_VIEW * scale).max(TINY);
         let at_time = |s: f64| match times {
             Some((t0, t1)) => format!(" at t = {} s", show_approx(t0 + s * (t1 - t0))),
             None => String::new(),
@@ -63,13 +63,13 @@ impl Check<'_> {
         }
         if dist <= limit {
             return self.err(format_args!(
-                "{field}: look_from comes within {} of look_at{}, too close to give a view direction (at most {DEGENERATE:e} of their distance from the origin, or {TINY:e})",
+                "{field}: look_from comes within {} of look_at{}, too close to give a view direction (at most {DEGENERATE_VIEW:e} of their distance from the origin, or {TINY:e})",
                 show_approx(dist),
                 at_time(s)
             ));
         }
         let (s, sine) = most_parallel_on_segment(up, d0, d1);
-        if sine <= DEGENERATE {
+        if sine <= DEGENERATE_UP {
             let view = d0.lerp(d1, s);
             let how = if sine == 0.0 {
                 "is parallel to".to_string()

@@ -18,7 +18,8 @@ use super::schema::{
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
 use crate::camera::{
-    CameraRig, DEGENERATE, TINY, most_parallel_on_segment, robust_length, shortest_on_segment,
+    CameraRig, DEGENERATE_UP, DEGENERATE_VIEW, TINY, most_parallel_on_segment, robust_length,
+    shortest_on_segment,
 };
 use crate::io::{FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
