@@ -134,36 +134,34 @@ fn node_at(root: &DeTable<'_>, span: &Range<usize>) -> Option<Node> {
             });
         }
     }
-    fn walk(v: &DeValue<'_>, span: &Range<usize>, path: &mut Vec<Step>, best: &mut Option<Best>) {
-        match v {
+    /// Considers a value at the end of `path`, then everything inside it.
+    fn value(
+        v: &toml::Spanned<DeValue<'_>>,
+        span: &Range<usize>,
+        path: &mut Vec<Step>,
+        best: &mut Option<Best>,
+    ) {
+        consider(
+            best,
+            v.span(),
+            span,
+            path,
+            Some(describe(v.get_ref())),
+            false,
+        );
+        match v.get_ref() {
             DeValue::Table(t) => {
                 for (k, v) in t.iter() {
                     path.push(Step::Key(k.get_ref().to_string()));
                     consider(best, k.span(), span, path, None, true);
-                    consider(
-                        best,
-                        v.span(),
-                        span,
-                        path,
-                        Some(describe(v.get_ref())),
-                        false,
-                    );
-                    walk(v.get_ref(), span, path, best);
+                    value(v, span, path, best);
                     path.pop();
                 }
             }
             DeValue::Array(a) => {
                 for (i, v) in a.iter().enumerate() {
                     path.push(Step::Index(i));
-                    consider(
-                        best,
-                        v.span(),
-                        span,
-                        path,
-                        Some(describe(v.get_ref())),
-                        false,
-                    );
-                    walk(v.get_ref(), span, path, best);
+                    value(v, span, path, best);
                     path.pop();
                 }
             }
@@ -175,15 +173,7 @@ fn node_at(root: &DeTable<'_>, span: &Range<usize>) -> Option<Node> {
     for (k, v) in root.iter() {
         path.push(Step::Key(k.get_ref().to_string()));
         consider(&mut best, k.span(), span, &path, None, true);
-        consider(
-            &mut best,
-            v.span(),
-            span,
-            &path,
-            Some(describe(v.get_ref())),
-            false,
-        );
-        walk(v.get_ref(), span, &mut path, &mut best);
+        value(v, span, &mut path, &mut best);
         path.pop();
     }
     best.map(|b| Node {
