@@ -137,8 +137,13 @@ pub(crate) fn mib(bytes: u64) -> String {
 
 /// The memory available to a new process (Linux: `MemAvailable` in `/proc/meminfo`).
 fn available_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    proc_bytes("/proc/meminfo", "MemAvailable:")
+}
+
+/// A figure in kB from a Linux `/proc` file (`KEY: N kB`), in bytes.
+fn proc_bytes(file: &str, key: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kib.checked_mul(1024)
 }
@@ -313,10 +318,7 @@ fn stats_line(frame: u32, st: &FrameStats) -> String {
 
 /// The process's peak resident memory so far (Linux: `VmHWM` in `/proc/self/status`).
 pub(crate) fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+    proc_bytes("/proc/self/status", "VmHWM:")
 }
 
 #[cfg(test)]

@@ -2,10 +2,10 @@
 //! goes through [`atomic`]), EXR and PNG frames, and the one place that tells a file's format
 //! from its extension.
 
-pub mod atomic;
-pub mod exr;
-pub mod frame_path;
-pub mod png;
+mod atomic;
+mod exr;
+mod frame_path;
+mod png;
 
 #[cfg(test)]
 mod tests;
