@@ -330,19 +330,30 @@ fn whole_from_1(text: &str) -> Result<u64, String> {
 
 /// Clap's value parser of a finite number above zero.
 fn positive(text: &str) -> Result<f64, String> {
-    number(text, |v| v.is_finite() && v > 0.0, "a number > 0")
+    number(
+        text,
+        |v| v.is_finite() && v > 0.0,
+        "a number > 0",
+        "a number > 0",
+    )
 }
 
 /// Clap's value parser of a number from 0 to 1.
 fn fraction(text: &str) -> Result<f64, String> {
-    number(text, |v| (0.0..=1.0).contains(&v), "a number in [0, 1]")
+    number(
+        text,
+        |v| (0.0..=1.0).contains(&v),
+        "in [0, 1]",
+        "a number in [0, 1]",
+    )
 }
 
-/// A number that `ok` accepts, or a message saying it must be `what`.
-fn number(text: &str, ok: impl Fn(f64) -> bool, what: &str) -> Result<f64, String> {
+/// A number that `ok` accepts; otherwise a message that it must be `bound` (a number out of
+/// range) or `what` (text that is no number).
+fn number(text: &str, ok: impl Fn(f64) -> bool, bound: &str, what: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if ok(v) => Ok(v),
-        Ok(v) => Err(format!("must be {what}, got {v}")),
+        Ok(v) => Err(format!("must be {bound}, got {v}")),
         Err(_) => Err(format!(
             "must be {what}, got \"{}\"",
             crate::error::clip(text)
