@@ -15,6 +15,7 @@ pub mod analysis;
 pub mod bvh;
 pub mod camera;
 pub mod cli;
+mod clip;
 pub mod error;
 pub mod film;
 pub mod io;

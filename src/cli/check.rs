@@ -1,22 +1,44 @@
-//! `raytrace check`: validates a scene, and everything a render of it would check, and
-//! describes it.
+//! `raytrace check`: validates scenes, and everything a render of them would check, and
+//! describes each.
 
 use std::fmt::Write;
 
 use super::CheckArgs;
 use super::frames;
-use super::render::{check_memory, mib, targets};
+use super::render::{Shot, check_memory, load_shots, mib};
 use crate::error::{Error, clip, clip_path};
 use crate::motion::Motion;
-use crate::scene::Scene;
+use crate::scene::Overrides;
 
-/// `raytrace check`: validates a scene, and what `raytrace render` of it would check before
-/// rendering (its frames and their files, with the same code), and describes it.
+/// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
+/// rendering (their frames and files, with the same code), and describes each. With several
+/// scenes, `--chunk-size` counts the chunks of the whole batch, on one `chunks:` line.
 pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
-    let scene_path = &args.scene;
-    let scene = Scene::load(scene_path)?;
-    let selected = targets(&scene, None, None)?.frames;
-    let memory = check_memory(&scene)?;
+    let shots = load_shots(&args.scenes, &Overrides::default(), None, None)?;
+    if let [shot] = &shots[..] {
+        return describe(shot, args.chunk_size);
+    }
+    let mut s = String::new();
+    for shot in &shots {
+        s.push_str(&describe(shot, None)?);
+    }
+    let frames: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
+    let _ = writeln!(s, "batch: {} scenes, {frames} frames", shots.len());
+    if let Some(size) = args.chunk_size {
+        let _ = writeln!(
+            s,
+            "chunks: {} of up to {size} frames",
+            frames::chunk_count(frames, size)
+        );
+    }
+    Ok(s)
+}
+
+/// The description of one shot (with its chunk count when `chunk_size` is given).
+fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
+    let (scene_path, scene) = (&shot.path, &shot.scene);
+    let selected = &shot.targets.frames;
+    let memory = check_memory(scene)?;
     let shot = &scene.shot;
     let mut s = String::new();
     let _ = writeln!(s, "{}: ok", clip_path(scene_path));
@@ -68,6 +90,9 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         scene.render.seed,
         clip(&scene.output.path)
     );
+    if let Some(c) = &scene.output.clip {
+        let _ = writeln!(s, "clip: {}", clip(c));
+    }
     let _ = writeln!(s, "memory: about {}", mib(memory));
     // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.
     let _ = writeln!(
@@ -76,7 +101,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         per_frame as u128 * selected.len() as u128,
         per_frame
     );
-    if let Some(size) = args.chunk_size {
+    if let Some(size) = chunk_size {
         let _ = writeln!(
             s,
             "chunks: {} of up to {size} frames",

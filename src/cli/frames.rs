@@ -133,7 +133,7 @@ impl Selection {
     }
 
     /// The frames in increasing order.
-    pub(crate) fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+    pub(crate) fn iter(&self) -> impl Iterator<Item = u32> + Clone + '_ {
         self.runs
             .iter()
             .flat_map(|r| (0..r.count).map(|i| r.nth(i)))
@@ -165,24 +165,67 @@ impl Selection {
         if chunk_size == 0 {
             return Err("the chunk size must be at least 1".to_string());
         }
-        let count = chunk_count(self.len, chunk_size);
-        if index >= count {
-            let n = self.len;
-            let frames_word = if n == 1 { "frame" } else { "frames" };
-            let make = if n == 1 { "makes" } else { "make" };
-            let chunks = match count {
-                0 => "no chunks".to_string(),
-                1 => "1 chunk (0)".to_string(),
-                c => format!("{c} chunks (0-{})", c - 1),
-            };
-            return Err(format!(
-                "chunk {index} is past the end: {n} {frames_word} in chunks of {chunk_size} \
-                 {make} {chunks}"
-            ));
+        if index >= chunk_count(self.len, chunk_size) {
+            return Err(past_end(self.len, chunk_size, index));
         }
         // index < count = ceil(len / size), so index * size < len: no overflow.
         Ok(self.slice(index * chunk_size, chunk_size))
     }
+}
+
+/// The `index`-th (from 0) chunk of `chunk_size` consecutive frames of a batch of shots,
+/// counted over the frames of every selection in the order given: for each selection, the
+/// part of it inside the chunk (empty for the shots the chunk does not reach). Errors as
+/// [`Selection::chunk`] does, counting every frame of the batch.
+pub(crate) fn batch_chunk(
+    selections: &[Selection],
+    chunk_size: u64,
+    index: u64,
+) -> Result<Vec<Selection>, String> {
+    if chunk_size == 0 {
+        return Err("the chunk size must be at least 1".to_string());
+    }
+    let total = batch_len(selections);
+    if index >= chunk_count(total, chunk_size) {
+        return Err(past_end(total, chunk_size, index));
+    }
+    // index < ceil(total / size), so start < total; the end is capped at the total.
+    let start = index * chunk_size;
+    let end = start.saturating_add(chunk_size).min(total);
+    let mut offset = 0;
+    let mut parts = Vec::with_capacity(selections.len());
+    for s in selections {
+        let (from, to) = (start.max(offset), end.min(offset + s.len));
+        parts.push(if from < to {
+            s.slice(from - offset, to - from)
+        } else {
+            Selection::default()
+        });
+        offset += s.len;
+    }
+    Ok(parts)
+}
+
+/// The frames of a batch: every selection's, added up. Each selection holds at most 2^32
+/// frames, so a batch of fewer than 2^32 shots cannot overflow.
+pub(crate) fn batch_len(selections: &[Selection]) -> u64 {
+    selections.iter().map(Selection::len).sum()
+}
+
+/// Why chunk `index` is refused: `n` frames in chunks of `chunk_size` make fewer chunks.
+fn past_end(n: u64, chunk_size: u64, index: u64) -> String {
+    let count = chunk_count(n, chunk_size);
+    let frames_word = if n == 1 { "frame" } else { "frames" };
+    let make = if n == 1 { "makes" } else { "make" };
+    let chunks = match count {
+        0 => "no chunks".to_string(),
+        1 => "1 chunk (0)".to_string(),
+        c => format!("{c} chunks (0-{})", c - 1),
+    };
+    format!(
+        "chunk {index} is past the end: {n} {frames_word} in chunks of {chunk_size} \
+         {make} {chunks}"
+    )
 }
 
 /// The number of chunks of `chunk_size` consecutive frames that `n_frames` frames make, the
@@ -428,6 +471,53 @@ mod tests {
         v.sort_unstable();
         v.dedup();
         v
+    }
+
+    #[test]
+    fn batch_chunks_cover_every_frame_of_every_shot_once_in_order() {
+        let shots = [
+            Selection::parse("1-12", 1, 12).unwrap(),
+            Selection::default(),
+            Selection::parse("1-48:4,7", 1, 48).unwrap(),
+            Selection::parse("5", 1, 9).unwrap(),
+        ];
+        // (shot, frame) listed one by one, the slow way.
+        let all: Vec<(usize, u32)> = shots
+            .iter()
+            .enumerate()
+            .flat_map(|(i, s)| s.iter().map(move |f| (i, f)))
+            .collect();
+        assert_eq!(batch_len(&shots), all.len() as u64);
+        for size in 1..=all.len() as u64 + 1 {
+            let mut seen = Vec::new();
+            for index in 0..chunk_count(all.len() as u64, size) {
+                let parts = batch_chunk(&shots, size, index).unwrap();
+                let chunk: Vec<(usize, u32)> = parts
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(i, s)| s.iter().map(move |f| (i, f)))
+                    .collect();
+                let start = (index * size) as usize;
+                let end = (start + size as usize).min(all.len());
+                assert_eq!(chunk, all[start..end], "size {size} chunk {index}");
+                seen.extend(chunk);
+            }
+            assert_eq!(seen, all);
+            let past = chunk_count(all.len() as u64, size);
+            let e = batch_chunk(&shots, size, past).unwrap_err();
+            assert!(
+                e.starts_with(&format!("chunk {past} is past the end: 26 frames")),
+                "{e}"
+            );
+        }
+        // One shot: the same chunks and messages as the shot's own.
+        let one = [shots[2].clone()];
+        for index in 0..5 {
+            assert_eq!(
+                batch_chunk(&one, 3, index).map(|mut v| v.remove(0)),
+                shots[2].chunk(3, index)
+            );
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! (`--width -16`), so that the value parser, not the option parser, says what is wrong.
 
 mod check;
+mod clip;
 mod converge;
 mod frames;
 mod generate;
@@ -33,7 +34,9 @@ use crate::scene::Overrides;
     after_help = "Examples:
   raytrace render scenes/quick.toml                 # every frame of the shot
   raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
+  raytrace render a.toml b.toml -o 'renders/{scene}_####.exr'   # two shots in one run
   raytrace check shot.toml                          # validate and summarise a scene
+  raytrace clip shot.toml shot.mp4                  # the rendered frames as a clip
   raytrace converge shot.toml --plot error.png      # error against time, per sampler
   raytrace generate --spheres 100000 -o big.toml    # a large random test scene
 
@@ -47,9 +50,11 @@ pub struct Cli {
 /// The commands.
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render frames of a scene to EXR or PNG files.
+    /// Render frames of one or more scenes to EXR or PNG files.
     #[command(after_help = "Examples:
   raytrace render scenes/quick.toml
+  raytrace render scenes/quick.toml scenes/turntable.toml -o 'renders/{scene}_####.png'
+  raytrace render shot.toml --clip renders/shot.mp4  # the frames, then a clip of them
   raytrace render shot.toml --frames 1-48:4 --output renders/shot_####.exr
   raytrace render shot.toml --frames 12 --samples 256 --width 1920 --height 1080
   raytrace render shot.toml --skip-existing          # resume an interrupted render
@@ -73,11 +78,29 @@ Examples:
   raytrace converge shot.toml --sampler independent --reference-samples 16384"
     )]
     Converge(ConvergeArgs),
-    /// Validate a scene and print a summary of it.
+    /// Validate scenes and print a summary of each.
     #[command(after_help = "Examples:
   raytrace check scenes/turntable.toml
-  raytrace check shot.toml --chunk-size 5   # prints the chunk count for a job array")]
+  raytrace check shot.toml --chunk-size 5   # prints the chunk count for a job array
+  raytrace check a.toml b.toml --chunk-size 5   # the chunk count of the batch")]
     Check(CheckArgs),
+    /// Assemble a shot's rendered frames into a clip: .mp4, .gif, .apng or a .png contact
+    /// sheet.
+    #[command(
+        after_help = "The frames are found through the scene's output path (or --input) and shown in
+frame order at the shot's exact frame rate. .mp4 clips (H.264, yuv420p) are made by the
+ffmpeg program; .gif, .apng and .png need no other program. EXR frames are shown as the
+PNG output shows them (sRGB), after --exposure stops.
+
+Examples:
+  raytrace clip scenes/turntable.toml turntable.mp4
+  raytrace clip shot.toml preview.gif --frames 1-48:2
+  raytrace clip shot.toml sheet.png --input renders/shot_####.exr --exposure 1
+
+Exit status: 0 success, 2 bad arguments, bad scene or a missing frame (nothing written),
+1 any other failure (ffmpeg missing or failing; nothing written)."
+    )]
+    Clip(ClipArgs),
     /// Write a large test scene: random spheres in a cube, some of them moving.
     #[command(after_help = "Examples:
   raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
@@ -109,16 +132,22 @@ pub struct SceneArgs {
 /// Arguments of `raytrace render`.
 #[derive(Args, Clone, Debug, Default)]
 pub struct RenderArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
-    /// Frames to render: `12`, `1-48`, `1-48:4` (every 4th) or a comma list of those.
+    /// The scene files (TOML), rendered one after another as one run.
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Frames to render (of each scene): `12`, `1-48`, `1-48:4` (every 4th) or a comma list of those.
     /// Without a value, or absent: every frame of the shot. An empty value (`--frames ''`)
     /// is an error.
     #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
     pub frames: Option<Option<String>>,
-    /// Output path pattern; runs of `#` become the zero-padded frame number; `.exr` or `.png`.
+    /// Output path pattern; runs of `#` become the zero-padded frame number, `{scene}` the
+    /// scene file's name without extension (required with several scenes); `.exr` or `.png`.
     #[arg(long, short)]
     pub output: Option<String>,
+    /// After rendering, assemble the frames into this clip (`.mp4`, `.gif`, `.apng` or a
+    /// `.png` contact sheet; `{scene}` as in --output). Not with --chunk.
+    #[arg(long, value_name = "CLIP", conflicts_with = "chunk")]
+    pub clip: Option<String>,
     /// Samples per pixel, exactly (not with --time-limit or --noise-threshold, which decide
     /// the samples themselves: cap them with --max-samples).
     #[arg(long, allow_negative_numbers = true, conflicts_with = "limit")]
@@ -135,7 +164,8 @@ pub struct RenderArgs {
     /// samples per second, and peak memory.
     #[arg(long)]
     pub stats: bool,
-    /// Split the selected frames into chunks of this many consecutive frames (with --chunk).
+    /// Split the selected frames (of every scene, in order) into chunks of this many
+    /// consecutive frames (with --chunk).
     #[arg(long, requires = "chunk", allow_negative_numbers = true,
           value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
@@ -209,11 +239,33 @@ pub struct ConvergeArgs {
 /// Arguments of `raytrace check`.
 #[derive(Args, Clone, Debug, Default)]
 pub struct CheckArgs {
-    /// The scene file (TOML).
-    pub scene: PathBuf,
-    /// Also print how many chunks of this many frames the shot makes.
+    /// The scene files (TOML).
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Also print how many chunks of this many frames the shot (or the batch) makes.
     #[arg(long, allow_negative_numbers = true, value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
+}
+
+/// Arguments of `raytrace clip`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ClipArgs {
+    /// The scene file (TOML) whose frames make the clip.
+    pub scene: PathBuf,
+    /// The clip to write: `.mp4`, `.gif`, `.apng` or `.png` (a contact sheet).
+    pub clip: PathBuf,
+    /// Frames to show: `12`, `1-48`, `1-48:4` or a comma list (default: every frame).
+    #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
+    pub frames: Option<Option<String>>,
+    /// Where the frames are, as a path pattern (default: the scene's output path).
+    #[arg(long, value_name = "PATTERN")]
+    pub input: Option<String>,
+    /// Brighten (or, negative, darken) EXR frames by this many stops before showing them.
+    #[arg(long, value_name = "STOPS", allow_negative_numbers = true, value_parser = finite)]
+    pub exposure: Option<f64>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Arguments of `raytrace generate`.
@@ -257,6 +309,7 @@ impl RenderArgs {
             output: self.output.clone(),
             samples: self.samples,
             sampler: self.sampler,
+            clip: self.clip.clone(),
             ..self.scene_args.overrides()
         }
     }
@@ -291,6 +344,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         Command::Render(args) => render::render(args).map(|_| ()),
         Command::Converge(args) => converge::converge(args).map(|_| ()),
         Command::Check(args) => check::check(args).map(|s| progress::print_line(s.trim_end())),
+        Command::Clip(args) => clip::clip(args),
         Command::Generate(args) => generate::generate(args),
     }
 }
@@ -336,6 +390,11 @@ fn positive(text: &str) -> Result<f64, String> {
         "a number > 0",
         "a number > 0",
     )
+}
+
+/// Clap's value parser of any finite number.
+fn finite(text: &str) -> Result<f64, String> {
+    number(text, f64::is_finite, "finite", "a finite number")
 }
 
 /// Clap's value parser of a number from 0 to 1.

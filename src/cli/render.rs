@@ -5,14 +5,15 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::frames::Selection;
+use super::frames::{Selection, batch_chunk};
 use super::progress::Progress;
 use super::{RenderArgs, interrupt};
+use crate::clip;
 use crate::error::{Error, clip_path};
 use crate::film::Film;
 use crate::io::{self, FrameInfo};
 use crate::render::{FrameStats, memory_estimate, render_frame};
-use crate::scene::Scene;
+use crate::scene::{Overrides, Scene};
 use crate::world::StaticGeometry;
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
@@ -69,15 +70,10 @@ impl Targets {
     }
 }
 
-/// The frames a run renders and the file of each, checked before anything is rendered: one
+/// The files of the frames `selected` of `scene`, checked before anything is rendered: one
 /// file per frame, and file names the system can take (the longest is the last frame's).
 /// `check` runs the same checks.
-pub(crate) fn targets(
-    scene: &Scene,
-    frames: Option<&Option<String>>,
-    chunk: Option<(u64, u64)>,
-) -> Result<Targets, Error> {
-    let selected = select_frames(scene, frames, chunk)?;
+fn targets_of(scene: &Scene, selected: Selection) -> Result<Targets, Error> {
     let pattern = &scene.output.path;
     if selected.len() > 1 && !io::pattern_has_frame_number(pattern) {
         return Err(Error::Usage(format!(
@@ -96,20 +92,117 @@ pub(crate) fn targets(
     })
 }
 
-/// Renders the selected frames of a scene and writes them. Everything that can be checked
-/// before rendering (scene, arguments, output names) is checked before anything is written.
+/// One shot of a run: its scene and the frames the run renders of it.
+pub(crate) struct Shot {
+    pub(crate) path: PathBuf,
+    pub(crate) scene: Scene,
+    pub(crate) targets: Targets,
+}
+
+/// Loads and validates every scene of a run, selects the frames of each (`--frames` applies
+/// to each scene; a chunk counts over the frames of all of them, in order), and checks their
+/// files, before anything is rendered: any bad scene or argument fails the whole run.
+/// Several scenes must not write the same files, so with several scenes an `--output` (or a
+/// `--clip`) must hold `{scene}`.
+pub(crate) fn load_shots(
+    paths: &[PathBuf],
+    overrides: &Overrides,
+    frames: Option<&Option<String>>,
+    chunk: Option<(u64, u64)>,
+) -> Result<Vec<Shot>, Error> {
+    if paths.len() > 1 {
+        for (flag, value) in [("--output", &overrides.output), ("--clip", &overrides.clip)] {
+            if let Some(v) = value
+                && !io::pattern_has_scene(v)
+            {
+                return Err(Error::Usage(format!(
+                    "{flag} \"{}\" has no {{scene}}, so the {} scenes would write the same files: \
+                     put {{scene}} (the scene file's name) in it",
+                    crate::error::clip(v),
+                    paths.len()
+                )));
+            }
+        }
+    }
+    let mut scenes = Vec::with_capacity(paths.len());
+    let mut selections = Vec::with_capacity(paths.len());
+    for path in paths {
+        let scene = Scene::load_with(path, overrides)?;
+        selections.push(select_frames(&scene, frames, None)?);
+        scenes.push(scene);
+    }
+    if let Some((size, index)) = chunk {
+        selections = batch_chunk(&selections, size, index).map_err(Error::Usage)?;
+    }
+    let mut shots = Vec::with_capacity(paths.len());
+    for ((path, scene), selected) in paths.iter().zip(scenes).zip(selections) {
+        let targets = targets_of(&scene, selected)?;
+        shots.push(Shot {
+            path: path.clone(),
+            scene,
+            targets,
+        });
+    }
+    check_distinct(&shots)?;
+    Ok(shots)
+}
+
+/// Refuses shots that would write the same frame files or the same clip: the same output
+/// pattern with overlapping frame ranges, or the same clip path.
+fn check_distinct(shots: &[Shot]) -> Result<(), Error> {
+    for (i, a) in shots.iter().enumerate() {
+        for b in &shots[i + 1..] {
+            let (ta, tb) = (&a.targets, &b.targets);
+            let overlap = match (ta.frames.first(), ta.frames.last()) {
+                (Some(a0), Some(a1)) => tb
+                    .frames
+                    .first()
+                    .zip(tb.frames.last())
+                    .is_some_and(|(b0, b1)| a0 <= b1 && b0 <= a1),
+                _ => false,
+            };
+            let what = if ta.pattern == tb.pattern && overlap {
+                Some(format!("frames \"{}\"", crate::error::clip(&ta.pattern)))
+            } else {
+                match (&a.scene.output.clip, &b.scene.output.clip) {
+                    (Some(ca), Some(cb)) if ca == cb => {
+                        Some(format!("the clip \"{}\"", crate::error::clip(ca)))
+                    }
+                    _ => None,
+                }
+            };
+            if let Some(what) = what {
+                return Err(Error::Usage(format!(
+                    "{} and {} would both write {what}: give them different output paths \
+                     (with {{scene}}, the scene file's name)",
+                    clip_path(&a.path),
+                    clip_path(&b.path)
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Renders the selected frames of every scene and writes them, then the clips asked for.
+/// Everything that can be checked before rendering (scenes, arguments, output names, clips)
+/// is checked before anything is written.
 pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
-    let scene = Scene::load_with(&args.scene, &args.overrides())?;
-    let targets = targets(
-        &scene,
-        args.frames.as_ref(),
-        args.chunk_size.zip(args.chunk),
-    )?;
-    let estimate = check_memory(&scene)?;
+    let chunk = args.chunk_size.zip(args.chunk);
+    let shots = load_shots(&args.scenes, &args.overrides(), args.frames.as_ref(), chunk)?;
+    let mut estimate = 0;
+    for shot in &shots {
+        estimate = estimate.max(check_memory(&shot.scene)?);
+        if let Some(c) = &shot.scene.output.clip
+            && chunk.is_none()
+        {
+            clip::check(Path::new(c), shot.scene.shot.fps)?;
+        }
+    }
     if args.stats && !args.scene_args.quiet {
         super::progress::print_line(&format!("memory: about {}", mib(estimate)));
     }
-    super::thread_pool(args.scene_args.threads)?.install(|| render_targets(&scene, &targets, args))
+    super::thread_pool(args.scene_args.threads)?.install(|| render_shots(&shots, args))
 }
 
 /// The memory a render of `scene` needs ([`memory_estimate`]), or, if that is more than the
@@ -148,15 +241,98 @@ fn proc_bytes(file: &str, key: &str) -> Option<u64> {
     kib.checked_mul(1024)
 }
 
-fn render_targets(
+/// Renders every shot under one progress bar, with a summary line per shot (when there are
+/// several) and one for the run; then makes the clips asked for (not of a chunk).
+fn render_shots(shots: &[Shot], args: &RenderArgs) -> Result<RunSummary, Error> {
+    let start = Instant::now();
+    let total: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
+    let progress = Progress::new(total, args.scene_args.quiet);
+    interrupt::frames_selected(total);
+    let mut run = RunSummary::default();
+    for shot in shots {
+        let summary = render_shot(&shot.scene, &shot.targets, args, &progress)?;
+        if shots.len() > 1 {
+            progress.line(&format!(
+                "{}: {}",
+                clip_path(&shot.path),
+                summary_text(&summary)
+            ));
+        }
+        run.add(&summary);
+    }
+    run.seconds = start.elapsed().as_secs_f64();
+    progress.line(&summary_text(&run));
+    progress.finish();
+    for shot in shots {
+        let Some(c) = &shot.scene.output.clip else {
+            continue;
+        };
+        if args.chunk.is_some() {
+            progress.line(&format!(
+                "clip {c} not made: this run renders one chunk; make it with `raytrace clip` once every chunk is rendered"
+            ));
+            continue;
+        }
+        let t = &shot.targets;
+        let source = clip::Source {
+            pattern: &t.pattern,
+            exposure: 0.0,
+        };
+        let made = clip::make(
+            Path::new(c),
+            shot.scene.shot.fps,
+            source,
+            t.frames.iter(),
+            t.frames.len(),
+        )?;
+        progress.line(&made.line(Path::new(c)));
+    }
+    Ok(run)
+}
+
+impl RunSummary {
+    /// Adds a shot's figures to a run's (all but the seconds, which the run measures).
+    fn add(&mut self, shot: &RunSummary) {
+        let n = (self.rendered + shot.rendered).max(1) as f64;
+        self.error_mean =
+            (self.error_mean * self.rendered as f64 + shot.error_mean * shot.rendered as f64) / n;
+        self.error_max = self.error_max.max(shot.error_max);
+        self.rendered += shot.rendered;
+        self.skipped += shot.skipped;
+        self.samples += shot.samples;
+        self.dropped += shot.dropped;
+    }
+}
+
+/// `12 frames rendered, 0 skipped, in 3.21 s (1.23 M samples/s), est. error mean ... max ...`.
+fn summary_text(summary: &RunSummary) -> String {
+    let error = if summary.rendered == 0 {
+        String::new()
+    } else {
+        format!(
+            ", est. error mean {} max {}",
+            percent(summary.error_mean),
+            percent(summary.error_max)
+        )
+    };
+    format!(
+        "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",
+        summary.rendered,
+        summary.skipped,
+        summary.seconds,
+        summary.samples as f64 / summary.seconds.max(1e-9) / 1e6
+    )
+}
+
+/// Renders the frames of one shot, with a line per frame.
+fn render_shot(
     scene: &Scene,
     targets: &Targets,
     args: &RenderArgs,
+    progress: &Progress,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let budget = args.budget.budget();
-    let progress = Progress::new(targets.frames.len(), args.scene_args.quiet);
-    interrupt::frames_selected(targets.frames.len());
     let statics = StaticGeometry::new(scene);
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
@@ -228,24 +404,9 @@ fn render_targets(
         progress.frame_done();
     }
     summary.seconds = start.elapsed().as_secs_f64();
-    let error = if summary.rendered == 0 {
-        String::new()
-    } else {
+    if summary.rendered > 0 {
         summary.error_mean = error_sum / summary.rendered as f64;
-        format!(
-            ", est. error mean {} max {}",
-            percent(summary.error_mean),
-            percent(summary.error_max)
-        )
-    };
-    progress.line(&format!(
-        "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",
-        summary.rendered,
-        summary.skipped,
-        summary.seconds,
-        summary.samples as f64 / summary.seconds.max(1e-9) / 1e6
-    ));
-    progress.finish();
+    }
     Ok(summary)
 }
 

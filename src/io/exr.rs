@@ -78,7 +78,7 @@ pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<glam::DVec3>), Str
 /// decimals are recognised (`23.976` → 24000/1001, `29.97` → 30000/1001); anything else is
 /// the closest continued-fraction convergent with a denominator of at most 1,000,000.
 /// `None` for rates that are not finite and positive or do not fit.
-pub(super) fn fps_rational(fps: f64) -> Option<(i32, u32)> {
+pub(crate) fn fps_rational(fps: f64) -> Option<(i32, u32)> {
     if !fps.is_finite() || fps <= 0.0 || fps > i32::MAX as f64 {
         return None;
     }

@@ -1,6 +1,29 @@
 //! Frame file names from a path pattern.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// The placeholder of a path pattern that stands for the scene file's name.
+pub(crate) const SCENE_PLACEHOLDER: &str = "{scene}";
+
+/// The name `{scene}` stands for: the scene file's name without its extension
+/// (`shots/a.toml` → `a`); `frame` for a path without a file name.
+pub(crate) fn scene_name(source: &Path) -> String {
+    source
+        .file_stem()
+        .map_or("frame".into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// `pattern` with every `{scene}` replaced by the scene file's name without its extension
+/// ([`scene_name`]): `renders/{scene}_####.exr` for `shots/a.toml` is `renders/a_####.exr`.
+pub(crate) fn with_scene(pattern: &str, source: &Path) -> String {
+    pattern.replace(SCENE_PLACEHOLDER, &scene_name(source))
+}
+
+/// Whether the pattern contains `{scene}`, that is, whether scenes of different names get
+/// different paths from [`with_scene`].
+pub(crate) fn pattern_has_scene(pattern: &str) -> bool {
+    pattern.contains(SCENE_PLACEHOLDER)
+}
 
 /// The output path of `frame` for a file name pattern.
 ///

@@ -16,10 +16,14 @@ use std::path::Path;
 use crate::error::Error;
 
 pub(crate) use atomic::{
-    check_target, files_written, remove_stale_temp_files, stop_writing, write_file,
+    check_target, files_written, remove_stale_temp_files, stop_writing, write_file, write_with,
+    write_with_temp_path,
 };
+pub(crate) use exr::fps_rational;
 pub use exr::{FrameInfo, read_exr_rgb};
-pub(crate) use frame_path::{frame_path, pattern_has_frame_number};
+pub(crate) use frame_path::{
+    frame_path, pattern_has_frame_number, pattern_has_scene, scene_name, with_scene,
+};
 pub use png::linear_to_srgb8;
 
 /// A file format the renderer writes, named by the file's extension.
@@ -35,10 +39,19 @@ pub enum Format {
     Csv,
     /// TOML (generated scenes).
     Toml,
+    /// An H.264 clip in an MP4 file (made by the `ffmpeg` program).
+    Mp4,
+    /// An animated GIF clip.
+    Gif,
+    /// An animated PNG clip.
+    Apng,
 }
 
 /// The formats a frame can be written in.
 pub const FRAME_FORMATS: &[Format] = &[Format::Exr, Format::Png];
+
+/// The formats a clip can be written in (a `.png` clip is a contact sheet).
+pub const CLIP_FORMATS: &[Format] = &[Format::Mp4, Format::Gif, Format::Apng, Format::Png];
 
 impl Format {
     /// The extension that names the format, lower case, without the dot.
@@ -49,6 +62,9 @@ impl Format {
             Format::Svg => "svg",
             Format::Csv => "csv",
             Format::Toml => "toml",
+            Format::Mp4 => "mp4",
+            Format::Gif => "gif",
+            Format::Apng => "apng",
         }
     }
 
@@ -74,15 +90,24 @@ impl Format {
 
     /// Why a file's extension is refused: `unsupported output format (the file name must
     /// end in .exr or .png)`.
-    fn unsupported(allowed: &[Format], what: &str) -> String {
-        let names: Vec<String> = allowed
+    pub(crate) fn unsupported(allowed: &[Format], what: &str) -> String {
+        format!(
+            "unsupported {what} format (the file name must end in {})",
+            Format::names(allowed)
+        )
+    }
+
+    /// The extensions of `formats` as a message lists them: `.exr or .png`, `.mp4, .gif,
+    /// .apng or .png`.
+    pub(crate) fn names(formats: &[Format]) -> String {
+        let names: Vec<String> = formats
             .iter()
             .map(|f| format!(".{}", f.extension()))
             .collect();
-        format!(
-            "unsupported {what} format (the file name must end in {})",
-            names.join(" or ")
-        )
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            _ => names.concat(),
+        }
     }
 }
 

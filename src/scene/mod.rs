@@ -41,10 +41,14 @@ pub const MAX_FILE_BYTES: u64 = 2 << 30;
 /// Where and how big frames are written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OutputSettings {
-    /// The output path pattern; runs of `#` become the zero-padded frame number.
+    /// The output path pattern; runs of `#` become the zero-padded frame number. `{scene}`
+    /// has already been replaced by the scene file's name without extension.
     pub path: String,
     pub width: u32,
     pub height: u32,
+    /// `[output] clip` (or `--clip`): a clip to assemble from the frames after rendering
+    /// (`.mp4`, `.gif`, `.apng` or `.png`), `{scene}` replaced as in `path`.
+    pub clip: Option<String>,
 }
 
 /// Sampling settings.
@@ -91,6 +95,8 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// `--sampler`: replaces `[render] sampler`.
     pub sampler: Option<SamplerKind>,
+    /// `--clip`: replaces `[output] clip`.
+    pub clip: Option<String>,
 }
 
 impl Scene {

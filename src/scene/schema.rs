@@ -183,6 +183,7 @@ pub(super) struct RawOutput {
     pub(super) path: Option<String>,
     pub(super) width: Option<Number>,
     pub(super) height: Option<Number>,
+    pub(super) clip: Option<String>,
 }
 
 #[derive(Deserialize, Default)]

@@ -21,7 +21,7 @@ use crate::camera::{
     CameraRig, DEGENERATE_UP, DEGENERATE_VIEW, TINY, most_parallel_on_segment, robust_length,
     shortest_on_segment,
 };
-use crate::io::{FRAME_FORMATS, Format};
+use crate::io::{self, CLIP_FORMATS, FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
 use crate::sampler::SamplerKind;
@@ -102,13 +102,14 @@ pub(super) struct Check<'a> {
 }
 
 /// The fields the command line can override, and the flag that does.
-const FLAGS: [(&str, &str); 6] = [
+const FLAGS: [(&str, &str); 7] = [
     ("output.path", "--output"),
     ("output.width", "--width"),
     ("output.height", "--height"),
     ("render.samples", "--samples"),
     ("render.seed", "--seed"),
     ("render.sampler", "--sampler"),
+    ("output.clip", "--clip"),
 ];
 
 impl<'a> Check<'a> {
@@ -135,6 +136,9 @@ impl<'a> Check<'a> {
         if let Some(seed) = o.seed {
             raw.render.seed = int(seed);
         }
+        if let Some(c) = &o.clip {
+            raw.output.clip = Some(c.clone());
+        }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
                 SamplerKind::Independent => RawSampler::Independent,
@@ -153,6 +157,7 @@ impl<'a> Check<'a> {
             o.samples.is_some(),
             o.seed.is_some(),
             o.sampler.is_some(),
+            o.clip.is_some(),
         ];
         match FLAGS
             .iter()
@@ -452,16 +457,25 @@ impl<'a> Check<'a> {
                         self.name("output.path")
                     ));
                 }
-                p.clone()
+                io::with_scene(p, source)
             }
-            None => {
-                let stem = source
-                    .file_stem()
-                    .map_or("frame".into(), |s| s.to_string_lossy().into_owned());
-                format!("{stem}_####.png")
+            None => format!("{}_####.png", io::scene_name(source)),
+        };
+        let clip = match &o.clip {
+            None => None,
+            Some(c) => {
+                if Format::from_extension(Path::new(c), CLIP_FORMATS).is_none() {
+                    return self.err(format_args!(
+                        "{} \"{c}\": the file name must end in {}",
+                        self.name("output.clip"),
+                        Format::names(CLIP_FORMATS)
+                    ));
+                }
+                Some(io::with_scene(c, source))
             }
         };
         Ok(OutputSettings {
+            clip,
             path,
             width: self.int("output.width", o.width, 400, 1, MAX_SIDE.into())? as u32,
             height: self.int("output.height", o.height, 225, 1, MAX_SIDE.into())? as u32,

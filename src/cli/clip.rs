@@ -1,0 +1,55 @@
+//! `raytrace clip`: assembles a shot's rendered frames into a clip (see [`crate::clip`]).
+
+use std::path::Path;
+
+use super::ClipArgs;
+use super::progress::print_line;
+use super::render::select_frames;
+use crate::clip::{self, Source};
+use crate::error::{Error, clip as clip_text};
+use crate::io::{self, FRAME_FORMATS, Format};
+use crate::scene::Scene;
+
+/// `raytrace clip`: the frames selected by `--frames` (default: every frame of the shot),
+/// found through `--input` or the scene's output path, assembled into the clip.
+pub(crate) fn clip(args: &ClipArgs) -> Result<(), Error> {
+    let scene = Scene::load(&args.scene)?;
+    let pattern = match &args.input {
+        Some(p) => {
+            if Format::from_extension(Path::new(p), FRAME_FORMATS).is_none() {
+                return Err(Error::Usage(format!(
+                    "--input \"{}\": {}",
+                    clip_text(p),
+                    Format::unsupported(FRAME_FORMATS, "frame")
+                )));
+            }
+            io::with_scene(p, &args.scene)
+        }
+        None => scene.output.path.clone(),
+    };
+    let selected = select_frames(&scene, args.frames.as_ref(), None)?;
+    if selected.len() > 1 && !io::pattern_has_frame_number(&pattern) {
+        return Err(Error::Usage(format!(
+            "frame path \"{}\" has no '#' for the frame number, so it names one file for {} frames",
+            clip_text(&pattern),
+            selected.len()
+        )));
+    }
+    let path = io::with_scene(&args.clip.to_string_lossy(), &args.scene);
+    let path = Path::new(&path);
+    let source = Source {
+        pattern: &pattern,
+        exposure: args.exposure.unwrap_or(0.0),
+    };
+    let made = clip::make(
+        path,
+        scene.shot.fps,
+        source,
+        selected.iter(),
+        selected.len(),
+    )?;
+    if !args.quiet {
+        print_line(&made.line(path));
+    }
+    Ok(())
+}
