@@ -1,6 +1,7 @@
 //! A shot rendered as a Slurm job array on a real one-node cluster (munged, slurmctld and
 //! slurmd on loopback, private to this test) gives exactly the frames of a single-process
-//! render, bit for bit, and resubmitting the array fills in missing frames only.
+//! render, bit for bit, and resubmitting the array fills in missing frames only; a batch of
+//! two shots renders as one array, and a job that depends on it (afterok) makes their clips.
 //!
 //! Needs the Debian packages `munge slurmctld slurmd slurm-client`. Without them the test is
 //! skipped with a message, except under `CI=true`, where it fails.
@@ -536,7 +537,8 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
         .unwrap_or_else(|| panic!("no `chunks: N` line in:\n{}", check.stdout));
     assert_eq!(chunks, FRAMES.div_ceil(CHUNK_SIZE));
 
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("contrib/slurm/render-shot.sbatch");
+    let contrib = Path::new(env!("CARGO_MANIFEST_DIR")).join("contrib/slurm");
+    let script = contrib.join("render-shot.sbatch");
     let farm = root.join("farm");
     let pattern = farm.join("shot_####.exr");
     let submit = |name: &str| {
@@ -622,6 +624,78 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
             "{} was rewritten on resume",
             p.display()
         );
+    }
+
+    // A batch: this shot and a 3-frame one as one array (15 frames, 3 chunks), then a clip
+    // of each shot in a job that waits for the whole array (afterok), as docs/farm.md shows.
+    fs::write(
+        root.join("short.toml"),
+        SHOT.replace("frames = 12", "frames = 3"),
+    )
+    .unwrap();
+    let dir = |name: &str| contrib.join(name);
+    let batch = root.join("batch");
+    let array = run(
+        Command::new(&tools.sbatch)
+            .args(["--parsable", "--array=0-2", "--time=10"])
+            .arg(dir("render-batch.sbatch"))
+            .args(["5", "shot.toml", "short.toml", "--", "--output"])
+            .arg(batch.join("{scene}_####.exr"))
+            .env("SLURM_CONF", &conf)
+            .env("RAYTRACE", BIN)
+            .current_dir(root),
+        &logs,
+        "sbatch-batch",
+        Duration::from_secs(30),
+    );
+    assert!(array.status.success(), "{}", array.stderr);
+    let job = array.stdout.trim().split(';').next().unwrap().to_string();
+    let clips = run(
+        Command::new(&tools.sbatch)
+            .args(["--wait", "--time=10"])
+            .arg(format!("--dependency=afterok:{job}"))
+            .arg(dir("clip-shots.sbatch"))
+            .arg(root.join("clips/{scene}.apng"))
+            .args(["shot.toml", "short.toml", "--", "--input"])
+            .arg(batch.join("{scene}_####.exr"))
+            .env("SLURM_CONF", &conf)
+            .env("RAYTRACE", BIN)
+            .current_dir(root),
+        &logs,
+        "sbatch-clips",
+        Duration::from_secs(120),
+    );
+    assert!(
+        clips.status.success(),
+        "the clip job failed ({})\n{}\n{}",
+        clips.status,
+        clips.stderr,
+        cluster.logs()
+    );
+    // Every frame of the batch, the long shot's as the single-process render's.
+    let batch_files = dir_files(&batch);
+    let mut want: Vec<String> = expected_names();
+    want.extend((1..=3).map(|f| format!("short_{f:04}.exr")));
+    want.sort();
+    assert_eq!(
+        batch_files
+            .iter()
+            .map(|(n, _)| n.clone())
+            .collect::<Vec<_>>(),
+        want
+    );
+    let long = batch_files.iter().filter(|(n, _)| n.starts_with("shot_"));
+    for ((name, a), (_, b)) in long.zip(dir_files(&single)) {
+        assert!(*a == b, "{name}: the batch's frame differs");
+    }
+    // Each clip: an APNG of its shot's frame count.
+    for (clip, frames) in [("shot.apng", FRAMES), ("short.apng", 3)] {
+        let file = fs::File::open(root.join("clips").join(clip)).unwrap();
+        let reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .unwrap();
+        let actl = reader.info().animation_control.expect("an animated PNG");
+        assert_eq!(actl.num_frames as usize, frames, "{clip}");
     }
 
     drop(cluster);
