@@ -117,7 +117,7 @@ where
     let all = std::iter::once(Ok(first)).chain(order.map(|f| source.read(f, Some(size))));
     match kind {
         Format::Mp4 => {
-            io::write_with_temp_path(path, |temp| mp4::write(temp, path, size, rate, all))?
+            io::write_with_temp_file(path, |file| mp4::write(file, path, size, rate, all))?
         }
         Format::Gif => {
             if size.0 > u16::MAX as u32 || size.1 > u16::MAX as u32 {

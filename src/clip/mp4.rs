@@ -8,7 +8,11 @@
 //!   BT.709 (primaries, transfer, matrix), as players expect of HD video.
 //! - `+faststart` puts the index first, so the clip plays while it downloads.
 //!
-//! ffmpeg writes a temporary file beside the clip, renamed into place once it succeeded.
+//! ffmpeg writes into a temporary file beside the clip, renamed into place once it succeeded.
+//! The file is created here and given to ffmpeg as its standard output, which it opens as
+//! `file:/dev/stdout` (seekable, as `+faststart` needs): ffmpeg never creates a file of its
+//! own, so a run stopped by a signal, which removes the temporary file, leaves nothing behind
+//! even while ffmpeg finishes.
 
 use std::io::{Read, Write};
 use std::path::Path;
@@ -73,10 +77,10 @@ fn pad(frame: &FrameImage, (w, h): (u32, u32)) -> Vec<u8> {
     out
 }
 
-/// Encodes `frames` of `size` into the file `temp` with ffmpeg; `clip` names the clip in
-/// messages.
+/// Encodes `frames` of `size` with ffmpeg into `out`, an empty file; `clip` names the clip
+/// in messages.
 pub(super) fn write(
-    temp: &Path,
+    out: std::fs::File,
     clip: &Path,
     size: (u32, u32),
     rate: Rate,
@@ -97,9 +101,9 @@ pub(super) fn write(
         .args(["-colorspace", "bt709", "-color_primaries", "bt709"])
         .args(["-color_trc", "bt709", "-color_range", "tv"])
         .args(["-movflags", "+faststart", "-f", "mp4", "-y"])
-        .arg(temp)
+        .arg("file:/dev/stdout")
         .stdin(Stdio::piped())
-        .stdout(Stdio::null())
+        .stdout(Stdio::from(out))
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| Error::Resource(format!("cannot run ffmpeg for {}: {e}", clip_path(clip))))?;

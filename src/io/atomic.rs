@@ -51,25 +51,22 @@ pub(crate) fn write_with(
     Ok(())
 }
 
-/// [`write_with`] for a writer that is another program and takes a file name: creates
-/// `path`'s folder and an empty temporary file beside `path`, has `write` fill that file by
-/// its name (a program may truncate and rewrite it, but not replace it), then syncs it and
-/// renames it into place. On any failure, or a stop ([`stop_writing`]), the temporary file and
-/// the folders this call created are removed.
-pub(crate) fn write_with_temp_path(
+/// [`write_with`] for a writer that is another program: creates `path`'s folder and an
+/// empty temporary file beside `path`, hands `write` the open file (to pass to the program),
+/// then syncs the file and renames it into place. On any failure, or a stop
+/// ([`stop_writing`]), the temporary file and the folders this call created are removed.
+pub(crate) fn write_with_temp_file(
     path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), Error>,
+    write: impl FnOnce(File) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let (dir, file_name) = split_target(path)?;
     let mut pending = Pending::default();
     create_folders(&dir, &mut pending).map_err(|e| Error::io(path, e))?;
-    drop(
-        pending
-            .create_temp(&dir, file_name)
-            .map_err(|e| Error::io(path, e))?,
-    );
+    let file = pending
+        .create_temp(&dir, file_name)
+        .map_err(|e| Error::io(path, e))?;
     let temp = pending.temp.clone().expect("a temporary file");
-    write(&temp)?;
+    write(file)?;
     File::open(&temp)
         .and_then(|f| f.sync_all())
         .map_err(|e| Error::io(path, e))?;

@@ -17,7 +17,7 @@ use crate::error::Error;
 
 pub(crate) use atomic::{
     check_target, files_written, remove_stale_temp_files, stop_writing, write_file, write_with,
-    write_with_temp_path,
+    write_with_temp_file,
 };
 pub(crate) use exr::fps_rational;
 pub use exr::{FrameInfo, read_exr_rgb};
