@@ -249,7 +249,8 @@ fn render_shots(shots: &[Shot], args: &RenderArgs) -> Result<RunSummary, Error> 
     let progress = Progress::new(total, args.scene_args.quiet);
     interrupt::frames_selected(total);
     let mut run = RunSummary::default();
-    for shot in shots {
+    // A shot the run's chunk does not reach is not started (its static geometry not built).
+    for shot in shots.iter().filter(|s| s.targets.frames.len() > 0) {
         let summary = render_shot(&shot.scene, &shot.targets, args, &progress)?;
         if shots.len() > 1 {
             progress.line(&format!(
