@@ -252,12 +252,14 @@ pub struct CheckArgs {
 pub struct ClipArgs {
     /// The scene file (TOML) whose frames make the clip.
     pub scene: PathBuf,
-    /// The clip to write: `.mp4`, `.gif`, `.apng` or `.png` (a contact sheet).
+    /// The clip to write: `.mp4`, `.gif`, `.apng` or `.png` (a contact sheet); `{scene}`
+    /// becomes the scene file's name without extension.
     pub clip: PathBuf,
     /// Frames to show: `12`, `1-48`, `1-48:4` or a comma list (default: every frame).
     #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
     pub frames: Option<Option<String>>,
-    /// Where the frames are, as a path pattern (default: the scene's output path).
+    /// Where the frames are, as a path pattern with `#` for the frame number and `{scene}`
+    /// for the scene file's name (default: the scene's output path).
     #[arg(long, value_name = "PATTERN")]
     pub input: Option<String>,
     /// Brighten (or, negative, darken) EXR frames by this many stops before showing them.
