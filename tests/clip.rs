@@ -361,7 +361,7 @@ fn failing_ffmpeg(dir: &Path) -> PathBuf {
     let script = bin.join("ffmpeg");
     std::fs::write(
         &script,
-        "#!/bin/sh\n[ \"$1\" = -version ] && exit 0\ncat >/dev/null\necho 'Unknown encoder libx264' >&2\nexit 8\n",
+        "#!/bin/sh\n[ \"$1\" = -version ] && exit 0\necho 'Unknown encoder libx264' >&2\nexit 8\n",
     )
     .unwrap();
     std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
