@@ -496,3 +496,38 @@ fn mp4_has_the_shots_frames_at_its_exact_rate_and_decodes_close_to_them() {
         assert!((b / n).abs() < 3.0, "channel {c}: mean error {}", b / n);
     }
 }
+
+#[test]
+fn a_frame_of_another_size_is_refused_midway_and_nothing_is_written() {
+    let d = rendered();
+    ok(
+        d.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--frames",
+            "4",
+            "--width",
+            "20",
+            "-q",
+        ],
+    );
+    let before = listing(d.path());
+    let mut clips = vec!["c.gif", "c.apng", "c.png"];
+    if have_ffmpeg() {
+        // Frames 1-3 are already in ffmpeg when frame 4 is read: it is stopped.
+        clips.push("c.mp4");
+    }
+    for clip in clips {
+        let o = run(d.path(), &["clip", "shot.toml", clip]);
+        assert_eq!(o.status.code(), Some(2), "{clip}: {}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(
+                "frame 4: f/shot_0004.png: the frame is 20x37, and the clip's first frame 65x37"
+            ),
+            "{clip}: {err}"
+        );
+        assert_eq!(listing(d.path()), before, "{clip}");
+    }
+}
