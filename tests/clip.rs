@@ -322,21 +322,33 @@ fn render_makes_the_clip_of_clip_flag_or_scene_after_the_frames() {
         ],
     );
     assert_eq!(read_apng(&d.path().join("x.apng")).0, 2);
-    // A chunk renders its frames and leaves the clip to a later `raytrace clip`.
-    let out = ok(
-        d.path(),
-        &[
-            "render",
-            "shot.toml",
-            "--chunk-size",
-            "2",
-            "--chunk",
-            "0",
-            "-o",
-            "k/f_#.png",
-        ],
+    // One chunk cannot make the clip: refused, naming --no-clip, before anything is written;
+    // with --no-clip it renders its frames and leaves the clip to a later `raytrace clip`.
+    let chunk = [
+        "render",
+        "shot.toml",
+        "--chunk-size",
+        "2",
+        "--chunk",
+        "0",
+        "-o",
+        "k/f_#.png",
+    ];
+    let out = Command::new(env!("CARGO_BIN_EXE_raytrace"))
+        .args(chunk)
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("[output] clip") && err.contains("--no-clip"),
+        "{err}"
     );
-    assert!(out.contains("clip c/shot.apng not made"), "{out}");
+    assert!(!d.path().join("k").exists());
+    let out = ok(d.path(), &[&chunk[..], &["--no-clip"]].concat());
+    assert!(!out.contains("shot.apng"), "{out}");
+    assert!(d.path().join("k/f_1.png").exists() && d.path().join("k/f_2.png").exists());
     // A bad [output] clip is a scene error.
     std::fs::write(
         d.path().join("bad.toml"),

@@ -148,6 +148,10 @@ pub struct RenderArgs {
     /// `.png` contact sheet; `{scene}` as in --output). Not with --chunk.
     #[arg(long, value_name = "CLIP", conflicts_with = "chunk")]
     pub clip: Option<String>,
+    /// Do not make the clip a scene's `[output] clip` asks for: what a chunk of a farm job
+    /// array needs (a chunk cannot make the clip; a job after the array's does).
+    #[arg(long, conflicts_with = "clip")]
+    pub no_clip: bool,
     /// Samples per pixel, exactly (not with --time-limit or --noise-threshold, which decide
     /// the samples themselves: cap them with --max-samples).
     #[arg(long, allow_negative_numbers = true, conflicts_with = "limit")]

@@ -194,8 +194,15 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     for shot in &shots {
         estimate = estimate.max(check_memory(&shot.scene)?);
         if let Some(c) = &shot.scene.output.clip
-            && chunk.is_none()
+            && !args.no_clip
         {
+            if chunk.is_some() {
+                return Err(Error::Usage(format!(
+                    "{}: [output] clip asks for the clip {}, which one chunk cannot make: pass --no-clip to render the chunk without it, and make the clip with `raytrace clip` in a job after the array's",
+                    clip_path(&shot.path),
+                    crate::error::clip(c)
+                )));
+            }
             clip::check(Path::new(c), shot.scene.shot.fps)?;
         }
     }
@@ -242,7 +249,7 @@ fn proc_bytes(file: &str, key: &str) -> Option<u64> {
 }
 
 /// Renders every shot under one progress bar, with a summary line per shot (when there are
-/// several) and one for the run; then makes the clips asked for (not of a chunk).
+/// several) and one for the run; then makes the clips asked for (unless --no-clip).
 fn render_shots(shots: &[Shot], args: &RenderArgs) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let total: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
@@ -265,15 +272,10 @@ fn render_shots(shots: &[Shot], args: &RenderArgs) -> Result<RunSummary, Error> 
     progress.line(&summary_text(&run));
     progress.finish();
     for shot in shots {
-        let Some(c) = &shot.scene.output.clip else {
+        // A chunk never gets here with a clip to make: `render` refused it, or --no-clip.
+        let Some(c) = shot.scene.output.clip.as_ref().filter(|_| !args.no_clip) else {
             continue;
         };
-        if args.chunk.is_some() {
-            progress.line(&format!(
-                "clip {c} not made: this run renders one chunk; make it with `raytrace clip` once every chunk is rendered"
-            ));
-            continue;
-        }
         let t = &shot.targets;
         let source = clip::Source {
             pattern: &t.pattern,
