@@ -11,10 +11,11 @@ use rayon::prelude::*;
 use crate::analysis::metrics;
 use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
+use crate::passes::{PassContext, PassImages};
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::tracer::{TraceStats, radiance};
+use crate::tracer::{TraceStats, camera_radiance, radiance};
 use crate::world::{StaticGeometry, World};
 
 /// Side of the square tiles the image is split into for parallel work: a 400x225 frame has
@@ -137,6 +138,8 @@ pub struct FrameResult {
     pub film: Film,
     /// Each pixel's estimated variance of its mean, row-major like the film.
     pub variance: Vec<DVec3>,
+    /// The scene's `[output] passes`, if it asks for any.
+    pub passes: Option<PassImages>,
     pub stats: FrameStats,
 }
 
@@ -150,6 +153,10 @@ struct FrameSetup<'a> {
     fixed_view: View,
     sample_time: bool,
     has_lens: bool,
+    /// The passes' context when the scene asks for passes.
+    passes: Option<PassContext<'a>>,
+    /// `[background] transparent`: camera rays that miss add black.
+    transparent: bool,
 }
 
 /// One tile of the image and its pixels' running estimates.
@@ -159,11 +166,30 @@ struct Tile {
     x1: u32,
     y1: u32,
     pixels: Vec<PixelAccumulator>,
+    /// The passes' sums, `Layout::stride` numbers per pixel (empty without passes).
+    pass_sums: Vec<f64>,
 }
 
 impl FrameSetup<'_> {
-    /// Adds samples `range` of every pixel of `tile`; returns the rays traced.
+    /// Adds samples `range` of every pixel of `tile`; returns the rays traced. Frames with
+    /// passes or a transparent background take the camera ray's first hit from the tracer;
+    /// others run the plain loop, with nothing of passes in it.
     fn sample_tile<S: Sampler>(&self, sampler: &mut S, tile: &mut Tile, range: Range<u32>) -> u64 {
+        if self.passes.is_some() || self.transparent {
+            self.sample_tile_as::<S, true>(sampler, tile, range)
+        } else {
+            self.sample_tile_as::<S, false>(sampler, tile, range)
+        }
+    }
+
+    /// [`FrameSetup::sample_tile`], with (`OBSERVED`) or without the first hits.
+    #[inline(always)]
+    fn sample_tile_as<S: Sampler, const OBSERVED: bool>(
+        &self,
+        sampler: &mut S,
+        tile: &mut Tile,
+        range: Range<u32>,
+    ) -> u64 {
         let req = self.req;
         let interval = self.interval;
         let uses = crate::sampler::CameraUse {
@@ -172,9 +198,13 @@ impl FrameSetup<'_> {
         };
         let mut stats = TraceStats::default();
         let mut acc = tile.pixels.iter_mut();
+        let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
+        let mut pixel = 0;
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let acc = acc.next().expect("one accumulator per pixel");
+                let sums = pixel * stride..(pixel + 1) * stride;
+                pixel += 1;
                 for s in range.clone() {
                     sampler.start_sample(x, y, s);
                     // The pixel position, and the lens position and the time (one joint
@@ -191,13 +221,30 @@ impl FrameSetup<'_> {
                         self.fixed_view
                     };
                     let ray = view.ray(x, y, camera.pixel, camera.lens, time);
-                    acc.add(radiance(
-                        &self.world,
-                        ray,
-                        req.max_depth,
-                        sampler,
-                        &mut stats,
-                    ));
+                    if OBSERVED {
+                        let mut first = None;
+                        acc.add(camera_radiance(
+                            &self.world,
+                            ray,
+                            req.max_depth,
+                            sampler,
+                            &mut stats,
+                            self.transparent,
+                            |hit| first = hit.copied(),
+                        ));
+                        if let Some(passes) = &self.passes {
+                            let sums = &mut tile.pass_sums[sums.clone()];
+                            passes.record(sums, &ray, &view, first.as_ref());
+                        }
+                    } else {
+                        acc.add(radiance(
+                            &self.world,
+                            ray,
+                            req.max_depth,
+                            sampler,
+                            &mut stats,
+                        ));
+                    }
                 }
             }
         }
@@ -291,6 +338,18 @@ pub fn render_frame(
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
+    let passes = (!scene.output.passes.is_empty()).then(|| {
+        PassContext::new(
+            scene.output.passes,
+            &scene.spheres,
+            scene.background,
+            &scene.camera,
+            scene.shot.fps,
+            req.width,
+            req.height,
+        )
+    });
+    let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
     let setup = FrameSetup {
         scene,
         // Sample time only when something moves during the shutter; sample the lens only for
@@ -303,6 +362,8 @@ pub fn render_frame(
         interval,
         camera_moves,
         fixed_view,
+        passes,
+        transparent: scene.transparent,
     };
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
@@ -320,6 +381,7 @@ pub fn render_frame(
                 x1,
                 y1,
                 pixels: vec![PixelAccumulator::default(); n],
+                pass_sums: vec![0.0; n * stride],
             }
         })
         .collect();
@@ -367,6 +429,19 @@ pub fn render_frame(
     }
 
     let (film, variance) = assemble(&tiles, req);
+    let passes = setup.passes.as_ref().map(|p| {
+        let mut images = PassImages::new(scene.output.passes, req.width, req.height);
+        for tile in &tiles {
+            let w = tile.x1 - tile.x0;
+            for i in 0..tile.pixels.len() {
+                let (x, y) = (tile.x0 + i as u32 % w, tile.y0 + i as u32 / w);
+                let sums = &tile.pass_sums[i * stride..(i + 1) * stride];
+                let v = variance[y as usize * req.width as usize + x as usize];
+                images.set(&p.layout, x, y, sums, done, v);
+            }
+        }
+        images
+    });
     stats.relative_error = relative_error(&tiles);
     stats.samples_per_pixel = done;
     stats.samples = req.width as u64 * req.height as u64 * done as u64;
@@ -379,6 +454,7 @@ pub fn render_frame(
     FrameResult {
         film,
         variance,
+        passes,
         stats,
     }
 }
@@ -402,9 +478,14 @@ const LOAD_BYTES_PER_SPHERE: u64 = 300;
 pub fn memory_estimate(scene: &Scene) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
+    // With passes: their sums, and their channels as written.
+    let passes = scene.output.passes;
+    let pass_channels: usize = passes.iter().map(|p| p.channels().len()).sum();
     let per_pixel = size_of::<PixelAccumulator>() as u64
         + 2 * size_of::<DVec3>() as u64
-        + 3 * size_of::<f32>() as u64;
+        + 3 * size_of::<f32>() as u64
+        + (crate::passes::Layout::new(passes).stride * size_of::<f64>()) as u64
+        + (2 * pass_channels * size_of::<f32>()) as u64;
     let n = scene.spheres.len() as u64;
     // Keyframed paths hold their keys in the description and again in each frame's path.
     let keys: u64 = scene

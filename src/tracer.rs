@@ -11,7 +11,7 @@ use crate::bvh::TraversalStack;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
 use crate::sampler::{BounceSample, Sampler};
-use crate::world::World;
+use crate::world::{Hit, World};
 
 /// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
 #[derive(Clone, Debug, Default)]
@@ -33,20 +33,65 @@ pub struct TraceStats {
 #[inline]
 pub fn radiance<S: Sampler>(
     world: &World,
-    mut ray: Ray,
+    ray: Ray,
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
 ) -> DVec3 {
+    trace(world, ray, max_depth, sampler, stats, false, |_| {})
+}
+
+/// [`radiance`] for a camera ray, handing the ray's first intersection (`None`: it missed
+/// every sphere) to `first`, which is not called for a ray that is not traced. With
+/// `transparent`, a camera ray that misses every sphere returns black instead of the
+/// background (scattered rays still see it). The radiance is otherwise the same bits as
+/// [`radiance`]'s, from the same sampler numbers.
+#[inline]
+pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
+    world: &World,
+    ray: Ray,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    first: F,
+) -> DVec3 {
+    trace(world, ray, max_depth, sampler, stats, transparent, first)
+}
+
+/// The path loop of [`radiance`] and [`camera_radiance`]; inlined into each, so `radiance`
+/// keeps no trace of the observer (a no-op) or of `transparent` (false).
+#[inline(always)]
+fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
+    world: &World,
+    mut ray: Ray,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    first: F,
+) -> DVec3 {
     if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
         return DVec3::NAN;
     }
+    let mut first = Some(first);
     let mut throughput = DVec3::ONE;
     // The sphere the ray just left through its outside, which it cannot hit again.
     let mut skip = u32::MAX;
     for _ in 0..max_depth {
         stats.rays += 1;
-        let Some(hit) = world.hit(&ray, skip, &mut stats.stack) else {
+        let found = world.hit(&ray, skip, &mut stats.stack);
+        let camera_ray = match first.take() {
+            Some(f) => {
+                f(found.as_ref());
+                true
+            }
+            None => false,
+        };
+        let Some(hit) = found else {
+            if transparent && camera_ray {
+                return DVec3::ZERO;
+            }
             return throughput * world.background.radiance(ray.dir);
         };
         let sample: BounceSample = sampler.next_bounce();

@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 use crate::camera::CameraRig;
 use crate::error::Error;
 use crate::material::{Background, Material};
+use crate::passes::{Pass, PassSet};
 use crate::sampler::SamplerKind;
 use crate::shutter::Shot;
 use crate::sphere::SphereDesc;
@@ -45,6 +46,8 @@ pub struct OutputSettings {
     pub path: String,
     pub width: u32,
     pub height: u32,
+    /// The passes written beside the colour (`[output] passes`, or `--passes`).
+    pub passes: PassSet,
 }
 
 /// Sampling settings.
@@ -69,6 +72,9 @@ pub struct Scene {
     pub render: RenderSettings,
     pub camera: CameraRig,
     pub background: Background,
+    /// `[background] transparent`: camera rays that miss every sphere add black, so the
+    /// colour is premultiplied by the alpha pass.
+    pub transparent: bool,
     /// Every material used by a sphere; spheres refer to them by index.
     pub materials: Vec<Material>,
     pub spheres: Vec<SphereDesc>,
@@ -91,6 +97,9 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// `--sampler`: replaces `[render] sampler`.
     pub sampler: Option<SamplerKind>,
+    /// `--passes`: replaces `[output] passes` (in the order given, duplicates included, so
+    /// the validator names them).
+    pub passes: Option<Vec<Pass>>,
 }
 
 impl Scene {
