@@ -493,7 +493,7 @@ impl<'a> Check<'a> {
             let png = Format::from_extension(Path::new(path), FRAME_FORMATS) == Some(Format::Png);
             if png && *pass != Pass::Alpha {
                 return self.err(format_args!(
-                    "{field}: pass \"{}\" cannot be written to the PNG output {} \"{path}\" (a PNG takes only \"alpha\"); write .exr frames for the other passes",
+                    "{field}: pass \"{}\" cannot be written to a PNG output ({} ends in .png), which takes only the alpha pass; write .exr frames for the other passes",
                     pass.name(),
                     self.name("output.path")
                 ));
