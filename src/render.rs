@@ -12,6 +12,7 @@ use crate::analysis::metrics;
 use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
 use crate::passes::{PassContext, PassImages};
+use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::shutter::Interval;
@@ -171,40 +172,27 @@ struct Tile {
 }
 
 impl FrameSetup<'_> {
-    /// Adds samples `range` of every pixel of `tile`; returns the rays traced. Frames with
-    /// passes or a transparent background take the camera ray's first hit from the tracer;
-    /// others run the plain loop, with nothing of passes in it.
+    /// Adds samples `range` of every pixel of `tile`; returns the rays traced.
     fn sample_tile<S: Sampler>(&self, sampler: &mut S, tile: &mut Tile, range: Range<u32>) -> u64 {
-        if self.passes.is_some() || self.transparent {
-            self.sample_tile_as::<S, true>(sampler, tile, range)
-        } else {
-            self.sample_tile_as::<S, false>(sampler, tile, range)
-        }
-    }
-
-    /// [`FrameSetup::sample_tile`], with (`OBSERVED`) or without the first hits.
-    #[inline(always)]
-    fn sample_tile_as<S: Sampler, const OBSERVED: bool>(
-        &self,
-        sampler: &mut S,
-        tile: &mut Tile,
-        range: Range<u32>,
-    ) -> u64 {
         let req = self.req;
         let interval = self.interval;
         let uses = crate::sampler::CameraUse {
             lens: self.has_lens,
             time: self.sample_time,
         };
+        // Frames with passes or a transparent background take each camera ray's first hit
+        // from the tracer, in a function of its own (`observed_sample`), so that this loop
+        // is compiled for frames without them as it would be without passes at all.
+        let observed = self.passes.is_some() || self.transparent;
+        let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
         let mut stats = TraceStats::default();
         let mut acc = tile.pixels.iter_mut();
-        let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
-        let mut pixel = 0;
+        let mut sums = tile.pass_sums.chunks_mut(stride.max(1));
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let acc = acc.next().expect("one accumulator per pixel");
-                let sums = pixel * stride..(pixel + 1) * stride;
-                pixel += 1;
+                let sums = if stride > 0 { sums.next() } else { None };
+                let sums = sums.unwrap_or_default();
                 for s in range.clone() {
                     sampler.start_sample(x, y, s);
                     // The pixel position, and the lens position and the time (one joint
@@ -221,21 +209,8 @@ impl FrameSetup<'_> {
                         self.fixed_view
                     };
                     let ray = view.ray(x, y, camera.pixel, camera.lens, time);
-                    if OBSERVED {
-                        let mut first = None;
-                        acc.add(camera_radiance(
-                            &self.world,
-                            ray,
-                            req.max_depth,
-                            sampler,
-                            &mut stats,
-                            self.transparent,
-                            |hit| first = hit.copied(),
-                        ));
-                        if let Some(passes) = &self.passes {
-                            let sums = &mut tile.pass_sums[sums.clone()];
-                            passes.record(sums, &ray, &view, first.as_ref());
-                        }
+                    if observed {
+                        self.observed_sample(ray, &view, sampler, &mut stats, acc, sums);
                     } else {
                         acc.add(radiance(
                             &self.world,
@@ -249,6 +224,33 @@ impl FrameSetup<'_> {
             }
         }
         stats.rays
+    }
+
+    /// One camera sample of a frame with passes or a transparent background: its radiance
+    /// into `acc` and its passes into the pixel's sums `sums`.
+    #[inline(never)]
+    fn observed_sample<S: Sampler>(
+        &self,
+        ray: Ray,
+        view: &View,
+        sampler: &mut S,
+        stats: &mut TraceStats,
+        acc: &mut PixelAccumulator,
+        sums: &mut [f64],
+    ) {
+        let mut first = None;
+        acc.add(camera_radiance(
+            &self.world,
+            ray,
+            self.req.max_depth,
+            sampler,
+            stats,
+            self.transparent,
+            |hit| first = hit.copied(),
+        ));
+        if let Some(passes) = &self.passes {
+            passes.record(sums, &ray, view, first.as_ref());
+        }
     }
 
     /// Adds samples `range` to every tile, in parallel; returns (rays, tile seconds).

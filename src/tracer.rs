@@ -33,36 +33,54 @@ pub struct TraceStats {
 #[inline]
 pub fn radiance<S: Sampler>(
     world: &World,
-    ray: Ray,
+    mut ray: Ray,
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
 ) -> DVec3 {
-    trace(world, ray, max_depth, sampler, stats, false, |_| {})
+    if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
+        return DVec3::NAN;
+    }
+    let mut throughput = DVec3::ONE;
+    // The sphere the ray just left through its outside, which it cannot hit again.
+    let mut skip = u32::MAX;
+    for _ in 0..max_depth {
+        stats.rays += 1;
+        let Some(hit) = world.hit(&ray, skip, &mut stats.stack) else {
+            return throughput * world.background.radiance(ray.dir);
+        };
+        let sample: BounceSample = sampler.next_bounce();
+        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
+            Scatter::Absorbed => return DVec3::ZERO,
+            Scatter::Continue {
+                dir,
+                attenuation,
+                leaves_outside,
+            } => {
+                throughput *= attenuation;
+                skip = if leaves_outside { hit.sphere } else { u32::MAX };
+                let origin =
+                    offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir);
+                ray = Ray {
+                    origin,
+                    dir,
+                    time: ray.time,
+                };
+            }
+        }
+    }
+    DVec3::ZERO
 }
 
 /// [`radiance`] for a camera ray, handing the ray's first intersection (`None`: it missed
 /// every sphere) to `first`, which is not called for a ray that is not traced. With
 /// `transparent`, a camera ray that misses every sphere returns black instead of the
-/// background (scattered rays still see it). The radiance is otherwise the same bits as
-/// [`radiance`]'s, from the same sampler numbers.
+/// background (scattered rays still see it). Otherwise the radiance is the same bits as
+/// [`radiance`]'s, from the same sampler numbers: the loop is `radiance`'s, kept apart so
+/// that `radiance`, which renders frames without passes, has nothing of them in it
+/// (tests/passes.rs compares the two bit for bit).
 #[inline]
 pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
-    world: &World,
-    ray: Ray,
-    max_depth: u32,
-    sampler: &mut S,
-    stats: &mut TraceStats,
-    transparent: bool,
-    first: F,
-) -> DVec3 {
-    trace(world, ray, max_depth, sampler, stats, transparent, first)
-}
-
-/// The path loop of [`radiance`] and [`camera_radiance`]; inlined into each, so `radiance`
-/// keeps no trace of the observer (a no-op) or of `transparent` (false).
-#[inline(always)]
-fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
     world: &World,
     mut ray: Ray,
     max_depth: u32,
@@ -76,7 +94,6 @@ fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
     }
     let mut first = Some(first);
     let mut throughput = DVec3::ONE;
-    // The sphere the ray just left through its outside, which it cannot hit again.
     let mut skip = u32::MAX;
     for _ in 0..max_depth {
         stats.rays += 1;
@@ -104,17 +121,21 @@ fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
             } => {
                 throughput *= attenuation;
                 skip = if leaves_outside { hit.sphere } else { u32::MAX };
-                let origin =
-                    offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir);
-                ray = Ray {
-                    origin,
-                    dir,
-                    time: ray.time,
-                };
+                ray = scattered(&hit, dir, ray.time);
             }
         }
     }
     DVec3::ZERO
+}
+
+/// The ray scattered from `hit` in direction `dir`, offset off the surface.
+#[inline]
+fn scattered(hit: &Hit, dir: DVec3, time: f64) -> Ray {
+    Ray {
+        origin: offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir),
+        dir,
+        time,
+    }
 }
 
 #[cfg(test)]
