@@ -559,6 +559,37 @@ mod tests {
     }
 
     #[test]
+    fn passes_take_memory_only_when_requested() {
+        let scene = |passes: &str| {
+            let text = format!(
+                "[output]\npath = \"o.exr\"\nwidth = 20\nheight = 10\npasses = {passes}\n[render]\nsamples = 2\n"
+            );
+            Scene::parse(&text, std::path::Path::new("p.toml")).unwrap()
+        };
+        let (none, alpha, all) = (
+            scene("[]"),
+            scene("[\"alpha\"]"),
+            scene("[\"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\"]"),
+        );
+        let pixels = 200;
+        // Alpha: one sum and one channel (and its copy as written) per pixel.
+        assert_eq!(
+            memory_estimate(&alpha) - memory_estimate(&none),
+            pixels * (8 + 2 * 4)
+        );
+        assert_eq!(
+            memory_estimate(&all) - memory_estimate(&none),
+            pixels * (12 * 8 + 2 * 15 * 4)
+        );
+        let statics = StaticGeometry::new(&none);
+        let r = render_frame(&none, &statics, 1, &Budget::default(), &|_| {});
+        assert!(r.passes.is_none());
+        let statics = StaticGeometry::new(&all);
+        let r = render_frame(&all, &statics, 1, &Budget::default(), &|_| {});
+        assert_eq!(r.passes.map(|p| p.channels.len()), Some(15));
+    }
+
+    #[test]
     fn a_degenerate_camera_drops_and_counts_every_sample() {
         let text = r#"
 [output]
