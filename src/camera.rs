@@ -111,6 +111,37 @@ impl View {
     }
 }
 
+impl View {
+    /// The unit direction the camera looks along (from `look_from` toward `look_at`).
+    pub fn forward(&self) -> DVec3 {
+        // u = normalize(up x w), v = w x u, so v x u = -w.
+        self.v.cross(self.u)
+    }
+
+    /// The distance of `q` from the lens centre along the view direction (not along the ray):
+    /// negative behind the camera.
+    pub fn depth(&self, q: DVec3) -> f64 {
+        (q - self.origin).dot(self.forward())
+    }
+
+    /// Where `q` appears in the image through the lens centre (a pinhole projection), in
+    /// continuous pixel coordinates: x to the right, y downward, (0, 0) at the top-left
+    /// corner of the image, pixel (i, j)'s centre at (i + 0.5, j + 0.5). Points outside the
+    /// view project outside the image (nothing is clipped); a point on the plane of the lens
+    /// has no image and gives infinities or NaN.
+    pub fn project(&self, q: DVec3) -> glam::DVec2 {
+        let f = self.forward();
+        let d = q - self.origin;
+        // The image plane passes through pixel00, perpendicular to the view direction.
+        let to_plane = self.pixel00 - self.origin;
+        let on_plane = d * (to_plane.dot(f) / d.dot(f)) - to_plane;
+        glam::DVec2::new(
+            on_plane.dot(self.du) / self.du.length_squared() + 0.5,
+            on_plane.dot(self.dv) / self.dv.length_squared() + 0.5,
+        )
+    }
+}
+
 /// Maps [0, 1)^2 to the unit disk uniformly, preserving stratification (Shirley and Chiu's
 /// concentric mapping, as in pbrt-v4 `SampleUniformDiskConcentric`).
 pub fn concentric_disk((a, b): (f64, f64)) -> (f64, f64) {
@@ -242,6 +273,37 @@ pub fn most_parallel_on_segment(up: DVec3, d0: DVec3, d1: DVec3) -> (f64, f64) {
 mod tests {
     use super::*;
     use crate::motion::Orbit;
+
+    #[test]
+    fn projection_inverts_the_camera_rays() {
+        let mut r = rig();
+        r.look_from = Motion::Still(DVec3::new(1.0, 2.0, 3.0));
+        r.look_at = Motion::Still(DVec3::new(-2.0, 0.5, -4.0));
+        r.aperture = 0.5;
+        let view = r.view_at(0.0, 64, 48);
+        for (x, y, j) in [
+            (0, 0, (0.5, 0.5)),
+            (63, 47, (0.25, 0.75)),
+            (10, 30, (0.0, 0.9)),
+        ] {
+            // The ray through the lens centre (a pinhole's) hits the pixel position it names,
+            // at any distance along it, and its depth is that distance times the cosine.
+            let mut pinhole = r.clone();
+            pinhole.aperture = 0.0;
+            let ray = pinhole.view_at(0.0, 64, 48).ray(x, y, j, (0.5, 0.5), 0.0);
+            for s in [0.5, 7.0, 1000.0] {
+                let q = ray.origin + s * ray.dir;
+                let p = view.project(q);
+                assert!((p.x - (x as f64 + j.0)).abs() < 1e-9, "{p}");
+                assert!((p.y - (y as f64 + j.1)).abs() < 1e-9, "{p}");
+                let cos = ray.dir.dot(view.forward());
+                assert!((view.depth(q) - s * cos).abs() < 1e-9 * s);
+            }
+        }
+        // Far outside the view: projected, not clipped.
+        let off = view.project(DVec3::new(1.0, 2.0, 3.0) + 10.0 * view.forward() + 50.0 * DVec3::Y);
+        assert!(off.y < -100.0 && off.is_finite());
+    }
 
     fn rig() -> CameraRig {
         CameraRig {

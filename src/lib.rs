@@ -22,6 +22,7 @@ pub mod io;
 mod lerp;
 pub mod material;
 pub mod motion;
+pub mod passes;
 pub mod ray;
 pub mod render;
 pub mod rng;

@@ -11,10 +11,12 @@ use rayon::prelude::*;
 use crate::analysis::metrics;
 use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
+use crate::passes::{PassContext, PassImages};
+use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::tracer::{TraceStats, radiance};
+use crate::tracer::{TraceStats, camera_radiance, radiance};
 use crate::world::{StaticGeometry, World};
 
 /// Side of the square tiles the image is split into for parallel work: a 400x225 frame has
@@ -137,6 +139,8 @@ pub struct FrameResult {
     pub film: Film,
     /// Each pixel's estimated variance of its mean, row-major like the film.
     pub variance: Vec<DVec3>,
+    /// The scene's `[output] passes`, if it asks for any.
+    pub passes: Option<PassImages>,
     pub stats: FrameStats,
 }
 
@@ -150,6 +154,10 @@ struct FrameSetup<'a> {
     fixed_view: View,
     sample_time: bool,
     has_lens: bool,
+    /// The passes' context when the scene asks for passes.
+    passes: Option<PassContext<'a>>,
+    /// `[background] transparent`: camera rays that miss add black.
+    transparent: bool,
 }
 
 /// One tile of the image and its pixels' running estimates.
@@ -159,6 +167,8 @@ struct Tile {
     x1: u32,
     y1: u32,
     pixels: Vec<PixelAccumulator>,
+    /// The passes' sums, `Layout::stride` numbers per pixel (empty without passes).
+    pass_sums: Vec<f64>,
 }
 
 impl FrameSetup<'_> {
@@ -170,11 +180,19 @@ impl FrameSetup<'_> {
             lens: self.has_lens,
             time: self.sample_time,
         };
+        // Frames with passes or a transparent background take each camera ray's first hit
+        // from the tracer, in a function of its own (`observed_sample`), so that this loop
+        // is compiled for frames without them as it would be without passes at all.
+        let observed = self.passes.is_some() || self.transparent;
+        let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
         let mut stats = TraceStats::default();
         let mut acc = tile.pixels.iter_mut();
+        let mut sums = tile.pass_sums.chunks_mut(stride.max(1));
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let acc = acc.next().expect("one accumulator per pixel");
+                let sums = if stride > 0 { sums.next() } else { None };
+                let sums = sums.unwrap_or_default();
                 for s in range.clone() {
                     sampler.start_sample(x, y, s);
                     // The pixel position, and the lens position and the time (one joint
@@ -191,17 +209,48 @@ impl FrameSetup<'_> {
                         self.fixed_view
                     };
                     let ray = view.ray(x, y, camera.pixel, camera.lens, time);
-                    acc.add(radiance(
-                        &self.world,
-                        ray,
-                        req.max_depth,
-                        sampler,
-                        &mut stats,
-                    ));
+                    if observed {
+                        self.observed_sample(ray, &view, sampler, &mut stats, acc, sums);
+                    } else {
+                        acc.add(radiance(
+                            &self.world,
+                            ray,
+                            req.max_depth,
+                            sampler,
+                            &mut stats,
+                        ));
+                    }
                 }
             }
         }
         stats.rays
+    }
+
+    /// One camera sample of a frame with passes or a transparent background: its radiance
+    /// into `acc` and its passes into the pixel's sums `sums`.
+    #[inline(never)]
+    fn observed_sample<S: Sampler>(
+        &self,
+        ray: Ray,
+        view: &View,
+        sampler: &mut S,
+        stats: &mut TraceStats,
+        acc: &mut PixelAccumulator,
+        sums: &mut [f64],
+    ) {
+        let mut first = None;
+        acc.add(camera_radiance(
+            &self.world,
+            ray,
+            self.req.max_depth,
+            sampler,
+            stats,
+            self.transparent,
+            |hit| first = hit.copied(),
+        ));
+        if let Some(passes) = &self.passes {
+            passes.record(sums, &ray, view, first.as_ref());
+        }
     }
 
     /// Adds samples `range` to every tile, in parallel; returns (rays, tile seconds).
@@ -291,6 +340,18 @@ pub fn render_frame(
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
+    let passes = (!scene.output.passes.is_empty()).then(|| {
+        PassContext::new(
+            scene.output.passes,
+            &scene.spheres,
+            scene.background,
+            &scene.camera,
+            scene.shot.fps,
+            req.width,
+            req.height,
+        )
+    });
+    let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
     let setup = FrameSetup {
         scene,
         // Sample time only when something moves during the shutter; sample the lens only for
@@ -303,6 +364,8 @@ pub fn render_frame(
         interval,
         camera_moves,
         fixed_view,
+        passes,
+        transparent: scene.transparent,
     };
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
@@ -320,6 +383,7 @@ pub fn render_frame(
                 x1,
                 y1,
                 pixels: vec![PixelAccumulator::default(); n],
+                pass_sums: vec![0.0; n * stride],
             }
         })
         .collect();
@@ -367,6 +431,19 @@ pub fn render_frame(
     }
 
     let (film, variance) = assemble(&tiles, req);
+    let passes = setup.passes.as_ref().map(|p| {
+        let mut images = PassImages::new(scene.output.passes, req.width, req.height);
+        for tile in &tiles {
+            let w = tile.x1 - tile.x0;
+            for i in 0..tile.pixels.len() {
+                let (x, y) = (tile.x0 + i as u32 % w, tile.y0 + i as u32 / w);
+                let sums = &tile.pass_sums[i * stride..(i + 1) * stride];
+                let v = variance[y as usize * req.width as usize + x as usize];
+                images.set(&p.layout, x, y, sums, done, v);
+            }
+        }
+        images
+    });
     stats.relative_error = relative_error(&tiles);
     stats.samples_per_pixel = done;
     stats.samples = req.width as u64 * req.height as u64 * done as u64;
@@ -379,6 +456,7 @@ pub fn render_frame(
     FrameResult {
         film,
         variance,
+        passes,
         stats,
     }
 }
@@ -402,9 +480,14 @@ const LOAD_BYTES_PER_SPHERE: u64 = 300;
 pub fn memory_estimate(scene: &Scene) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
+    // With passes: their sums, and their channels as written.
+    let passes = scene.output.passes;
+    let pass_channels: usize = passes.iter().map(|p| p.channels().len()).sum();
     let per_pixel = size_of::<PixelAccumulator>() as u64
         + 2 * size_of::<DVec3>() as u64
-        + 3 * size_of::<f32>() as u64;
+        + 3 * size_of::<f32>() as u64
+        + (crate::passes::Layout::new(passes).stride * size_of::<f64>()) as u64
+        + (2 * pass_channels * size_of::<f32>()) as u64;
     let n = scene.spheres.len() as u64;
     // Keyframed paths hold their keys in the description and again in each frame's path.
     let keys: u64 = scene
@@ -473,6 +556,37 @@ mod tests {
         assert_eq!(scene(100, 100, 30) - base, 2 * spheres);
         // 2^32 pixels need hundreds of gigabytes.
         assert!(scene(65536, 65536, 1) > 400 << 30);
+    }
+
+    #[test]
+    fn passes_take_memory_only_when_requested() {
+        let scene = |passes: &str| {
+            let text = format!(
+                "[output]\npath = \"o.exr\"\nwidth = 20\nheight = 10\npasses = {passes}\n[render]\nsamples = 2\n"
+            );
+            Scene::parse(&text, std::path::Path::new("p.toml")).unwrap()
+        };
+        let (none, alpha, all) = (
+            scene("[]"),
+            scene("[\"alpha\"]"),
+            scene("[\"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\"]"),
+        );
+        let pixels = 200;
+        // Alpha: one sum and one channel (and its copy as written) per pixel.
+        assert_eq!(
+            memory_estimate(&alpha) - memory_estimate(&none),
+            pixels * (8 + 2 * 4)
+        );
+        assert_eq!(
+            memory_estimate(&all) - memory_estimate(&none),
+            pixels * (12 * 8 + 2 * 15 * 4)
+        );
+        let statics = StaticGeometry::new(&none);
+        let r = render_frame(&none, &statics, 1, &Budget::default(), &|_| {});
+        assert!(r.passes.is_none());
+        let statics = StaticGeometry::new(&all);
+        let r = render_frame(&all, &statics, 1, &Budget::default(), &|_| {});
+        assert_eq!(r.passes.map(|p| p.channels.len()), Some(15));
     }
 
     #[test]

@@ -11,7 +11,7 @@ use crate::bvh::TraversalStack;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
 use crate::sampler::{BounceSample, Sampler};
-use crate::world::World;
+use crate::world::{Hit, World};
 
 /// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
 #[derive(Clone, Debug, Default)]
@@ -70,6 +70,72 @@ pub fn radiance<S: Sampler>(
         }
     }
     DVec3::ZERO
+}
+
+/// [`radiance`] for a camera ray, handing the ray's first intersection (`None`: it missed
+/// every sphere) to `first`, which is not called for a ray that is not traced. With
+/// `transparent`, a camera ray that misses every sphere returns black instead of the
+/// background (scattered rays still see it). Otherwise the radiance is the same bits as
+/// [`radiance`]'s, from the same sampler numbers: the loop is `radiance`'s, kept apart so
+/// that `radiance`, which renders frames without passes, has nothing of them in it
+/// (tests/passes.rs compares the two bit for bit).
+#[inline]
+pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
+    world: &World,
+    mut ray: Ray,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    first: F,
+) -> DVec3 {
+    if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
+        return DVec3::NAN;
+    }
+    let mut first = Some(first);
+    let mut throughput = DVec3::ONE;
+    let mut skip = u32::MAX;
+    for _ in 0..max_depth {
+        stats.rays += 1;
+        let found = world.hit(&ray, skip, &mut stats.stack);
+        let camera_ray = match first.take() {
+            Some(f) => {
+                f(found.as_ref());
+                true
+            }
+            None => false,
+        };
+        let Some(hit) = found else {
+            if transparent && camera_ray {
+                return DVec3::ZERO;
+            }
+            return throughput * world.background.radiance(ray.dir);
+        };
+        let sample: BounceSample = sampler.next_bounce();
+        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
+            Scatter::Absorbed => return DVec3::ZERO,
+            Scatter::Continue {
+                dir,
+                attenuation,
+                leaves_outside,
+            } => {
+                throughput *= attenuation;
+                skip = if leaves_outside { hit.sphere } else { u32::MAX };
+                ray = scattered(&hit, dir, ray.time);
+            }
+        }
+    }
+    DVec3::ZERO
+}
+
+/// The ray scattered from `hit` in direction `dir`, offset off the surface.
+#[inline]
+fn scattered(hit: &Hit, dir: DVec3, time: f64) -> Ray {
+    Ray {
+        origin: offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir),
+        dir,
+        time,
+    }
 }
 
 #[cfg(test)]

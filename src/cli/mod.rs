@@ -179,6 +179,36 @@ pub struct RenderArgs {
     pub chunk: Option<u64>,
     #[command(flatten)]
     pub budget: BudgetArgs,
+    /// Passes to write beside the colour, replacing the scene's `[output] passes`: a comma
+    /// list of alpha, depth, normal, albedo, motion, variance (a PNG output takes only
+    /// alpha); an empty value writes colour only.
+    #[arg(long, value_name = "LIST", value_parser = pass_list)]
+    pub passes: Option<PassList>,
+}
+
+/// The passes `--passes` names, in order (duplicates are the scene validator's to name).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PassList(pub Vec<crate::passes::Pass>);
+
+/// Clap's value parser of `--passes`: pass names separated by commas.
+fn pass_list(text: &str) -> Result<PassList, String> {
+    use crate::passes::Pass;
+    if text.trim().is_empty() {
+        return Ok(PassList(Vec::new()));
+    }
+    text.split(',')
+        .map(|name| {
+            Pass::from_name(name.trim()).ok_or_else(|| {
+                let known: Vec<&str> = Pass::ALL.iter().map(|p| p.name()).collect();
+                format!(
+                    "unknown pass \"{}\" (expected a comma list of {})",
+                    crate::error::clip(name.trim()),
+                    known.join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(PassList)
 }
 
 /// When to stop sampling a frame, instead of at exactly its samples.
@@ -316,6 +346,7 @@ impl RenderArgs {
             samples: self.samples,
             sampler: self.sampler,
             clip: self.clip.clone(),
+            passes: self.passes.as_ref().map(|p| p.0.clone()),
             ..self.scene_args.overrides()
         }
     }

@@ -12,6 +12,7 @@ use crate::clip;
 use crate::error::{Error, clip_path};
 use crate::film::Film;
 use crate::io::{self, FrameInfo};
+use crate::passes::PassImages;
 use crate::render::{FrameStats, memory_estimate, render_frame};
 use crate::scene::{Overrides, Scene};
 use crate::world::StaticGeometry;
@@ -380,7 +381,8 @@ fn render_shot(
         if let Some(t) = budget.time_limit {
             info.extra.push(("timeLimit".to_string(), t));
         }
-        let non_finite = write_film(&path, &result.film, info)?;
+        let passes = result.passes.as_ref().map(|p| (p, scene.transparent));
+        let non_finite = write_film_with_passes(&path, &result.film, passes, info)?;
         let seconds = st.prepare_seconds + st.render_seconds;
         let stop = if budget.is_set() {
             format!(" ({})", st.stop.describe())
@@ -431,13 +433,34 @@ pub(crate) fn frame_info(scene: &Scene, frame: u32, samples: u32) -> FrameInfo {
 /// Writes `film` to `path` with the attributes `info`. A pixel that is not finite as an
 /// `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written black; their number is
 /// returned and, when not 0, recorded in the file as `nonFinitePixels`.
-pub(crate) fn write_film(path: &Path, film: &Film, mut info: FrameInfo) -> Result<u64, Error> {
+pub(crate) fn write_film(path: &Path, film: &Film, info: FrameInfo) -> Result<u64, Error> {
+    write_film_with_passes(path, film, None, info)
+}
+
+/// [`write_film`] with the frame's passes, if any, and whether the colour is premultiplied
+/// by their alpha (a transparent background).
+pub(crate) fn write_film_with_passes(
+    path: &Path,
+    film: &Film,
+    passes: Option<(&PassImages, bool)>,
+    mut info: FrameInfo,
+) -> Result<u64, Error> {
     let (rgb, non_finite) = film.to_rgb_f32();
     if non_finite > 0 {
         info.extra
             .push(("nonFinitePixels".to_string(), non_finite as f64));
     }
-    io::write_frame(path, film.width, film.height, &rgb, &info)?;
+    let (channels, premultiplied) =
+        passes.map_or((&[][..], false), |(p, pre)| (&p.channels[..], pre));
+    io::write_frame_with_passes(
+        path,
+        film.width,
+        film.height,
+        &rgb,
+        channels,
+        premultiplied,
+        &info,
+    )?;
     Ok(non_finite)
 }
 

@@ -197,40 +197,116 @@ pub(super) fn write(
     };
 
     let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
-    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
-        let i = 3 * (p.y() * w + p.x());
-        (rgb[i], rgb[i + 1], rgb[i + 2])
-    });
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
+    if !image.channels.is_empty() {
+        return write_with_passes(writer, path, image, attributes, encoding);
+    }
+    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let i = 3 * (p.y() * w + p.x());
+        (rgb[i], rgb[i + 1], rgb[i + 2])
+    });
     // The exr crate writes custom attributes in the iteration order of a randomly seeded
     // HashMap, so the same frame would get different bytes in different processes. Write the
     // image without them, then splice them into the header in name order.
-    let mut attributes = attributes;
-    let mut custom: Vec<_> = attributes.other.drain().collect();
-    custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
+    let (attributes, custom) = sorted_custom(attributes);
     let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
     let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
         .non_parallel()
         .to_buffered(&mut bytes)
-        .map_err(|e| match e {
-            exr::error::Error::Io(e) => Error::io(path, e),
-            other => Error::Output {
-                path: path.to_path_buf(),
-                message: format!("EXR encoder: {other}"),
-            },
-        })?;
-    let chunks = (height as usize).div_ceil(16);
-    let bytes = splice_exr_attributes(bytes.into_inner(), &custom, chunks).map_err(|message| {
-        Error::Output {
+        .map_err(|e| encoder_error(path, e))?;
+    finish(writer, path, height, bytes.into_inner(), &custom)
+}
+
+/// Custom attributes taken out of `attributes`, in name order (see [`write`]).
+type Custom = Vec<(
+    exr::meta::attribute::Text,
+    exr::meta::attribute::AttributeValue,
+)>;
+
+/// `attributes` without their custom attributes, and those in name order.
+fn sorted_custom(
+    mut attributes: exr::meta::header::LayerAttributes,
+) -> (exr::meta::header::LayerAttributes, Custom) {
+    let mut custom: Custom = attributes.other.drain().collect();
+    custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
+    (attributes, custom)
+}
+
+/// The encoder's error as the renderer's.
+fn encoder_error(path: &Path, e: exr::error::Error) -> Error {
+    match e {
+        exr::error::Error::Io(e) => Error::io(path, e),
+        other => Error::Output {
             path: path.to_path_buf(),
-            message,
-        }
+            message: format!("EXR encoder: {other}"),
+        },
+    }
+}
+
+/// Writes the frame with its passes: one part whose channels are R, G, B (float) and each
+/// pass's channels under their names, `half` or `float` as the pass says (the encoder sorts
+/// the channel list by name, as the format requires).
+fn write_with_passes(
+    writer: &mut BufWriter<File>,
+    path: &Path,
+    image: &Image,
+    attributes: exr::meta::header::LayerAttributes,
+    encoding: exr::prelude::Encoding,
+) -> Result<(), Error> {
+    use crate::passes::Precision;
+    use exr::prelude::{
+        AnyChannel, AnyChannels, FlatSamples, Image, Layer, SmallVec, WritableImage, f16,
+    };
+
+    let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
+    let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for (k, name) in ["R", "G", "B"].into_iter().enumerate() {
+        let values = rgb.iter().skip(k).step_by(3).copied().collect();
+        list.push(AnyChannel::new(name, FlatSamples::F32(values)));
+    }
+    for c in image.channels {
+        let samples = match c.precision {
+            Precision::Float => FlatSamples::F32(c.values.clone()),
+            Precision::Half => {
+                FlatSamples::F16(c.values.iter().map(|&v| f16::from_f32(v)).collect())
+            }
+        };
+        list.push(AnyChannel::new(c.name, samples));
+    }
+    let (attributes, custom) = sorted_custom(attributes);
+    let layer = Layer::new(
+        (w, height as usize),
+        attributes,
+        encoding,
+        AnyChannels::sort(list),
+    );
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut bytes)
+        .map_err(|e| encoder_error(path, e))?;
+    finish(writer, path, height, bytes.into_inner(), &custom)
+}
+
+/// Splices `custom` into the encoded file `bytes` and writes it.
+fn finish(
+    writer: &mut BufWriter<File>,
+    path: &Path,
+    height: u32,
+    bytes: Vec<u8>,
+    custom: &Custom,
+) -> Result<(), Error> {
+    let chunks = (height as usize).div_ceil(16);
+    let bytes = splice_exr_attributes(bytes, custom, chunks).map_err(|message| Error::Output {
+        path: path.to_path_buf(),
+        message,
     })?;
     writer.write_all(&bytes).map_err(|e| Error::io(path, e))
 }

@@ -14,6 +14,7 @@ use std::ffi::OsStr;
 use std::path::Path;
 
 use crate::error::Error;
+use crate::passes::Channel;
 
 pub(crate) use atomic::{
     check_target, files_written, remove_stale_temp_files, stop_writing, write_file, write_with,
@@ -111,11 +112,16 @@ impl Format {
     }
 }
 
-/// A frame's pixels as the encoders take them: linear RGB, row-major, top row first.
+/// A frame's pixels as the encoders take them: linear RGB, row-major, top row first, and the
+/// passes' channels.
 struct Image<'a> {
     width: u32,
     height: u32,
     rgb: &'a [f32],
+    /// The passes' channels, one value per pixel each (EXR: all; PNG: only `A`).
+    channels: &'a [Channel],
+    /// Whether `rgb` is premultiplied by the `A` channel (a transparent background).
+    premultiplied: bool,
 }
 
 /// Writes one frame to `path`, in the format its extension names (`.exr` or `.png`).
@@ -128,6 +134,23 @@ pub fn write_frame(
     width: u32,
     height: u32,
     rgb: &[f32],
+    info: &FrameInfo,
+) -> Result<(), Error> {
+    write_frame_with_passes(path, width, height, rgb, &[], false, info)
+}
+
+/// [`write_frame`] with the passes' `channels` beside the colour: in an EXR file, each
+/// channel under its name, as `half` or `float` as it says; a PNG file takes only an `A`
+/// channel, as 8-bit straight alpha (RGBA), dividing the colour by it first when
+/// `premultiplied`. Any other channel with a PNG path, or a channel of the wrong length, is
+/// an error and nothing is written.
+pub fn write_frame_with_passes(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    channels: &[Channel],
+    premultiplied: bool,
     info: &FrameInfo,
 ) -> Result<(), Error> {
     let output_error = |message: String| Error::Output {
@@ -151,12 +174,34 @@ pub fn write_frame(
     }
     let format = Format::from_extension(path, FRAME_FORMATS)
         .ok_or_else(|| output_error(Format::unsupported(FRAME_FORMATS, "output")))?;
+    for c in channels {
+        if c.values.len() != rgb.len() / 3 {
+            return Err(output_error(format!(
+                "channel {} has {} values for {} pixels",
+                c.name,
+                c.values.len(),
+                rgb.len() / 3
+            )));
+        }
+        if format == Format::Png && c.name != "A" {
+            return Err(output_error(format!(
+                "a PNG file takes only the alpha pass, not channel {}",
+                c.name
+            )));
+        }
+    }
     // Validate the metadata before touching the disk.
     let exr_attributes = match format {
         Format::Exr => Some(exr::attributes(info).map_err(output_error)?),
         _ => None,
     };
-    let image = Image { width, height, rgb };
+    let image = Image {
+        width,
+        height,
+        rgb,
+        channels,
+        premultiplied,
+    };
     atomic::write_with(path, |writer| match exr_attributes {
         Some(attributes) => exr::write(writer, path, &image, attributes),
         None => png::write(writer, path, &image),

@@ -27,14 +27,19 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
     use ::image::ImageEncoder;
     use ::image::codecs::png::PngEncoder;
 
-    let bytes: Vec<u8> = image.rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
-    PngEncoder::new(&mut *writer)
-        .write_image(
-            &bytes,
-            image.width,
-            image.height,
+    let alpha = image.channels.iter().find(|c| c.name == "A");
+    let (bytes, kind) = match alpha {
+        None => (
+            image.rgb.iter().map(|&v| linear_to_srgb8(v)).collect(),
             ::image::ExtendedColorType::Rgb8,
-        )
+        ),
+        Some(a) => (
+            rgba_straight(image.rgb, &a.values, image.premultiplied),
+            ::image::ExtendedColorType::Rgba8,
+        ),
+    };
+    PngEncoder::new(&mut *writer)
+        .write_image(&bytes, image.width, image.height, kind)
         .map_err(|e| match e {
             ::image::ImageError::IoError(e) => Error::io(path, e),
             other => Error::Output {
@@ -43,6 +48,27 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
             },
         })?;
     writer.flush().map_err(|e| Error::io(path, e))
+}
+
+/// 8-bit RGBA with straight alpha, as PNG requires: the colour sRGB encoded, divided by the
+/// alpha first where it is `premultiplied` (and the alpha above 0), the alpha linear.
+fn rgba_straight(rgb: &[f32], alpha: &[f32], premultiplied: bool) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(alpha.len() * 4);
+    for (c, &a) in rgb.chunks_exact(3).zip(alpha) {
+        let scale = if premultiplied && a > 0.0 {
+            1.0 / a
+        } else {
+            1.0
+        };
+        bytes.extend(c.iter().map(|&v| linear_to_srgb8(v * scale)));
+        let a = if a.is_finite() {
+            a.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        bytes.push((a * 255.0 + 0.5).floor() as u8);
+    }
+    bytes
 }
 
 /// Whether the PNG file at `path` is whole, cheaply: it starts with the PNG signature and an

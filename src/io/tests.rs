@@ -625,3 +625,50 @@ fn complete_frames_are_told_from_empty_and_truncated_ones() {
     assert_eq!(check_frame_file(&folder), Err("not a file".to_string()));
     assert!(check_frame_file(&dir.path().join("none.exr")).is_err());
 }
+
+#[test]
+fn passes_channels_are_written_by_name_and_type_and_checked_first() {
+    use crate::passes::{Channel, Precision};
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (3, 2);
+    let channel = |name, precision, v: f32| Channel {
+        name,
+        precision,
+        values: (0..w * h).map(|i| v + i as f32 * 0.25).collect(),
+    };
+    let channels = [
+        channel("A", Precision::Half, 0.0),
+        channel("Z", Precision::Float, 1e10),
+        channel("forward.u", Precision::Float, -3.3),
+    ];
+    let path = dir.path().join("p.exr");
+    write_frame_with_passes(&path, w, h, &pixels(w, h), &channels, false, &info()).unwrap();
+    let image = ::exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+    let list = &image.layer_data[0].channel_data.list;
+    let find = |name: &str| list.iter().find(|c| c.name.to_string() == name).unwrap();
+    for c in &channels {
+        let read: Vec<f32> = find(c.name).sample_data.values_as_f32().collect();
+        let half = matches!(
+            find(c.name).sample_data,
+            ::exr::prelude::FlatSamples::F16(_)
+        );
+        assert_eq!(half, c.precision == Precision::Half);
+        // Quarters are exact in half; the rest are floats, exact.
+        assert_eq!(read, c.values, "{}", c.name);
+    }
+    // The colour reads back as without passes; the header keeps its attributes.
+    let (_, _, rgb) = read_exr_rgb(&path).unwrap();
+    assert_eq!(rgb[5].x, pixels(w, h)[15] as f64);
+    assert!(check_frame_file(&path).is_ok());
+    // A channel of the wrong length, or anything but alpha in a PNG: nothing is written.
+    let short = [Channel {
+        values: vec![0.0; 5],
+        ..channel("A", Precision::Half, 0.0)
+    }];
+    let bad = dir.path().join("bad.exr");
+    assert!(write_frame_with_passes(&bad, w, h, &pixels(w, h), &short, false, &info()).is_err());
+    let png = dir.path().join("bad.png");
+    let e = write_frame_with_passes(&png, w, h, &pixels(w, h), &channels, false, &info());
+    assert!(e.unwrap_err().to_string().contains("not channel Z"));
+    assert_eq!(dir_names(dir.path()), ["p.exr"]);
+}

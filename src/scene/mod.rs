@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 use crate::camera::CameraRig;
 use crate::error::Error;
 use crate::material::{Background, Material};
+use crate::passes::{Pass, PassSet};
 use crate::sampler::SamplerKind;
 use crate::shutter::Shot;
 use crate::sphere::SphereDesc;
@@ -49,6 +50,8 @@ pub struct OutputSettings {
     /// `[output] clip` (or `--clip`): a clip to assemble from the frames after rendering
     /// (`.mp4`, `.gif`, `.apng` or `.png`), `{scene}` replaced as in `path`.
     pub clip: Option<String>,
+    /// The passes written beside the colour (`[output] passes`, or `--passes`).
+    pub passes: PassSet,
 }
 
 /// Sampling settings.
@@ -73,6 +76,9 @@ pub struct Scene {
     pub render: RenderSettings,
     pub camera: CameraRig,
     pub background: Background,
+    /// `[background] transparent`: camera rays that miss every sphere add black, so the
+    /// colour is premultiplied by the alpha pass.
+    pub transparent: bool,
     /// Every material used by a sphere; spheres refer to them by index.
     pub materials: Vec<Material>,
     pub spheres: Vec<SphereDesc>,
@@ -97,6 +103,9 @@ pub struct Overrides {
     pub sampler: Option<SamplerKind>,
     /// `--clip`: replaces `[output] clip`.
     pub clip: Option<String>,
+    /// `--passes`: replaces `[output] passes` (in the order given, duplicates included, so
+    /// the validator names them).
+    pub passes: Option<Vec<Pass>>,
 }
 
 impl Scene {

@@ -184,7 +184,27 @@ pub(super) struct RawOutput {
     pub(super) width: Option<Number>,
     pub(super) height: Option<Number>,
     pub(super) clip: Option<String>,
+    pub(super) passes: Option<Vec<RawPass>>,
 }
+
+/// A pass name of `[output] passes`.
+#[derive(Clone, Copy)]
+pub(super) struct RawPass(pub(super) crate::passes::Pass);
+
+impl Keyword for RawPass {
+    const NAMES: &'static [(&'static str, Self)] = {
+        use crate::passes::Pass;
+        &[
+            ("alpha", RawPass(Pass::Alpha)),
+            ("depth", RawPass(Pass::Depth)),
+            ("normal", RawPass(Pass::Normal)),
+            ("albedo", RawPass(Pass::Albedo)),
+            ("motion", RawPass(Pass::Motion)),
+            ("variance", RawPass(Pass::Variance)),
+        ]
+    };
+}
+keyword!(RawPass);
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields, expecting = "a table")]
@@ -237,7 +257,8 @@ pub(super) struct RawCameraKey {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table")]
 pub(super) struct RawBackground {
-    pub(super) color: V3,
+    pub(super) color: Option<V3>,
+    pub(super) transparent: Option<bool>,
 }
 
 /// A material as written: `type` and the keys of that type.

@@ -920,3 +920,61 @@ fn colours_are_bounded_so_no_pixel_can_overflow() {
     );
     assert_eq!(s.background, Background::Uniform(DVec3::new(1e6, 0.0, 1.0)));
 }
+
+#[test]
+fn passes_and_a_transparent_background_parse_and_are_checked() {
+    use crate::passes::{Pass, PassSet};
+    let s = ok(
+        "[output]\npath = \"o.exr\"\npasses = [\"motion\", \"alpha\"]\n[background]\ntransparent = true\n",
+    );
+    assert_eq!(
+        s.output.passes,
+        PassSet::EMPTY.with(Pass::Alpha).with(Pass::Motion)
+    );
+    assert!(s.transparent);
+    // Without a colour the background is still the sky.
+    assert_eq!(s.background, Background::Sky);
+    let s = ok("[background]\ncolor = [0.5, 0.5, 0.5]\n");
+    assert!(!s.transparent && s.output.passes.is_empty());
+    // A PNG takes alpha.
+    assert!(
+        ok("[output]\npasses = [\"alpha\"]\n")
+            .output
+            .passes
+            .contains(Pass::Alpha)
+    );
+    assert_eq!(
+        first_line(&err("[output]\npasses = [\"alpha\", \"beauty\"]\n")),
+        "s.toml:2:20: output.passes[1]: expected one of \"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\", found \"beauty\""
+    );
+    assert_eq!(
+        first_line(&err("[background]\ntransparent = 1\n")),
+        "s.toml:2:15: background.transparent: expected a boolean, found the integer 1"
+    );
+    assert_eq!(
+        err("[output]\npath = \"o.exr\"\npasses = [\"depth\", \"normal\", \"depth\"]\n"),
+        "s.toml: output.passes: \"depth\" is listed twice (entry 2); list each pass once"
+    );
+    assert!(
+        err("[output]\npasses = [\"alpha\", \"variance\"]\n").starts_with(
+            "s.toml: output.passes: pass \"variance\" cannot be written to a PNG output (output.path ends in .png)"
+        )
+    );
+    // The flag replaces the file's list, and messages name it.
+    let o = Overrides {
+        passes: Some(vec![Pass::Depth]),
+        ..Overrides::default()
+    };
+    let text = "[output]\npath = \"o.exr\"\npasses = [\"alpha\"]\n";
+    let s = Scene::parse_with(text, Path::new("s.toml"), &o).unwrap();
+    assert_eq!(s.output.passes, PassSet::EMPTY.with(Pass::Depth));
+    let o = Overrides {
+        passes: Some(vec![Pass::Alpha, Pass::Alpha]),
+        ..Overrides::default()
+    };
+    let e = Scene::parse_with(text, Path::new("s.toml"), &o).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "--passes: \"alpha\" is listed twice (entry 1); list each pass once"
+    );
+}

@@ -13,7 +13,7 @@ use glam::DVec3;
 
 use super::report;
 use super::schema::{
-    MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawSampler, RawScene, RawShot,
+    MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawPass, RawSampler, RawScene, RawShot,
     RawShutterPosition, RawSphere, V3,
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
@@ -24,6 +24,7 @@ use crate::camera::{
 use crate::io::{self, CLIP_FORMATS, FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
+use crate::passes::{Pass, PassSet};
 use crate::sampler::SamplerKind;
 use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
 use crate::sphere::SphereDesc;
@@ -102,7 +103,7 @@ pub(super) struct Check<'a> {
 }
 
 /// The fields the command line can override, and the flag that does.
-const FLAGS: [(&str, &str); 7] = [
+const FLAGS: [(&str, &str); 8] = [
     ("output.path", "--output"),
     ("output.width", "--width"),
     ("output.height", "--height"),
@@ -110,6 +111,7 @@ const FLAGS: [(&str, &str); 7] = [
     ("render.seed", "--seed"),
     ("render.sampler", "--sampler"),
     ("output.clip", "--clip"),
+    ("output.passes", "--passes"),
 ];
 
 impl<'a> Check<'a> {
@@ -139,6 +141,9 @@ impl<'a> Check<'a> {
         if let Some(c) = &o.clip {
             raw.output.clip = Some(c.clone());
         }
+        if let Some(passes) = &o.passes {
+            raw.output.passes = Some(passes.iter().map(|p| RawPass(*p)).collect());
+        }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
                 SamplerKind::Independent => RawSampler::Independent,
@@ -158,6 +163,7 @@ impl<'a> Check<'a> {
             o.seed.is_some(),
             o.sampler.is_some(),
             o.clip.is_some(),
+            o.passes.is_some(),
         ];
         match FLAGS
             .iter()
@@ -309,12 +315,15 @@ impl<'a> Check<'a> {
             },
         };
         let camera = self.camera(&raw.camera)?;
-        let background = match &raw.background {
+        let background = match raw.background.as_ref().and_then(|b| b.color) {
             None => Background::Sky,
-            Some(b) => {
-                Background::Uniform(self.color("background.color", b.color, MAX_RADIANCE)?)
-            }
+            Some(c) => Background::Uniform(self.color("background.color", c, MAX_RADIANCE)?),
         };
+        let transparent = raw
+            .background
+            .as_ref()
+            .and_then(|b| b.transparent)
+            .unwrap_or(false);
         let mut materials = Vec::new();
         let mut names = BTreeMap::new();
         for (name, m) in &raw.materials {
@@ -328,6 +337,7 @@ impl<'a> Check<'a> {
             render,
             camera,
             background,
+            transparent,
             materials,
             spheres: Vec::new(),
         };
@@ -476,10 +486,35 @@ impl<'a> Check<'a> {
         };
         Ok(OutputSettings {
             clip,
+            passes: self.passes(o.passes.as_deref().unwrap_or(&[]), &path)?,
             path,
             width: self.int("output.width", o.width, 400, 1, MAX_SIDE.into())? as u32,
             height: self.int("output.height", o.height, 225, 1, MAX_SIDE.into())? as u32,
         })
+    }
+
+    /// The passes listed, each once; a PNG output (`path`) takes only `alpha`.
+    fn passes(&self, list: &[RawPass], path: &str) -> Result<PassSet, String> {
+        let field = self.name("output.passes");
+        let mut set = PassSet::EMPTY;
+        for (i, RawPass(pass)) in list.iter().enumerate() {
+            if set.contains(*pass) {
+                return self.err(format_args!(
+                    "{field}: \"{}\" is listed twice (entry {i}); list each pass once",
+                    pass.name()
+                ));
+            }
+            let png = Format::from_extension(Path::new(path), FRAME_FORMATS) == Some(Format::Png);
+            if png && *pass != Pass::Alpha {
+                return self.err(format_args!(
+                    "{field}: pass \"{}\" cannot be written to a PNG output ({} ends in .png), which takes only the alpha pass; write .exr frames for the other passes",
+                    pass.name(),
+                    self.name("output.path")
+                ));
+            }
+            set = set.with(*pass);
+        }
+        Ok(set)
     }
 
     fn material(&self, field: &str, m: &RawMaterial) -> Result<Material, String> {

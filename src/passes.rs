@@ -1,0 +1,474 @@
+//! Passes for compositing: what a pixel's camera samples say besides their colour (coverage,
+//! depth, normal, albedo, motion, variance), as the scene format's "Passes" names them.
+//!
+//! A frame with passes keeps, beside each pixel's colour accumulator, a few sums per sample
+//! ([`Layout`]: only those of the requested passes, in one flat buffer). Each sample adds
+//! what its camera ray's first hit gives ([`PassContext::record`]); the sums are added in
+//! sample order whatever the passes of a budgeted render, so a frame's passes are the same bits
+//! however it was split. A frame without passes allocates nothing here and does nothing per
+//! sample.
+//!
+//! Motion vectors come from the true motion: the first-hit point, taken relative to its
+//! sphere's centre at the sample's time, is carried to one frame period later and earlier by
+//! its sphere's own motion over the whole shot ([`crate::motion::Motion::at`], which holds at
+//! any time, not only in the frame's shutter), and projected through the camera at those times
+//! ([`View::project`], which does not clip).
+
+use glam::{DVec2, DVec3};
+
+use crate::camera::{CameraRig, View};
+use crate::material::{Background, Material};
+use crate::ray::Ray;
+use crate::sphere::SphereDesc;
+use crate::world::Hit;
+
+/// A pass: a closed set, named as in the scene format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Pass {
+    /// `A`: the fraction of the camera samples whose ray hits a sphere.
+    Alpha,
+    /// `Z`: distance along the view direction to the first hit, mean over the hits.
+    Depth,
+    /// `N.X`, `N.Y`, `N.Z`: world-space outward unit normal at the first hit, mean over hits.
+    Normal,
+    /// `albedo.R/G/B`: the first hit's albedo, or the background's radiance for a miss.
+    Albedo,
+    /// `forward.u/v`, `backward.u/v`: image-space displacement in pixels, mean over hits.
+    Motion,
+    /// `variance.R/G/B`: the estimated variance of the pixel's mean colour.
+    Variance,
+}
+
+/// How a pass's channels are stored in an EXR file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// 16-bit float (`half`).
+    Half,
+    /// 32-bit float.
+    Float,
+}
+
+impl Pass {
+    /// Every pass, in the order the scene format lists them.
+    pub const ALL: [Pass; 6] = [
+        Pass::Alpha,
+        Pass::Depth,
+        Pass::Normal,
+        Pass::Albedo,
+        Pass::Motion,
+        Pass::Variance,
+    ];
+
+    /// The name in `[output] passes` and `--passes`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::Alpha => "alpha",
+            Pass::Depth => "depth",
+            Pass::Normal => "normal",
+            Pass::Albedo => "albedo",
+            Pass::Motion => "motion",
+            Pass::Variance => "variance",
+        }
+    }
+
+    /// The pass named `name`, if any.
+    pub fn from_name(name: &str) -> Option<Pass> {
+        Pass::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// The EXR channels of the pass, in the order [`PassImages`] holds them.
+    pub fn channels(self) -> &'static [&'static str] {
+        match self {
+            Pass::Alpha => &["A"],
+            Pass::Depth => &["Z"],
+            Pass::Normal => &["N.X", "N.Y", "N.Z"],
+            Pass::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
+            Pass::Motion => &["forward.u", "forward.v", "backward.u", "backward.v"],
+            Pass::Variance => &["variance.R", "variance.G", "variance.B"],
+        }
+    }
+
+    /// How the pass is stored: `half` where 11 bits of mantissa lose nothing that matters
+    /// (unit normals, albedos and coverage in [0, 1]), `float` where range or precision does
+    /// (depths, displacements in pixels, variances spanning many decades).
+    pub fn precision(self) -> Precision {
+        match self {
+            Pass::Alpha | Pass::Normal | Pass::Albedo => Precision::Half,
+            Pass::Depth | Pass::Motion | Pass::Variance => Precision::Float,
+        }
+    }
+}
+
+/// A set of passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassSet(u8);
+
+impl PassSet {
+    /// No pass: colour only.
+    pub const EMPTY: PassSet = PassSet(0);
+
+    /// The set with `pass` added.
+    pub fn with(self, pass: Pass) -> PassSet {
+        PassSet(self.0 | 1 << pass as u8)
+    }
+
+    /// Whether `pass` is in the set.
+    pub fn contains(self, pass: Pass) -> bool {
+        self.0 & (1 << pass as u8) != 0
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The passes of the set, in [`Pass::ALL`]'s order.
+    pub fn iter(self) -> impl Iterator<Item = Pass> {
+        Pass::ALL.into_iter().filter(move |p| self.contains(*p))
+    }
+}
+
+impl FromIterator<Pass> for PassSet {
+    fn from_iter<I: IntoIterator<Item = Pass>>(iter: I) -> PassSet {
+        iter.into_iter().fold(PassSet::EMPTY, PassSet::with)
+    }
+}
+
+/// Where each requested pass keeps its per-pixel sums in a pixel's run of `stride` numbers.
+/// Only the requested passes have sums: the hit count (alpha, depth, normal and motion divide
+/// by it), the depth, the normal (3), the albedo (3) and the motion (4). Variance comes from
+/// the colour's own accumulator and needs none.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    passes: PassSet,
+    /// Whether the hits are counted (alpha, depth, normal or motion requested).
+    counts_hits: bool,
+    hits: usize,
+    depth: usize,
+    normal: usize,
+    albedo: usize,
+    motion: usize,
+    /// Numbers per pixel.
+    pub stride: usize,
+}
+
+impl Layout {
+    /// The sums `passes` need.
+    pub fn new(passes: PassSet) -> Layout {
+        let mut stride = 0;
+        let mut slot = |used: bool, n: usize| {
+            let at = stride;
+            if used {
+                stride += n;
+            }
+            at
+        };
+        let counts_hits = passes.iter().any(uses_hits);
+        let hits = slot(counts_hits, 1);
+        let depth = slot(passes.contains(Pass::Depth), 1);
+        let normal = slot(passes.contains(Pass::Normal), 3);
+        let albedo = slot(passes.contains(Pass::Albedo), 3);
+        let motion = slot(passes.contains(Pass::Motion), 4);
+        Layout {
+            passes,
+            counts_hits,
+            hits,
+            depth,
+            normal,
+            albedo,
+            motion,
+            stride,
+        }
+    }
+}
+
+/// What a frame needs to compute its samples' passes.
+#[derive(Clone, Debug)]
+pub struct PassContext<'a> {
+    /// Where the sums go.
+    pub layout: Layout,
+    spheres: &'a [SphereDesc],
+    background: Background,
+    camera: &'a CameraRig,
+    /// The camera's view when it never moves in the shot (then no view is computed per sample).
+    still_view: Option<View>,
+    /// One frame period, 1 / fps, in seconds.
+    period: f64,
+    width: u32,
+    height: u32,
+}
+
+impl<'a> PassContext<'a> {
+    /// The context of a frame of `width` x `height` pixels of a shot at `fps` frames per
+    /// second, for `passes`.
+    pub fn new(
+        passes: PassSet,
+        spheres: &'a [SphereDesc],
+        background: Background,
+        camera: &'a CameraRig,
+        fps: f64,
+        width: u32,
+        height: u32,
+    ) -> PassContext<'a> {
+        let animated = camera.look_from.is_animated() || camera.look_at.is_animated();
+        PassContext {
+            layout: Layout::new(passes),
+            spheres,
+            background,
+            camera,
+            still_view: (!animated).then(|| camera.view_at(0.0, width, height)),
+            period: 1.0 / fps,
+            width,
+            height,
+        }
+    }
+
+    /// The camera's view at time `t`.
+    fn view_at(&self, t: f64) -> View {
+        match self.still_view {
+            Some(v) => v,
+            None => self.camera.view_at(t, self.width, self.height),
+        }
+    }
+
+    /// Adds one sample to a pixel's sums `slots` (its run of [`Layout::stride`] numbers): the
+    /// camera `ray`, seen through `view` (the camera at the ray's time), and the ray's first
+    /// `hit` (`None`: it missed every sphere, or was not traced).
+    #[inline]
+    pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>) {
+        let l = &self.layout;
+        let passes = l.passes;
+        let Some(hit) = hit else {
+            if passes.contains(Pass::Albedo) {
+                let b = self.background.radiance(ray.dir);
+                // A ray that was not traced (not finite) adds nothing.
+                if b.is_finite() {
+                    add3(&mut slots[l.albedo..], b);
+                }
+            }
+            return;
+        };
+        let p = hit.surface.p;
+        if l.counts_hits {
+            slots[l.hits] += 1.0;
+        }
+        if passes.contains(Pass::Depth) {
+            slots[l.depth] += view.depth(p);
+        }
+        if passes.contains(Pass::Normal) {
+            add3(&mut slots[l.normal..], hit.surface.normal);
+        }
+        if passes.contains(Pass::Albedo) {
+            add3(&mut slots[l.albedo..], albedo(&hit.material));
+        }
+        if passes.contains(Pass::Motion) {
+            let (forward, backward) = self.motion(p, hit.sphere, ray.time, view);
+            let m = &mut slots[l.motion..l.motion + 4];
+            m[0] += forward.x;
+            m[1] += forward.y;
+            m[2] += backward.x;
+            m[3] += backward.y;
+        }
+    }
+
+    /// The displacements in pixels (u right, v up) of the point `p` of sphere `sphere` at time
+    /// `t`, seen through `view`, to where it is one frame period later and earlier. A
+    /// displacement that cannot be projected (the point on the camera's plane, a degenerate
+    /// view) is 0.
+    fn motion(&self, p: DVec3, sphere: u32, t: f64, view: &View) -> (DVec2, DVec2) {
+        let path = &self.spheres[sphere as usize].motion;
+        let centre = path.at(t);
+        let here = view.project(p);
+        let moved = |dt: f64| {
+            let t2 = t + dt;
+            // Spheres translate: the point keeps its offset from the centre.
+            let p2 = path.at(t2) + (p - centre);
+            let d = self.view_at(t2).project(p2) - here;
+            // Image rows grow downward; v grows upward.
+            let d = DVec2::new(d.x, -d.y);
+            if d.is_finite() { d } else { DVec2::ZERO }
+        };
+        (moved(self.period), moved(-self.period))
+    }
+}
+
+/// Whether `pass` divides by the hit count.
+fn uses_hits(pass: Pass) -> bool {
+    matches!(
+        pass,
+        Pass::Alpha | Pass::Depth | Pass::Normal | Pass::Motion
+    )
+}
+
+#[inline]
+fn add3(slots: &mut [f64], v: DVec3) {
+    slots[0] += v.x;
+    slots[1] += v.y;
+    slots[2] += v.z;
+}
+
+/// A material's albedo as a denoiser takes it: glass is 1.
+fn albedo(m: &Material) -> DVec3 {
+    match *m {
+        Material::Lambertian { albedo } | Material::Metal { albedo, .. } => albedo,
+        Material::Dielectric { .. } => DVec3::ONE,
+    }
+}
+
+/// One channel of a frame's passes: its EXR name, storage, and values row-major, top row
+/// first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    pub name: &'static str,
+    pub precision: Precision,
+    pub values: Vec<f32>,
+}
+
+/// The depth written where no sample hit.
+pub const NO_DEPTH: f32 = 1e10;
+
+/// A frame's passes: one [`Channel`] per channel of each requested pass, in [`Pass::ALL`]'s
+/// order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassImages {
+    pub width: u32,
+    pub height: u32,
+    pub passes: PassSet,
+    pub channels: Vec<Channel>,
+}
+
+impl PassImages {
+    /// Empty images of `passes` for a `width` x `height` frame.
+    pub fn new(passes: PassSet, width: u32, height: u32) -> PassImages {
+        let n = width as usize * height as usize;
+        let channels = passes
+            .iter()
+            .flat_map(|p| {
+                p.channels().iter().map(move |&name| Channel {
+                    name,
+                    precision: p.precision(),
+                    values: vec![0.0; n],
+                })
+            })
+            .collect();
+        PassImages {
+            width,
+            height,
+            passes,
+            channels,
+        }
+    }
+
+    /// The channel named `name`, if the frame has it.
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels
+            .iter()
+            .find(|c| c.name == name)
+            .map(|c| c.values.as_slice())
+    }
+
+    /// Sets pixel (`x`, `y`) from its sums `slots` over `samples` samples and its colour's
+    /// estimated variance of the mean.
+    pub fn set(
+        &mut self,
+        layout: &Layout,
+        x: u32,
+        y: u32,
+        slots: &[f64],
+        samples: u32,
+        variance: DVec3,
+    ) {
+        let i = y as usize * self.width as usize + x as usize;
+        let hits = if layout.counts_hits {
+            slots[layout.hits]
+        } else {
+            0.0
+        };
+        // Means over the hits: 0 where none hit.
+        let over_hits = |s: f64| if hits > 0.0 { s / hits } else { 0.0 };
+        let mut values: [f32; 18] = [0.0; 18];
+        let mut k = 0;
+        let mut push = |v: f64| {
+            values[k] = v as f32;
+            k += 1;
+        };
+        for pass in self.passes.iter() {
+            match pass {
+                Pass::Alpha => push(if samples > 0 {
+                    hits / samples as f64
+                } else {
+                    0.0
+                }),
+                Pass::Depth => push(if hits > 0.0 {
+                    slots[layout.depth] / hits
+                } else {
+                    NO_DEPTH as f64
+                }),
+                Pass::Normal => (0..3).for_each(|j| push(over_hits(slots[layout.normal + j]))),
+                Pass::Albedo => (0..3).for_each(|j| {
+                    push(if samples > 0 {
+                        slots[layout.albedo + j] / samples as f64
+                    } else {
+                        0.0
+                    })
+                }),
+                Pass::Motion => (0..4).for_each(|j| push(over_hits(slots[layout.motion + j]))),
+                Pass::Variance => (0..3).for_each(|j| push(variance[j])),
+            }
+        }
+        for (c, v) in self.channels.iter_mut().zip(values) {
+            c.values[i] = v;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_sets_hold_what_was_added() {
+        for p in Pass::ALL {
+            assert_eq!(Pass::from_name(p.name()), Some(p));
+        }
+        assert_eq!(Pass::from_name("beauty"), None);
+        let s: PassSet = [Pass::Motion, Pass::Alpha].into_iter().collect();
+        assert_eq!(s.iter().collect::<Vec<_>>(), [Pass::Alpha, Pass::Motion]);
+        assert!(!s.contains(Pass::Depth));
+        assert!(PassSet::EMPTY.is_empty());
+    }
+
+    #[test]
+    fn the_layout_holds_only_the_requested_sums() {
+        assert_eq!(Layout::new(PassSet::EMPTY).stride, 0);
+        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Variance)).stride, 0);
+        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Alpha)).stride, 1);
+        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Albedo)).stride, 3);
+        let all: PassSet = Pass::ALL.into_iter().collect();
+        assert_eq!(Layout::new(all).stride, 1 + 1 + 3 + 3 + 4);
+        let images = PassImages::new(all, 2, 1);
+        let names: Vec<&str> = images.channels.iter().map(|c| c.name).collect();
+        assert_eq!(names.len(), 15);
+        assert_eq!(images.channel("Z").map(<[f32]>::len), Some(2));
+    }
+
+    #[test]
+    fn means_divide_by_hits_or_by_samples() {
+        let all: PassSet = Pass::ALL.into_iter().collect();
+        let l = Layout::new(all);
+        let mut images = PassImages::new(all, 2, 1);
+        // Pixel 0: 4 samples, 2 hits at depths 1 and 3, albedo sums 2.
+        let mut slots = vec![0.0; l.stride];
+        slots[l.hits] = 2.0;
+        slots[l.depth] = 4.0;
+        slots[l.albedo] = 2.0;
+        images.set(&l, 0, 0, &slots, 4, DVec3::ONE);
+        // Pixel 1: no hit.
+        images.set(&l, 1, 0, &vec![0.0; l.stride], 4, DVec3::ZERO);
+        assert_eq!(images.channel("A").unwrap(), &[0.5, 0.0]);
+        assert_eq!(images.channel("Z").unwrap(), &[2.0, NO_DEPTH]);
+        assert_eq!(images.channel("albedo.R").unwrap(), &[0.5, 0.0]);
+        assert_eq!(images.channel("N.X").unwrap(), &[0.0, 0.0]);
+        assert_eq!(images.channel("variance.G").unwrap(), &[1.0, 0.0]);
+    }
+}
