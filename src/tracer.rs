@@ -33,54 +33,38 @@ pub struct TraceStats {
 #[inline]
 pub fn radiance<S: Sampler>(
     world: &World,
-    mut ray: Ray,
+    ray: Ray,
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
 ) -> DVec3 {
-    if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
-        return DVec3::NAN;
-    }
-    let mut throughput = DVec3::ONE;
-    // The sphere the ray just left through its outside, which it cannot hit again.
-    let mut skip = u32::MAX;
-    for _ in 0..max_depth {
-        stats.rays += 1;
-        let Some(hit) = world.hit(&ray, skip, &mut stats.stack) else {
-            return throughput * world.background.radiance(ray.dir);
-        };
-        let sample: BounceSample = sampler.next_bounce();
-        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
-            Scatter::Absorbed => return DVec3::ZERO,
-            Scatter::Continue {
-                dir,
-                attenuation,
-                leaves_outside,
-            } => {
-                throughput *= attenuation;
-                skip = if leaves_outside { hit.sphere } else { u32::MAX };
-                let origin =
-                    offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir);
-                ray = Ray {
-                    origin,
-                    dir,
-                    time: ray.time,
-                };
-            }
-        }
-    }
-    DVec3::ZERO
+    // With nothing to report and an opaque background, the loop compiles to the plain
+    // tracer: the closure and the transparency test are constants once inlined.
+    trace(world, ray, max_depth, sampler, stats, false, |_| {})
 }
 
 /// [`radiance`] for a camera ray, handing the ray's first intersection (`None`: it missed
 /// every sphere) to `first`, which is not called for a ray that is not traced. With
 /// `transparent`, a camera ray that misses every sphere returns black instead of the
 /// background (scattered rays still see it). Otherwise the radiance is the same bits as
-/// [`radiance`]'s, from the same sampler numbers: the loop is `radiance`'s, kept apart so
-/// that `radiance`, which renders frames without passes, has nothing of them in it
-/// (tests/passes.rs compares the two bit for bit).
+/// [`radiance`]'s, from the same sampler numbers (tests/passes.rs compares the two bit for
+/// bit).
 #[inline]
 pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
+    world: &World,
+    ray: Ray,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    first: F,
+) -> DVec3 {
+    trace(world, ray, max_depth, sampler, stats, transparent, first)
+}
+
+/// The loop of [`radiance`] and [`camera_radiance`].
+#[inline(always)]
+fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
     world: &World,
     mut ray: Ray,
     max_depth: u32,
@@ -94,6 +78,7 @@ pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
     }
     let mut first = Some(first);
     let mut throughput = DVec3::ONE;
+    // The sphere the ray just left through its outside, which it cannot hit again.
     let mut skip = u32::MAX;
     for _ in 0..max_depth {
         stats.rays += 1;
