@@ -13,7 +13,7 @@ use crate::camera::View;
 use crate::film::{Film, PixelAccumulator};
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
-use crate::shutter::Interval;
+use crate::shutter::{FrameTimes, Interval};
 use crate::tracer::{TraceStats, radiance};
 use crate::world::{StaticGeometry, World};
 
@@ -146,6 +146,8 @@ struct FrameSetup<'a> {
     world: World<'a>,
     req: &'a FrameRequest,
     interval: Interval,
+    /// The sample times: the shutter curve and a rolling shutter's rows.
+    times: FrameTimes,
     camera_moves: bool,
     fixed_view: View,
     sample_time: bool,
@@ -181,7 +183,10 @@ impl FrameSetup<'_> {
                     // sample) where used; the bounces' numbers do not depend on which are.
                     let camera = sampler.camera(uses);
                     let time = if self.sample_time {
-                        interval.at(camera.time)
+                        // The row of a rolling shutter: the sample's continuous y over the
+                        // height (0 at the top edge), as the camera places it.
+                        let row = (y as f64 + camera.pixel.1) / req.height as f64;
+                        self.times.time(camera.time, row)
                     } else {
                         interval.open
                     };
@@ -287,13 +292,15 @@ pub fn render_frame(
 ) -> FrameResult {
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
-    let interval = scene.shot.interval(req.frame);
+    let times = scene.shot.frame_times(req.frame);
+    let interval = times.interval;
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let setup = FrameSetup {
         scene,
-        // Sample time only when something moves during the shutter; sample the lens only for
+        // Sample time only when something moves during the exposure (with a rolling shutter,
+        // the readout's too: a still scene is the same under any shutter); sample the lens only for
         // a lens with an aperture (which does not change over time, so any instant's view
         // answers).
         sample_time: world.has_motion() || camera_moves,
@@ -301,6 +308,7 @@ pub fn render_frame(
         world,
         req,
         interval,
+        times,
         camera_moves,
         fixed_view,
     };

@@ -9,6 +9,7 @@ use super::render::{check_memory, mib, targets};
 use crate::error::{Error, clip, clip_path};
 use crate::motion::Motion;
 use crate::scene::Scene;
+use crate::shutter::ShutterCurve;
 
 /// `raytrace check`: validates a scene, and what `raytrace render` of it would check before
 /// rendering (its frames and their files, with the same code), and describes it.
@@ -31,6 +32,18 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         shot.position.name(),
         shot.start_time
     );
+    if shot.curve != ShutterCurve::Box || shot.rolling.is_some() {
+        // The frames' intervals below are then each frame's whole exposure.
+        let rolling = shot.rolling.map_or("global".to_string(), |r| {
+            format!("rolling, readout {} s {}", r.readout, r.direction.name())
+        });
+        let _ = writeln!(
+            s,
+            "shutter: curve {}, {rolling}, exposure {} s per frame",
+            shot.curve.describe(),
+            shot.exposure()
+        );
+    }
     let moving = scene
         .spheres
         .iter()
