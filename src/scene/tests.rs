@@ -655,6 +655,21 @@ fn bad_shutter_curves_are_named_at_their_place() {
         assert_eq!(first_line(&e), want, "{text}");
         assert!(e.lines().nth(3).is_some_and(|l| l.contains('^')), "{e}");
     }
+    // As many points as any array holds, and not one more.
+    let points = |n: usize| {
+        let p: Vec<String> = (0..n)
+            .map(|i| format!("[{}, 1]", i as f64 / (n - 1) as f64))
+            .collect();
+        format!("[shot]\nshutter_curve = [{}]\n", p.join(", "))
+    };
+    assert!(
+        matches!(ok(&points(4096)).shot.curve, crate::shutter::ShutterCurve::Points(p) if p.len() == 4096)
+    );
+    assert!(
+        first_line(&err(&points(4097))).starts_with(
+            "s.toml:2:17: shot.shutter_curve: expected an array of at most 4096 values (only shot.shutter_curve takes more than 3 values), found 4097 values"
+        )
+    );
     for (text, want) in [
         (
             "[shot]\nrolling_shutter = { readout = -0.01 }\n",
@@ -797,7 +812,7 @@ fn long_arrays_are_refused_before_the_parse_whole_or_in_pieces() {
     let e = err(&text);
     assert_eq!(
         first_line(&e),
-        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (no key takes more than 3 numbers), found 5000000 values"
+        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (only shot.shutter_curve takes more than 3 values), found 5000000 values"
     );
     // In a sphere, and in the settings after the spheres, pieces give the same message.
     let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n";
