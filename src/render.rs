@@ -299,10 +299,9 @@ pub fn render_frame(
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let setup = FrameSetup {
         scene,
-        // Sample time only when something moves during the exposure (with a rolling shutter,
-        // the readout's too: a still scene is the same under any shutter); sample the lens only for
-        // a lens with an aperture (which does not change over time, so any instant's view
-        // answers).
+        // Sample time only when something moves during the frame's whole exposure (so a still
+        // scene renders the same under any shutter); sample the lens only for a lens with an
+        // aperture (which does not change over time, so any instant's view answers).
         sample_time: world.has_motion() || camera_moves,
         has_lens: fixed_view.has_lens(),
         world,
