@@ -298,42 +298,72 @@ mod tests {
 
     #[test]
     fn sampled_times_follow_the_curve_for_both_samplers() {
-        // The times a frame's samples draw (dimension 4 through the curve), over the pixels
-        // and samples of a small frame, in 32 bins against the curve's weight (bins where it is
-        // closed must stay empty). The chi-square of a correct distribution with k degrees of
-        // freedom (mean k, deviation sqrt(2k)) stays below k + 6 sqrt(2k) but with
-        // probability under 1e-5 (k = 31: 78); uniform (box) times fail it by thousands.
+        // The times a frame's samples draw (the sampler's time number through the frame's
+        // `FrameTimes`, as the renderer maps it), over the pixels and samples of a small frame,
+        // as positions in each sample's row's interval, in 32 bins against the curve's weight
+        // (bins where it is closed must stay empty); with a global shutter and with a rolling
+        // one. The chi-square of a correct distribution with k degrees of freedom (mean k,
+        // deviation sqrt(2k)) stays below k + 6 sqrt(2k) but with probability under 1e-5
+        // (k = 31: 78); uniform (box) times fail it by thousands.
+        use crate::shutter::{ReadoutDirection, RollingShutter, Shot};
         let uses = CameraUse {
             lens: false,
             time: true,
         };
         let bins = 32;
+        let (shutter, readout, height) = (0.02, 0.01, 16);
         for curve in [ShutterCurve::Triangle, trapezoid(), curves()[4].clone()] {
             let t = curve.table().unwrap();
             let mut uniform = vec![];
-            let mut draw = |s: &mut dyn Sampler| {
+            let mut draw = |s: &mut dyn Sampler, rolling: bool| {
+                let shot = Shot {
+                    shutter,
+                    curve: curve.clone(),
+                    rolling: rolling.then_some(RollingShutter {
+                        readout,
+                        direction: ReadoutDirection::BottomToTop,
+                    }),
+                    ..Shot::default()
+                };
+                let times = shot.frame_times(5);
+                let open = times.interval.open;
                 let mut positions = vec![];
-                for y in 0..16 {
+                for y in 0..height {
                     for x in 0..16 {
                         for i in 0..64 {
                             s.start_sample(x, y, i);
-                            let u = s.camera(uses).time;
-                            uniform.push(u);
-                            positions.push(t.sample(u));
+                            let c = s.camera(uses);
+                            let row = (y as f64 + c.pixel.1) / height as f64;
+                            let time = times.time(c.time, row);
+                            let row_open = if rolling {
+                                open + readout * (1.0 - row)
+                            } else {
+                                open
+                            };
+                            uniform.push(c.time);
+                            positions.push(((time - row_open) / shutter).clamp(0.0, 1.0));
                         }
                     }
                 }
                 positions
             };
-            let independent = draw(&mut IndependentSampler::new(3, 7));
-            let sobol = draw(&mut SobolSampler::new(3, 7));
-            for (name, positions) in [("independent", independent), ("sobol", sobol)] {
+            let mut sets = vec![];
+            for rolling in [false, true] {
+                let name = if rolling { "rolling" } else { "global" };
+                sets.push((
+                    name,
+                    "independent",
+                    draw(&mut IndependentSampler::new(3, 7), rolling),
+                ));
+                sets.push((name, "sobol", draw(&mut SobolSampler::new(3, 7), rolling)));
+            }
+            for (shutter, sampler, positions) in sets {
                 let (chi, dof) = chi_square(&t, &positions, bins);
                 assert!(dof >= 10, "{dof}");
                 let bound = dof as f64 + 6.0 * (2.0 * dof as f64).sqrt();
                 assert!(
                     chi < bound,
-                    "{name} {curve:?}: chi-square {chi} ({dof} dof)"
+                    "{shutter} {sampler} {curve:?}: chi-square {chi} ({dof} dof)"
                 );
             }
             // Teeth: the unmapped numbers do not follow the curve.
