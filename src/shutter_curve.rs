@@ -42,7 +42,19 @@ impl ShutterCurve {
             ShutterCurve::Box => "box".into(),
             ShutterCurve::Triangle => "triangle".into(),
             ShutterCurve::Points(p) => {
-                let points: Vec<String> = p.iter().map(|(s, w)| format!("[{s}, {w}]")).collect();
+                // Shortest form, scientific when very small or large (never hundreds of digits).
+                let show = |x: f64| {
+                    let debug = format!("{x:?}");
+                    if debug.contains('e') {
+                        debug
+                    } else {
+                        format!("{x}")
+                    }
+                };
+                let points: Vec<String> = p
+                    .iter()
+                    .map(|&(s, w)| format!("[{}, {}]", show(s), show(w)))
+                    .collect();
                 format!("[{}]", points.join(", "))
             }
         }
@@ -399,6 +411,10 @@ mod tests {
             "[[0, 0], [0.2, 1], [0.8, 1], [1, 0]]"
         );
         assert_eq!(ShutterCurve::Triangle.describe(), "triangle");
+        assert_eq!(
+            ShutterCurve::Points(vec![(0.0, 1e-300), (1e-300, 1e300), (1.0, 0.0)]).describe(),
+            "[[0, 1e-300], [1e-300, 1e300], [1, 0]]"
+        );
         assert!(CurveTable::new(&[(0.0, 0.0), (1.0, 0.0)]).is_none());
     }
 }

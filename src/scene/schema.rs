@@ -231,7 +231,8 @@ impl<'de> Deserialize<'de> for RawCurve {
                 let end = points[points.len() - 1].0;
                 if end != 1.0 {
                     return Err(de::Error::custom(format_args!(
-                        "expected the last point's s to be 1, found {end}"
+                        "expected the last point's s to be 1, found {}",
+                        super::validate::show(end)
                     )));
                 }
                 if points.iter().all(|p| p.1 == 0.0) {
@@ -274,7 +275,8 @@ impl<'de> Visitor<'de> for CurvePoint {
             return Err(wrong(n));
         }
         // s: 0 for the first point; above the previous one, and below 1 unless it is the last.
-        let s_expected = match (self.previous, self.last) {
+        let shown = self.previous.map(super::validate::show);
+        let s_expected = match (&shown, self.last) {
             (None, _) => "0 (the first point's s)".to_string(),
             (Some(p), Some(true)) => format!("1 (the last point's s, after {p})"),
             (Some(p), Some(false)) => format!("a number greater than {p} and less than 1"),

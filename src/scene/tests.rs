@@ -634,6 +634,10 @@ fn bad_shutter_curves_are_named_at_their_place() {
             "s.toml:2:17: shot.shutter_curve: expected at least 2 points [s, w], found 1",
         ),
         (
+            "[[0, 1], [1e-300, 1], [1e-301, 1], [1, 1]]",
+            "s.toml:2:40: shot.shutter_curve[2][0]: expected a number greater than 1e-300 and less than 1, found the number 1e-301",
+        ),
+        (
             "[[0, 0], [1, 0]]",
             "s.toml:2:17: shot.shutter_curve: expected a weight w above 0 somewhere (a shutter that opens), found only zeros",
         ),
