@@ -50,6 +50,8 @@ fn main() -> ExitCode {
         samples: scene.render.samples,
         seed: scene.render.seed,
         sampler: scene.render.sampler.name().to_string(),
+        rolling_shutter_readout: None,
+        shutter_curve: None,
         extra: Vec::new(),
     };
     // The encoder applies the sRGB curve to linear values; these pictures are display values,

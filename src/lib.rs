@@ -29,6 +29,7 @@ pub mod rng;
 pub mod sampler;
 pub mod scene;
 mod shutter;
+mod shutter_curve;
 pub mod sphere;
 pub mod tracer;
 pub mod world;

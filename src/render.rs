@@ -15,7 +15,7 @@ use crate::passes::{PassContext, PassImages};
 use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
-use crate::shutter::Interval;
+use crate::shutter::{FrameTimes, Interval};
 use crate::tracer::{TraceStats, camera_radiance, radiance};
 use crate::world::{StaticGeometry, World};
 
@@ -150,6 +150,8 @@ struct FrameSetup<'a> {
     world: World<'a>,
     req: &'a FrameRequest,
     interval: Interval,
+    /// The sample times: the shutter curve and a rolling shutter's rows.
+    times: FrameTimes,
     camera_moves: bool,
     fixed_view: View,
     sample_time: bool,
@@ -199,7 +201,10 @@ impl FrameSetup<'_> {
                     // sample) where used; the bounces' numbers do not depend on which are.
                     let camera = sampler.camera(uses);
                     let time = if self.sample_time {
-                        interval.at(camera.time)
+                        // The row of a rolling shutter: the sample's continuous y over the
+                        // height (0 at the top edge), as the camera places it.
+                        let row = (y as f64 + camera.pixel.1) / req.height as f64;
+                        self.times.time(camera.time, row)
                     } else {
                         interval.open
                     };
@@ -336,7 +341,8 @@ pub fn render_frame(
 ) -> FrameResult {
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
-    let interval = scene.shot.interval(req.frame);
+    let times = scene.shot.frame_times(req.frame);
+    let interval = times.interval;
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
@@ -354,14 +360,15 @@ pub fn render_frame(
     let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
     let setup = FrameSetup {
         scene,
-        // Sample time only when something moves during the shutter; sample the lens only for
-        // a lens with an aperture (which does not change over time, so any instant's view
-        // answers).
+        // Sample time only when something moves during the frame's whole exposure (so a still
+        // scene renders the same under any shutter); sample the lens only for a lens with an
+        // aperture (which does not change over time, so any instant's view answers).
         sample_time: world.has_motion() || camera_moves,
         has_lens: fixed_view.has_lens(),
         world,
         req,
         interval,
+        times,
         camera_moves,
         fixed_view,
         passes,

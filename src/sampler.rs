@@ -39,7 +39,7 @@ use crate::rng::{Pcg32, hash_words, mix64};
 pub struct CameraUse {
     /// The lens position (a lens of non-zero aperture).
     pub lens: bool,
-    /// The time (something moves during the shutter).
+    /// The time (something moves during the frame's exposure).
     pub time: bool,
 }
 
@@ -72,7 +72,8 @@ pub struct CameraSample {
     pub pixel: (f64, f64),
     /// The lens position (dimensions 2 and 3); 0.5, 0.5 when not used.
     pub lens: (f64, f64),
-    /// The time, as a fraction of the shutter interval (dimension 4); 0.5 when not used.
+    /// The time number (dimension 4); 0.5 when not used. The renderer maps it to a time
+    /// through the shutter curve and the sample's row (`FrameTimes::time`).
     pub time: f64,
 }
 

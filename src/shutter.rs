@@ -1,10 +1,13 @@
-//! The time model: frame number → nominal time → shutter interval.
+//! The time model: frame number → nominal time → shutter interval, and the time of each
+//! camera sample inside it (the shutter curve, the rolling shutter).
 //!
 //! All times are absolute seconds in `f64`. At frame 1,000,000 of a 24 fps shot the time is
 //! about 4.2e4 s, where an `f64` still resolves 7e-12 s, so a 1/48 s shutter keeps about 31 bits
 //! of resolution for its sample times (an `f32` would keep under 3).
 
 use crate::lerp::lerp;
+use crate::shutter_curve::CurveTable;
+pub use crate::shutter_curve::ShutterCurve;
 
 /// Where the shutter interval sits relative to the frame's nominal time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -27,6 +30,36 @@ impl ShutterPosition {
             ShutterPosition::End => "end",
         }
     }
+}
+
+/// Which edge of the image a rolling shutter reads first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReadoutDirection {
+    /// The top row opens first.
+    #[default]
+    TopToBottom,
+    /// The bottom row opens first.
+    BottomToTop,
+}
+
+impl ReadoutDirection {
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReadoutDirection::TopToBottom => "top-to-bottom",
+            ReadoutDirection::BottomToTop => "bottom-to-top",
+        }
+    }
+}
+
+/// A rolling shutter: every row of the image has its own shutter interval, each row's opening
+/// `readout * y / height` later than the first row's (`y` continuous, 0 at the top edge).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollingShutter {
+    /// Seconds from the first row's opening to the last row's, >= 0.
+    pub readout: f64,
+    /// Which row is first.
+    pub direction: ReadoutDirection,
 }
 
 /// A closed time interval `[open, close]`, `open <= close`. Zero length means an instant.
@@ -78,8 +111,12 @@ pub struct Shot {
     pub start_time: f64,
     /// Seconds the shutter is open per frame, >= 0.
     pub shutter: f64,
-    /// Where the shutter interval sits around the nominal time.
+    /// Where the frame's exposure sits around the nominal time.
     pub position: ShutterPosition,
+    /// How open the shutter is across each row's interval.
+    pub curve: ShutterCurve,
+    /// `None`: a global shutter, every row exposed over the same interval.
+    pub rolling: Option<RollingShutter>,
 }
 
 impl Default for Shot {
@@ -91,6 +128,8 @@ impl Default for Shot {
             start_time: 0.0,
             shutter: shutter_from_angle(180.0, 24.0),
             position: ShutterPosition::Center,
+            curve: ShutterCurve::Box,
+            rolling: None,
         }
     }
 }
@@ -117,10 +156,21 @@ impl Shot {
         self.start_time + offset / self.fps
     }
 
-    /// The shutter interval of `frame`.
+    /// The seconds from the first row's opening to the last row's closing: the shutter, plus
+    /// the readout of a rolling shutter.
+    pub fn exposure(&self) -> f64 {
+        match self.rolling {
+            None => self.shutter,
+            Some(r) => self.shutter + r.readout,
+        }
+    }
+
+    /// The interval of `frame`'s whole exposure, from the first row's opening to the last
+    /// row's closing (with a global shutter, the shutter interval), placed around the nominal
+    /// time by [`ShutterPosition`]. Every sample time of the frame lies in it.
     pub fn interval(&self, frame: u32) -> Interval {
         let t = self.frame_time(frame);
-        let s = self.shutter;
+        let s = self.exposure();
         match self.position {
             ShutterPosition::Start => Interval {
                 open: t,
@@ -137,12 +187,75 @@ impl Shot {
         }
     }
 
+    /// How `frame`'s camera samples get their times.
+    pub fn frame_times(&self, frame: u32) -> FrameTimes {
+        let interval = self.interval(frame);
+        FrameTimes {
+            interval,
+            shutter: self.shutter,
+            // A zero shutter ignores the curve: each row is an instant.
+            table: if self.shutter > 0.0 {
+                self.curve.table()
+            } else {
+                None
+            },
+            // A zero readout is a global shutter.
+            rolling: self
+                .rolling
+                .filter(|r| r.readout > 0.0)
+                .map(|r| (r.readout, r.direction)),
+        }
+    }
+
     /// The interval from the first frame's shutter opening to the last frame's closing.
     pub fn whole_interval(&self) -> Interval {
         Interval {
             open: self.interval(self.first_frame).open,
             close: self.interval(self.last_frame()).close,
         }
+    }
+}
+
+/// One frame's sample times: a sample's number for time (in [0, 1)) and its image row give
+/// its time, distributed over the row's interval in proportion to the shutter curve.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameTimes {
+    /// The frame's whole exposure ([`Shot::interval`]).
+    pub interval: Interval,
+    /// Seconds each row is open.
+    shutter: f64,
+    /// The curve's inverse cumulative weight; `None` for a box (or a zero shutter).
+    table: Option<CurveTable>,
+    /// A rolling shutter's readout and direction.
+    rolling: Option<(f64, ReadoutDirection)>,
+}
+
+impl FrameTimes {
+    /// The time of a sample with time number `u` in [0, 1) at image row `row` in [0, 1]
+    /// (the continuous `y` over the height: 0 at the top edge, 1 at the bottom). A box curve
+    /// with a global shutter gives exactly `interval.at(u)`. Always inside `interval`.
+    #[inline]
+    pub fn time(&self, u: f64, row: f64) -> f64 {
+        let u = match &self.table {
+            None => u,
+            Some(t) => t.sample(u),
+        };
+        match self.rolling {
+            None => self.interval.at(u),
+            Some((readout, direction)) => {
+                let row = match direction {
+                    ReadoutDirection::TopToBottom => row,
+                    ReadoutDirection::BottomToTop => 1.0 - row,
+                };
+                let open = self.interval.open + readout * row;
+                (open + self.shutter * u).clamp(self.interval.open, self.interval.close)
+            }
+        }
+    }
+
+    /// Whether the time depends on the row (a rolling shutter with a readout).
+    pub fn is_rolling(&self) -> bool {
+        self.rolling.is_some()
     }
 }
 
@@ -158,6 +271,7 @@ mod tests {
             start_time: 0.0,
             shutter: 0.02,
             position,
+            ..Shot::default()
         }
     }
 
@@ -227,5 +341,99 @@ mod tests {
         let w = s.whole_interval();
         assert_eq!(w.open, -0.01);
         assert!((w.close - (47.0 / 24.0 + 0.01)).abs() < 1e-12);
+    }
+
+    fn rolling(shutter: f64, readout: f64, direction: ReadoutDirection) -> Shot {
+        Shot {
+            shutter,
+            rolling: Some(RollingShutter { readout, direction }),
+            ..shot(ShutterPosition::Center)
+        }
+    }
+
+    #[test]
+    fn a_rolling_shutter_exposes_shutter_plus_readout_around_the_nominal_time() {
+        let s = rolling(0.02, 0.01, ReadoutDirection::TopToBottom);
+        let i = s.interval(25);
+        assert!((i.open - (1.0 - 0.015)).abs() < 1e-15 && (i.close - 1.015).abs() < 1e-15);
+        for (position, open) in [
+            (ShutterPosition::Start, 1.0),
+            (ShutterPosition::End, 1.0 - 0.03),
+        ] {
+            let i = Shot {
+                position,
+                ..s.clone()
+            }
+            .interval(25);
+            assert!((i.open - open).abs() < 1e-15 && (i.duration() - 0.03).abs() < 1e-15);
+        }
+        // The top row opens with the exposure, the bottom row closes it; the middle row's
+        // interval is shifted by half the readout.
+        let t = s.frame_times(25);
+        assert!(t.is_rolling());
+        assert_eq!(t.time(0.0, 0.0), i.open);
+        assert!((t.time(1.0, 1.0) - i.close).abs() < 1e-15);
+        assert!((t.time(0.0, 0.5) - (i.open + 0.005)).abs() < 1e-15);
+        assert!((t.time(0.5, 0.5) - (i.open + 0.005 + 0.01)).abs() < 1e-15);
+        // Bottom to top: the bottom row first.
+        let b = rolling(0.02, 0.01, ReadoutDirection::BottomToTop).frame_times(25);
+        assert_eq!(b.time(0.0, 1.0), i.open);
+        assert!((b.time(0.0, 0.0) - (i.open + 0.01)).abs() < 1e-15);
+        assert!((b.time(0.0, 0.25) - t.time(0.0, 0.75)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_pure_rolling_shutter_makes_each_row_an_instant() {
+        let s = rolling(0.0, 0.04, ReadoutDirection::TopToBottom);
+        let i = s.interval(25);
+        assert!((i.duration() - 0.04).abs() < 1e-15);
+        let t = s.frame_times(25);
+        for row in [0.0, 0.3, 1.0] {
+            let first = t.time(0.0, row);
+            assert!((first - (i.open + 0.04 * row)).abs() < 1e-15);
+            for u in [0.2, 0.7, 0.999] {
+                assert_eq!(t.time(u, row), first);
+            }
+        }
+    }
+
+    #[test]
+    fn a_global_box_shutter_is_the_interval_exactly() {
+        let s = shot(ShutterPosition::Center);
+        let t = s.frame_times(7);
+        assert!(!t.is_rolling());
+        let i = s.interval(7);
+        for k in 0..1000 {
+            let u = k as f64 / 1000.0;
+            assert_eq!(t.time(u, 0.3).to_bits(), i.at(u).to_bits());
+        }
+        // A zero readout is a global shutter; a zero shutter ignores the curve.
+        let zero = rolling(0.02, 0.0, ReadoutDirection::TopToBottom);
+        assert_eq!(zero.interval(7), i);
+        assert_eq!(zero.frame_times(7), t);
+        let still = Shot {
+            shutter: 0.0,
+            curve: ShutterCurve::Triangle,
+            ..s
+        };
+        assert_eq!(still.frame_times(7).time(0.3, 0.5), still.frame_time(7));
+    }
+
+    #[test]
+    fn curve_times_stay_inside_each_rows_interval() {
+        let mut s = rolling(0.02, 0.01, ReadoutDirection::TopToBottom);
+        s.curve = ShutterCurve::Triangle;
+        let t = s.frame_times(3);
+        let i = s.interval(3);
+        let mut r = crate::rng::Pcg32::new(4, 4);
+        for _ in 0..10_000 {
+            let (u, row) = (r.next_f64(), r.next_f64());
+            let time = t.time(u, row);
+            let open = i.open + 0.01 * row;
+            assert!(i.contains(time));
+            assert!(time >= open - 1e-15 && time <= open + 0.02 + 1e-15);
+        }
+        // The triangle's median is the row interval's middle.
+        assert!((t.time(0.5, 0.0) - (i.open + 0.01)).abs() < 1e-15);
     }
 }

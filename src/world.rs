@@ -2,7 +2,9 @@
 //! two hierarchies. Spheres that never move in the shot are built into a [`StaticGeometry`]
 //! once per sequence; the others are prepared per frame ([`SphereDesc::prepare`]), with boxes
 //! at that frame's shutter opening and closing. A sphere that does not move during a frame is
-//! traced as a fixed sphere.
+//! traced as a fixed sphere. A frame's interval is its whole exposure ([`Shot::interval`]):
+//! under a rolling shutter, from the first row's opening to the last row's closing, so the
+//! boxes hold every sphere at every row's times.
 //!
 //! Where one hierarchy over everything is cheaper, every sphere is treated as animated. In
 //! scenes of at most [`MERGE_LIMIT`] spheres its hierarchy is built per frame. In larger
@@ -12,6 +14,7 @@
 //! frame whose refitted boxes are too poor ([`REBUILD_AREA`]) gets a hierarchy of its own.
 //!
 //! [`SphereDesc::prepare`]: crate::sphere::SphereDesc::prepare
+//! [`Shot::interval`]: crate::shutter::Shot::interval
 
 use std::borrow::Cow;
 

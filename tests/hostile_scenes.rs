@@ -21,7 +21,7 @@ use raytrace::world::StaticGeometry;
 
 /// The shipped scenes, and one that uses every key of the format (camera keyframes and a
 /// keyframed sphere, which no shipped scene has).
-const SCENES: [(&str, &str); 6] = [
+const SCENES: [(&str, &str); 7] = [
     ("every_key", EVERY_KEY),
     (
         "bouncing_spheres",
@@ -31,6 +31,7 @@ const SCENES: [(&str, &str); 6] = [
     ("orbits", include_str!("../scenes/orbits.toml")),
     ("quick", include_str!("../scenes/quick.toml")),
     ("turntable", include_str!("../scenes/turntable.toml")),
+    ("propeller", include_str!("../scenes/propeller.toml")),
 ];
 
 const EVERY_KEY: &str = r#"
@@ -41,6 +42,8 @@ first_frame = 2
 start_time = 0.25
 shutter_angle = 270
 shutter_position = "end"
+shutter_curve = [[0, 0], [0.25, 1], [0.75, 1], [1, 0]]
+rolling_shutter = { readout = 0.05, direction = "bottom-to-top" }
 [output]
 path = "renders/every_key_####.png"
 width = 16

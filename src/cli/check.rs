@@ -9,6 +9,7 @@ use super::render::{Shot, check_memory, load_shots, mib};
 use crate::error::{Error, clip, clip_path};
 use crate::motion::Motion;
 use crate::scene::Overrides;
+use crate::shutter::ShutterCurve;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
 /// rendering (their frames and files, with the same code), and describes each. With several
@@ -53,6 +54,18 @@ fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
         shot.position.name(),
         shot.start_time
     );
+    if shot.curve != ShutterCurve::Box || shot.rolling.is_some() {
+        // The frames' intervals below are then each frame's whole exposure.
+        let rolling = shot.rolling.map_or("global".to_string(), |r| {
+            format!("rolling, readout {} s {}", r.readout, r.direction.name())
+        });
+        let _ = writeln!(
+            s,
+            "shutter: curve {}, {rolling}, exposure {} s per frame",
+            shot.curve.describe(),
+            shot.exposure()
+        );
+    }
     let moving = scene
         .spheres
         .iter()

@@ -15,6 +15,7 @@ use crate::io::{self, FrameInfo};
 use crate::passes::PassImages;
 use crate::render::{FrameStats, memory_estimate, render_frame};
 use crate::scene::{Overrides, Scene};
+use crate::shutter::ShutterCurve;
 use crate::world::StaticGeometry;
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
@@ -426,6 +427,8 @@ pub(crate) fn frame_info(scene: &Scene, frame: u32, samples: u32) -> FrameInfo {
         samples,
         seed: scene.render.seed,
         sampler: scene.render.sampler.name().to_string(),
+        rolling_shutter_readout: scene.shot.rolling.map(|r| r.readout),
+        shutter_curve: (scene.shot.curve != ShutterCurve::Box).then(|| scene.shot.curve.describe()),
         extra: Vec::new(),
     }
 }

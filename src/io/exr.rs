@@ -25,6 +25,11 @@ pub struct FrameInfo {
     pub seed: u64,
     /// The name of the sampler that placed the samples.
     pub sampler: String,
+    /// A rolling shutter's readout in seconds, if the shot has one (the shutter times above
+    /// are then those of the whole exposure, first row's opening to last row's closing).
+    pub rolling_shutter_readout: Option<f64>,
+    /// The shutter curve as the scene writes it, unless a box.
+    pub shutter_curve: Option<String>,
     /// Further numeric attributes, stored as doubles under their names. A name must be 1 to
     /// 255 printable Latin-1 characters, must be unique, and must not be one of the names
     /// above nor a standard OpenEXR attribute name.
@@ -45,8 +50,21 @@ pub mod attribute_names {
     pub const SEED: &str = "seed";
     /// The sampler's name, as text.
     pub const SAMPLER: &str = "sampler";
+    /// A rolling shutter's readout in seconds, a double (only with a rolling shutter).
+    pub const ROLLING_SHUTTER_READOUT: &str = "rollingShutterReadout";
+    /// The shutter curve, as text (only when not a box).
+    pub const SHUTTER_CURVE: &str = "shutterCurve";
     /// All of the above.
-    pub const ALL: &[&str] = &[FRAME, SHUTTER_OPEN, SHUTTER_CLOSE, SAMPLES, SEED, SAMPLER];
+    pub const ALL: &[&str] = &[
+        FRAME,
+        SHUTTER_OPEN,
+        SHUTTER_CLOSE,
+        SAMPLES,
+        SEED,
+        SAMPLER,
+        ROLLING_SHUTTER_READOUT,
+        SHUTTER_CURVE,
+    ];
 }
 
 /// Reads the RGB channels of an EXR file as linear radiance: (width, height, pixels
@@ -161,6 +179,21 @@ pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAtt
                 .ok_or_else(|| format!("sampler name \"{}\" is not Latin-1", info.sampler))?,
         ),
     );
+    if let Some(readout) = info.rolling_shutter_readout {
+        other.insert(
+            Text::from(attribute_names::ROLLING_SHUTTER_READOUT),
+            AttributeValue::F64(readout),
+        );
+    }
+    if let Some(curve) = &info.shutter_curve {
+        other.insert(
+            Text::from(attribute_names::SHUTTER_CURVE),
+            AttributeValue::Text(
+                Text::new_or_none(curve)
+                    .ok_or_else(|| format!("shutter curve \"{curve}\" is not Latin-1"))?,
+            ),
+        );
+    }
     for (name, value) in &info.extra {
         let bad = |why: &str| format!("extra attribute name \"{name}\" {why}");
         // Up to 31 characters: longer names need the file's long-name flag.

@@ -17,6 +17,8 @@ fn info() -> FrameInfo {
         samples: 256,
         seed: u64::MAX - 12345,
         sampler: "sobol".to_string(),
+        rolling_shutter_readout: None,
+        shutter_curve: None,
         extra: vec![
             ("achievedSamples".to_string(), 211.5),
             ("error".to_string(), 0.0125),
@@ -189,6 +191,42 @@ fn exr_round_trip() {
     );
     assert_eq!(get("achievedSamples"), Some(AttributeValue::F64(211.5)));
     assert_eq!(get("error"), Some(AttributeValue::F64(0.0125)));
+}
+
+#[test]
+fn exr_shutter_attributes_only_when_the_shot_has_them() {
+    use ::exr::meta::attribute::{AttributeValue, Text};
+    let dir = tempfile::tempdir().unwrap();
+    let read = |info: &FrameInfo, name: &str| {
+        let path = dir.path().join(format!("{name}.exr"));
+        write_frame(&path, 1, 1, &[0.25, 0.5, 1.0], info).unwrap();
+        let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
+        let a = image.layer_data[0].attributes.other.clone();
+        (
+            a.get(&Text::from("rollingShutterReadout")).cloned(),
+            a.get(&Text::from("shutterCurve")).cloned(),
+        )
+    };
+    assert_eq!(read(&info(), "plain"), (None, None));
+    let rolling = FrameInfo {
+        rolling_shutter_readout: Some(0.015),
+        shutter_curve: Some("triangle".into()),
+        ..info()
+    };
+    assert_eq!(
+        read(&rolling, "rolling"),
+        (
+            Some(AttributeValue::F64(0.015)),
+            Some(AttributeValue::Text(Text::from("triangle")))
+        )
+    );
+    // The names are reserved for these fields.
+    let taken = FrameInfo {
+        extra: vec![("rollingShutterReadout".into(), 1.0)],
+        ..info()
+    };
+    let path = dir.path().join("taken.exr");
+    assert!(write_frame(&path, 1, 1, &[0.0; 3], &taken).is_err());
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! about 200 bytes per value: a 15 MB line `look_from = [0, 0, 0, ...]` of 5 million numbers
 //! took 1 GB and 3 s before the schema refused its length. The scan refuses
 //! - an array of more than [`MAX_ARRAY`] elements, unless its elements are tables (keyframes):
-//!   no key takes more than 3 numbers;
+//!   only `shot.shutter_curve` takes more than 3 values, and 4096 points are plenty;
 //! - a document of more than [`MAX_VALUES`] values (about 800 MB of tree): a scene larger
 //!   than that gives its spheres as `[[sphere]]` tables, which are parsed in pieces of 4096
 //!   (see [`super::pieces`]), each its own document;
@@ -206,7 +206,7 @@ fn long_array(
     let prefix = format!("{}0", &doc[..start]);
     let path = report::path_at(&prefix, &(start..start + 1), first_sphere);
     let message = format!(
-        "expected an array of at most {MAX_ARRAY} values (no key takes more than 3 numbers), found {count} values"
+        "expected an array of at most {MAX_ARRAY} values (only shot.shutter_curve takes more than 3 values), found {count} values"
     );
     Located {
         span: start..start + 1,
@@ -230,7 +230,7 @@ mod tests {
         let e = scan(&doc, 0).unwrap_err();
         assert_eq!(
             e.message,
-            "camera.look_from: expected an array of at most 4096 values (no key takes more than 3 numbers), found 5000000 values"
+            "camera.look_from: expected an array of at most 4096 values (only shot.shutter_curve takes more than 3 values), found 5000000 values"
         );
         assert_eq!(e.span.start, doc.find("look_from = [").unwrap() + 12);
         // Nested, in a sphere of a piece starting at sphere 7.

@@ -499,7 +499,7 @@ fn schema_errors_name_the_field_and_say_what_was_expected_and_found() {
         ("[shot]\n[shot]\n", "s.toml:2:2: duplicate table [shot]"),
         (
             "[shot]\nfpz = 1\n",
-            "s.toml:2:1: shot: unknown key `fpz`, expected one of fps, frames, first_frame, start_time, shutter, shutter_angle, shutter_position",
+            "s.toml:2:1: shot: unknown key `fpz`, expected one of fps, frames, first_frame, start_time, shutter, shutter_angle, shutter_position, shutter_curve, rolling_shutter",
         ),
         (
             "camera = 5\n",
@@ -558,6 +558,142 @@ fn schema_errors_name_the_field_and_say_what_was_expected_and_found() {
         assert_eq!(first_line(&e), want, "{text}");
         // The source line follows, with a caret.
         assert!(e.lines().nth(3).is_some_and(|l| l.contains('^')), "{e}");
+    }
+}
+
+#[test]
+fn shutter_curves_and_rolling_shutters_parse() {
+    use crate::shutter::{ReadoutDirection, RollingShutter, ShutterCurve};
+    let s = ok("[shot]\nshutter = 0.02\n");
+    assert_eq!(
+        (s.shot.curve.clone(), s.shot.rolling),
+        (ShutterCurve::Box, None)
+    );
+    for (written, curve) in [
+        ("\"box\"", ShutterCurve::Box),
+        ("\"triangle\"", ShutterCurve::Triangle),
+        (
+            "[[0, 0], [0.2, 1], [0.8, 1.0], [1.0, 0]]",
+            ShutterCurve::Points(vec![(0.0, 0.0), (0.2, 1.0), (0.8, 1.0), (1.0, 0.0)]),
+        ),
+        (
+            "[[0, 0.5], [1, 0]]",
+            ShutterCurve::Points(vec![(0.0, 0.5), (1.0, 0.0)]),
+        ),
+    ] {
+        let s = ok(&format!("[shot]\nshutter_curve = {written}\n"));
+        assert_eq!(s.shot.curve, curve, "{written}");
+    }
+    let s = ok("[shot]\nrolling_shutter = { readout = 0.01 }\n");
+    assert_eq!(
+        s.shot.rolling,
+        Some(RollingShutter {
+            readout: 0.01,
+            direction: ReadoutDirection::TopToBottom
+        })
+    );
+    let s = ok("[shot]\nrolling_shutter = { readout = 0, direction = \"bottom-to-top\" }\n");
+    assert_eq!(
+        s.shot.rolling,
+        Some(RollingShutter {
+            readout: 0.0,
+            direction: ReadoutDirection::BottomToTop
+        })
+    );
+}
+
+#[test]
+fn bad_shutter_curves_are_named_at_their_place() {
+    for (curve, want) in [
+        (
+            "\"gauss\"",
+            "s.toml:2:17: shot.shutter_curve: expected \"box\", \"triangle\" or an array of [s, w] points, found \"gauss\"",
+        ),
+        (
+            "[[0, 0], [0.5, 1], [0.4, 1], [1, 0]]",
+            "s.toml:2:37: shot.shutter_curve[2][0]: expected a number greater than 0.5 and less than 1, found the number 0.4",
+        ),
+        (
+            "[[0.1, 0], [1, 1]]",
+            "s.toml:2:19: shot.shutter_curve[0][0]: expected 0 (the first point's s), found the number 0.1",
+        ),
+        (
+            "[[0, 0], [0.5, -1], [1, 0]]",
+            "s.toml:2:32: shot.shutter_curve[1][1]: expected a finite number >= 0 (the weight w), found the integer -1",
+        ),
+        (
+            "[[0, 0], [0.5, inf], [1, 0]]",
+            "s.toml:2:32: shot.shutter_curve[1][1]: expected a finite number >= 0 (the weight w), found the number inf",
+        ),
+        (
+            "[[0, 0], [0.5, 1], [0.9, 0]]",
+            "s.toml:2:37: shot.shutter_curve[2][0]: expected 1 (the last point's s, after 0.5), found the number 0.9",
+        ),
+        (
+            "[[0, 1]]",
+            "s.toml:2:17: shot.shutter_curve: expected at least 2 points [s, w], found 1",
+        ),
+        (
+            "[[0, 1], [1e-300, 1], [1e-301, 1], [1, 1]]",
+            "s.toml:2:40: shot.shutter_curve[2][0]: expected a number greater than 1e-300 and less than 1, found the number 1e-301",
+        ),
+        (
+            "[[0, 0], [1, 0]]",
+            "s.toml:2:17: shot.shutter_curve: expected a weight w above 0 somewhere (a shutter that opens), found only zeros",
+        ),
+        (
+            "[[0, 0, 1], [1, 1]]",
+            "s.toml:2:18: shot.shutter_curve[0]: expected 2 numbers [s, w], found 3",
+        ),
+        (
+            "[[0, 0], 1]",
+            "s.toml:2:26: shot.shutter_curve[1]: expected an array of 2 numbers [s, w], found the integer 1",
+        ),
+        (
+            "[[0, 0], [0.5, \"1\"], [1, 0]]",
+            "s.toml:2:32: shot.shutter_curve[1][1]: expected a number, found the string \"1\"",
+        ),
+    ] {
+        let text = format!("[shot]\nshutter_curve = {curve}\n");
+        let e = err(&text);
+        assert_eq!(first_line(&e), want, "{text}");
+        assert!(e.lines().nth(3).is_some_and(|l| l.contains('^')), "{e}");
+    }
+    // As many points as any array holds, and not one more.
+    let points = |n: usize| {
+        let p: Vec<String> = (0..n)
+            .map(|i| format!("[{}, 1]", i as f64 / (n - 1) as f64))
+            .collect();
+        format!("[shot]\nshutter_curve = [{}]\n", p.join(", "))
+    };
+    assert!(
+        matches!(ok(&points(4096)).shot.curve, crate::shutter::ShutterCurve::Points(p) if p.len() == 4096)
+    );
+    assert!(
+        first_line(&err(&points(4097))).starts_with(
+            "s.toml:2:17: shot.shutter_curve: expected an array of at most 4096 values (only shot.shutter_curve takes more than 3 values), found 4097 values"
+        )
+    );
+    for (text, want) in [
+        (
+            "[shot]\nrolling_shutter = { readout = -0.01 }\n",
+            "s.toml: shot.rolling_shutter.readout must be >= 0, got -0.01",
+        ),
+        (
+            "[shot]\nrolling_shutter = { readout = 0.01, direction = \"up\" }\n",
+            "s.toml:2:49: shot.rolling_shutter.direction: expected one of \"top-to-bottom\", \"bottom-to-top\", found \"up\"",
+        ),
+        (
+            "[shot]\nrolling_shutter = { direction = \"bottom-to-top\" }\n",
+            "s.toml:2:19: shot.rolling_shutter: missing key `readout`",
+        ),
+        (
+            "[shot]\nrolling_shutter = { readout = 0.01, rows = 3 }\n",
+            "s.toml:2:", // the unknown key, at its place
+        ),
+    ] {
+        let e = err(text);
+        assert!(first_line(&e).starts_with(want), "{text}: {e}");
     }
 }
 
@@ -680,7 +816,7 @@ fn long_arrays_are_refused_before_the_parse_whole_or_in_pieces() {
     let e = err(&text);
     assert_eq!(
         first_line(&e),
-        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (no key takes more than 3 numbers), found 5000000 values"
+        "s.toml:2:13: camera.look_from: expected an array of at most 4096 values (only shot.shutter_curve takes more than 3 values), found 5000000 values"
     );
     // In a sphere, and in the settings after the spheres, pieces give the same message.
     let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = { type = \"dielectric\", ior = 1.5 }\n";

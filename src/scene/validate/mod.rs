@@ -13,8 +13,8 @@ use glam::DVec3;
 
 use super::report;
 use super::schema::{
-    MaterialRef, Number, RawCamera, RawMaterial, RawOutput, RawPass, RawSampler, RawScene, RawShot,
-    RawShutterPosition, RawSphere, V3,
+    MaterialRef, Number, RawCamera, RawCurve, RawMaterial, RawOutput, RawPass, RawReadoutDirection,
+    RawSampler, RawScene, RawShot, RawShutterPosition, RawSphere, V3,
 };
 use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
 use crate::camera::{
@@ -26,7 +26,9 @@ use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
 use crate::passes::{Pass, PassSet};
 use crate::sampler::SamplerKind;
-use crate::shutter::{Shot, ShutterPosition, shutter_from_angle};
+use crate::shutter::{
+    ReadoutDirection, RollingShutter, Shot, ShutterCurve, ShutterPosition, shutter_from_angle,
+};
 use crate::sphere::SphereDesc;
 
 /// Formats a number as the scene file would, shortest first: `2`, `0.25`, `-0`, and in
@@ -437,6 +439,24 @@ impl<'a> Check<'a> {
             start_time: self.num("shot.start_time", s.start_time.map_or(0.0, |t| t.0))?,
             shutter,
             position,
+            // The points were checked as they were read (see `RawCurve`).
+            curve: match &s.shutter_curve {
+                None | Some(RawCurve::Box) => ShutterCurve::Box,
+                Some(RawCurve::Triangle) => ShutterCurve::Triangle,
+                Some(RawCurve::Points(p)) => ShutterCurve::Points(p.clone()),
+            },
+            rolling: match &s.rolling_shutter {
+                None => None,
+                Some(r) => Some(RollingShutter {
+                    readout: self.non_negative("shot.rolling_shutter.readout", r.readout.0)?,
+                    direction: match r.direction {
+                        None | Some(RawReadoutDirection::TopToBottom) => {
+                            ReadoutDirection::TopToBottom
+                        }
+                        Some(RawReadoutDirection::BottomToTop) => ReadoutDirection::BottomToTop,
+                    },
+                }),
+            },
         };
         // A tiny fps over many frames can push the last frame's time out of range.
         let whole = shot.whole_interval();
