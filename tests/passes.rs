@@ -849,3 +849,41 @@ fn budgets_and_converge_work_with_passes() {
     );
     assert!(dir.path().join("c.csv").exists());
 }
+
+#[test]
+fn passes_work_with_shutter_curves_and_rolling_shutters() {
+    // The busy scene under a trapezoid curve and a rolling shutter: the colour is the same bits
+    // with and without passes, and the passes the same bits across threads and under a budget.
+    let shutters = |passes: &str| {
+        busy(passes, "").replace(
+            "shutter_angle = 180.0",
+            "shutter_angle = 180.0\nshutter_curve = [[0, 0], [0.2, 1], [0.8, 1], [1, 0]]\n\
+             rolling_shutter = { readout = 0.01, direction = \"bottom-to-top\" }",
+        )
+    };
+    let plain = scene(&busy(ALL, ""));
+    let s = scene(&shutters(ALL));
+    assert!(s.shot.rolling.is_some());
+    let with = render(&s, 2);
+    let without = render(&scene(&shutters("[]")), 2);
+    assert_eq!(bits(&with).0, bits(&without).0);
+    // The shutters change the picture and its passes (the test would see a shutter ignored).
+    let before = render(&plain, 2);
+    assert_ne!(bits(&with).0, bits(&before).0);
+    assert_ne!(bits(&with).1, bits(&before).1);
+    let statics = StaticGeometry::new(&s);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| render_frame(&s, &statics, 2, &Budget::default(), &|_| {}));
+    assert_eq!(bits(&one), bits(&with));
+    let budget = Budget {
+        noise_threshold: Some(1e-12),
+        max_samples: Some(8),
+        ..Budget::default()
+    };
+    let budgeted = render_frame(&s, &statics, 2, &budget, &|_| {});
+    assert_eq!(budgeted.stats.samples_per_pixel, 8);
+    assert_eq!(bits(&budgeted), bits(&with));
+}
