@@ -4,33 +4,14 @@
 //! `CI=true`, where they fail. The `.gif`, `.apng` and `.png` tests need no other program.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use raytrace::io::{linear_to_srgb8, read_exr_rgb};
 
+mod common;
+use common::{ok, run, text};
+
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
-
-fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run raytrace")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn ok(dir: &Path, args: &[&str]) -> String {
-    let o = run(dir, args);
-    assert!(o.status.success(), "{args:?}: {}", text(&o));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 /// A 5-frame shot at 23.976 fps (24000/1001) of odd size, 65x37: a large saturated red sphere
 /// sliding over a green ground (colours on which a wrong YUV matrix shows), smooth enough at
@@ -334,11 +315,7 @@ fn render_makes_the_clip_of_clip_flag_or_scene_after_the_frames() {
         "-o",
         "k/f_#.png",
     ];
-    let out = Command::new(env!("CARGO_BIN_EXE_raytrace"))
-        .args(chunk)
-        .current_dir(d.path())
-        .output()
-        .unwrap();
+    let out = run(d.path(), &chunk);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(

@@ -33,12 +33,7 @@ pub(crate) fn write_with(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), Error>,
 ) -> Result<(), Error> {
-    let (dir, file_name) = split_target(path)?;
-    let mut pending = Pending::default();
-    create_folders(&dir, &mut pending).map_err(|e| Error::io(path, e))?;
-    let file = pending
-        .create_temp(&dir, file_name)
-        .map_err(|e| Error::io(path, e))?;
+    let (dir, pending, file) = start(path)?;
     let mut writer = BufWriter::new(file);
     write(&mut writer)?;
     let file = writer
@@ -46,9 +41,7 @@ pub(crate) fn write_with(
         .map_err(|e| Error::io(path, e.into_error()))?;
     file.sync_all().map_err(|e| Error::io(path, e))?;
     drop(file);
-    pending.rename_to(path).map_err(|e| Error::io(path, e))?;
-    sync_dir(&dir);
-    Ok(())
+    commit(pending, &dir, path)
 }
 
 /// [`write_with`] for a writer that is another program: creates `path`'s folder and an
@@ -59,19 +52,33 @@ pub(crate) fn write_with_temp_file(
     path: &Path,
     write: impl FnOnce(File) -> Result<(), Error>,
 ) -> Result<(), Error> {
+    let (dir, pending, file) = start(path)?;
+    let temp = pending.temp.clone().expect("a temporary file");
+    write(file)?;
+    File::open(&temp)
+        .and_then(|f| f.sync_all())
+        .map_err(|e| Error::io(path, e))?;
+    commit(pending, &dir, path)
+}
+
+/// The start of an atomic write of `path`: its folder (created, if need be), the pending
+/// write (which removes what it created if dropped before [`commit`]) and the new temporary
+/// file.
+fn start(path: &Path) -> Result<(PathBuf, Pending, File), Error> {
     let (dir, file_name) = split_target(path)?;
     let mut pending = Pending::default();
     create_folders(&dir, &mut pending).map_err(|e| Error::io(path, e))?;
     let file = pending
         .create_temp(&dir, file_name)
         .map_err(|e| Error::io(path, e))?;
-    let temp = pending.temp.clone().expect("a temporary file");
-    write(file)?;
-    File::open(&temp)
-        .and_then(|f| f.sync_all())
-        .map_err(|e| Error::io(path, e))?;
+    Ok((dir, pending, file))
+}
+
+/// The end of an atomic write: the synced temporary file renamed to `path`, and the rename
+/// made durable.
+fn commit(pending: Pending, dir: &Path, path: &Path) -> Result<(), Error> {
     pending.rename_to(path).map_err(|e| Error::io(path, e))?;
-    sync_dir(&dir);
+    sync_dir(dir);
     Ok(())
 }
 

@@ -61,18 +61,33 @@ pub fn v(p: DVec3) -> String {
     format!("[{}, {}, {}]", f(p.x), f(p.y), f(p.z))
 }
 
-/// Runs the `raytrace` binary in `dir` and asserts that it succeeds.
-pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
-    let o = Command::new(env!("CARGO_BIN_EXE_raytrace"))
+/// Runs the `raytrace` binary in `dir` with `args`, whatever its status.
+pub fn run(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raytrace"))
         .args(args)
         .current_dir(dir)
         .output()
-        .expect("run raytrace");
-    assert!(
-        o.status.success(),
-        "{args:?}: {}{}",
+        .expect("run raytrace")
+}
+
+/// What a run printed: its standard output, then its standard error.
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
-    );
+    )
+}
+
+/// Runs the `raytrace` binary in `dir` and asserts that it succeeds.
+pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
+    let o = run(dir, args);
+    assert!(o.status.success(), "{args:?}: {}", text(&o));
     o
+}
+
+/// Runs the `raytrace` binary in `dir`, asserts that it succeeds and returns its standard
+/// output.
+pub fn ok(dir: &Path, args: &[&str]) -> String {
+    String::from_utf8_lossy(&run_ok(dir, args).stdout).into_owned()
 }
