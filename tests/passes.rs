@@ -516,32 +516,37 @@ fn colour_with_passes_is_the_same_bits_as_without() {
     }
 }
 
-#[test]
-fn passes_are_the_same_bits_across_threads_ranges_and_budgets() {
-    let s = scene(&busy(ALL, ""));
-    let statics = StaticGeometry::new(&s);
+/// Asserts that frame 2 of `s` is the same bits, colour and passes, on one thread and on
+/// three after frame 1 (as in a range), and in passes of 1, 1, 2, 4 samples under a budget
+/// that stops at 8 (the scene's samples); returns it.
+fn same_bits_across_threads_ranges_and_budgets(s: &Scene) -> FrameResult {
+    let statics = StaticGeometry::new(s);
     let pool = |n| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .unwrap()
     };
-    let one = pool(1).install(|| render_frame(&s, &statics, 2, &Budget::default(), &|_| {}));
+    let one = pool(1).install(|| render_frame(s, &statics, 2, &Budget::default(), &|_| {}));
     let three = pool(3).install(|| {
-        // Frame 2 after frame 1, as in a range.
-        render_frame(&s, &statics, 1, &Budget::default(), &|_| {});
-        render_frame(&s, &statics, 2, &Budget::default(), &|_| {})
+        render_frame(s, &statics, 1, &Budget::default(), &|_| {});
+        render_frame(s, &statics, 2, &Budget::default(), &|_| {})
     });
     assert_eq!(bits(&one), bits(&three));
-    // In passes of 1, 1, 2, 4 samples under a budget that stops at 8.
     let budget = Budget {
         noise_threshold: Some(1e-12),
         max_samples: Some(8),
         ..Budget::default()
     };
-    let budgeted = render_frame(&s, &statics, 2, &budget, &|_| {});
+    let budgeted = render_frame(s, &statics, 2, &budget, &|_| {});
     assert_eq!(budgeted.stats.passes, 4);
     assert_eq!(bits(&budgeted), bits(&one));
+    one
+}
+
+#[test]
+fn passes_are_the_same_bits_across_threads_ranges_and_budgets() {
+    same_bits_across_threads_ranges_and_budgets(&scene(&busy(ALL, "")));
 }
 
 #[test]
@@ -871,19 +876,8 @@ fn passes_work_with_shutter_curves_and_rolling_shutters() {
     let before = render(&plain, 2);
     assert_ne!(bits(&with).0, bits(&before).0);
     assert_ne!(bits(&with).1, bits(&before).1);
-    let statics = StaticGeometry::new(&s);
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| render_frame(&s, &statics, 2, &Budget::default(), &|_| {}));
-    assert_eq!(bits(&one), bits(&with));
-    let budget = Budget {
-        noise_threshold: Some(1e-12),
-        max_samples: Some(8),
-        ..Budget::default()
-    };
-    let budgeted = render_frame(&s, &statics, 2, &budget, &|_| {});
-    assert_eq!(budgeted.stats.samples_per_pixel, 8);
-    assert_eq!(bits(&budgeted), bits(&with));
+    assert_eq!(
+        bits(&same_bits_across_threads_ranges_and_budgets(&s)),
+        bits(&with)
+    );
 }
