@@ -881,3 +881,32 @@ fn passes_work_with_shutter_curves_and_rolling_shutters() {
         bits(&with)
     );
 }
+
+#[test]
+fn check_lists_the_passes_and_a_transparent_background() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), SMALL);
+    let check = |args: &[&str]| {
+        let out = raytrace()
+            .arg("check")
+            .arg(&scene)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    assert!(!check(&[]).contains("passes:"));
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(
+        &scene,
+        text.replace("[output]\n", "[output]\npasses = [\"motion\", \"alpha\"]\n")
+            + "[background]\ntransparent = true\n",
+    )
+    .unwrap();
+    let out = check(&[]);
+    assert!(
+        out.contains("passes: colour, alpha, motion (transparent background)\n"),
+        "{out}"
+    );
+}

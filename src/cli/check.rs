@@ -103,6 +103,16 @@ fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
         scene.render.seed,
         clip(&scene.output.path)
     );
+    if !scene.output.passes.is_empty() || scene.transparent {
+        let mut passes = vec!["colour"];
+        passes.extend(scene.output.passes.iter().map(|p| p.name()));
+        let background = if scene.transparent {
+            " (transparent background)"
+        } else {
+            ""
+        };
+        let _ = writeln!(s, "passes: {}{background}", passes.join(", "));
+    }
     if let Some(c) = &scene.output.clip {
         let _ = writeln!(s, "clip: {}", clip(c));
     }
