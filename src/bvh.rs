@@ -85,24 +85,25 @@ impl Default for TraversalStack {
 }
 
 /// Four children's boxes, structure-of-arrays: `planes[axis][child]` is the lower side,
-/// `planes[3 + axis][child]` the upper side. An empty slot has lower sides `+inf` and upper
-/// sides `-inf`, which no ray hits. Aligned to a cache line (it is three lines long), so a
-/// node's boxes never straddle a fourth.
+/// `planes[3 + axis][child]` the upper side, as `f32` rounded outward ([`f32_below`],
+/// [`f32_above`]) so a stored box always contains the `f64` box it stands for. An empty slot
+/// has lower sides `+inf` and upper sides `-inf`, which no ray hits. 96 bytes, aligned to 32,
+/// so a node's boxes always lie on exactly two cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(align(64))]
+#[repr(align(32))]
 struct Boxes4 {
-    planes: [[f64; 4]; 6],
+    planes: [[f32; 4]; 6],
 }
 
 impl Boxes4 {
     const EMPTY: Boxes4 = Boxes4 {
         planes: [
-            [f64::INFINITY; 4],
-            [f64::INFINITY; 4],
-            [f64::INFINITY; 4],
-            [f64::NEG_INFINITY; 4],
-            [f64::NEG_INFINITY; 4],
-            [f64::NEG_INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
         ],
     };
 
@@ -110,12 +111,26 @@ impl Boxes4 {
         planes: [[0.0; 4]; 6],
     };
 
+    /// Sets slot `k` to the smallest `f32` box containing `b`.
     fn set(&mut self, k: usize, b: &Aabb) {
         for a in 0..3 {
-            self.planes[a][k] = b.min[a];
-            self.planes[3 + a][k] = b.max[a];
+            self.planes[a][k] = f32_below(b.min[a]);
+            self.planes[3 + a][k] = f32_above(b.max[a]);
         }
     }
+}
+
+/// The largest `f32` at or below `x`: `x` itself when it is one, and `-inf` below
+/// `-f32::MAX`; `f32::MAX` for a finite `x` above it, `+inf` for `+inf`, NaN for NaN.
+fn f32_below(x: f64) -> f32 {
+    // `as` rounds to nearest (to an infinity past the range); one step down undoes a rounding up.
+    let y = x as f32;
+    if f64::from(y) > x { y.next_down() } else { y }
+}
+
+/// The smallest `f32` at or above `x` (the mirror of [`f32_below`]).
+fn f32_above(x: f64) -> f32 {
+    -f32_below(-x)
 }
 
 /// The children of a 4-wide node: per slot, a node index or a leaf's first primitive position
@@ -441,8 +456,8 @@ impl Boxes {
         let child = |node: &Boxes4, k: usize| {
             let mut b = Aabb::EMPTY;
             for a in 0..3 {
-                b.min[a] = node.planes[a][k];
-                b.max[a] = node.planes[3 + a][k];
+                b.min[a] = f64::from(node.planes[a][k]);
+                b.max[a] = f64::from(node.planes[3 + a][k]);
             }
             b
         };
@@ -521,6 +536,7 @@ impl<'a> BvhView<'a> {
             return None;
         }
         let moving = !moving_boxes.is_empty();
+        let s32 = s as f32;
         let inv = (DVec3::ONE / dir).to_array();
         let o = origin.to_array();
         // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
@@ -544,8 +560,9 @@ impl<'a> BvhView<'a> {
                 for a in 0..3 {
                     let (e, x) = (entry[a], exit[a]);
                     for k in 0..4 {
-                        let n = planes[e][k] + s * d[e][k];
-                        let f = planes[x][k] + s * d[x][k];
+                        // In `f32`, which `moving_lower`'s margin allows for.
+                        let n = f64::from(planes[e][k] + s32 * d[e][k]);
+                        let f = f64::from(planes[x][k] + s32 * d[x][k]);
                         near[k] = near[k].max((n - o[a]) * inv[a]);
                         far[k] = far[k].min((f - o[a]) * inv[a]);
                     }
@@ -555,8 +572,8 @@ impl<'a> BvhView<'a> {
                 for a in 0..3 {
                     let (e, x) = (entry[a], exit[a]);
                     for k in 0..4 {
-                        near[k] = near[k].max((planes[e][k] - o[a]) * inv[a]);
-                        far[k] = far[k].min((planes[x][k] - o[a]) * inv[a]);
+                        near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
+                        far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
                     }
                 }
             }
@@ -745,17 +762,56 @@ fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) 
     }
 }
 
-/// Sets child slot `k` of a moving node's `[boxes, delta]` to the box `open` at the shutter's
-/// opening and `close` at its closing (stored as `open` and the change `close - open`).
+/// Sets child slot `k` of a moving node's `[boxes, delta]` to a box containing, at every
+/// shutter time `s` in [0, 1], the box interpolated from `open` (at `s = 0`) to `close` (at
+/// `s = 1`): stored as its sides at the opening and their change until the closing, both
+/// `f32`, which a traversal evaluates in `f64` as `side + s * change` ([`moving_lower`]).
 fn set_moving(node: &mut [Boxes4; 2], k: usize, open: &Aabb, close: &Aabb) {
     let [boxes, delta] = node;
-    boxes.set(k, open);
-    // An empty slot's infinities would give inf - inf = NaN: it does not move.
-    let change = |close: f64, open: f64| if open.is_finite() { close - open } else { 0.0 };
     for a in 0..3 {
-        delta.planes[a][k] = change(close.min[a], open.min[a]);
-        delta.planes[3 + a][k] = change(close.max[a], open.max[a]);
+        (boxes.planes[a][k], delta.planes[a][k]) = moving_lower(open.min[a], close.min[a]);
+        // An upper side is a lower side of the mirrored box.
+        let (o, d) = moving_lower(-open.max[a], -close.max[a]);
+        (boxes.planes[3 + a][k], delta.planes[3 + a][k]) = (-o, -d);
     }
+}
+
+/// A lower side moving from `open` to `close` during the shutter, as `(o, d)` in `f32` such
+/// that `o + s * d` is at most `open + s * (close - open)` (exactly) for every `s` in [0, 1],
+/// whether evaluated in `f64` (each `f32` converted exactly) or in `f32` (with `s` rounded to
+/// `f32`).
+///
+/// Why (the reasoning of pbrt-v4's error bounds): let `m = max(|open|, |close|)` and
+/// `p = m 2^-18 + 2^-146`. Then `o <= open - p + 2^-53 (m + p)` (rounded down from the `f64`
+/// subtraction, off by at most that) and so `o <= open - (1 - 2^-34) p`; likewise `c` for
+/// `close`. `d` is `c - o` rounded down but for the `f64` rounding of that difference, at most
+/// `2^-52 |c - o| <= 2^-50 (m + p)` above. In exact arithmetic, since the interpolation has
+/// non-negative weights, `o + s d <= (1 - s) o + s c + 2^-50 (m + p) <= open + s (close - open)
+/// - (1 - 2^-34) p + 2^-50 (m + p)`. Evaluating `o + s * d` in `f64` costs two roundings of at
+/// most `2^-53 (|s d| + |o + s d|) <= 2^-50 (m + p)`; in `f32`, rounding `s` (by `2^-25`), the
+/// product and the sum cost at most `2^-24 (2.5 |d| + |o|) <= 2^-21 (m + p)`, plus `2^-149`
+/// for each of two underflows. In all the evaluated side lies below the exact interpolation,
+/// as `p >= 2^-18 m` and `2^-146` is more than the underflows. A side that is not finite (an
+/// empty slot's `+inf`, a NaN, or one beyond the `f32` range after the margin) is stored as
+/// the constant `min(open, close)` rounded down with `d = 0`, below the interpolation at every
+/// `s`: an empty slot stays `+inf`, never hit.
+fn moving_lower(open: f64, close: f64) -> (f32, f32) {
+    let constant = || (f32_below(open.min(close)), 0.0);
+    if !(open.is_finite() && close.is_finite()) {
+        return constant();
+    }
+    // 2^-18 and 2^-146, eight times the least positive `f32`.
+    let p = open.abs().max(close.abs()) * f64::from(2f32.powi(-18)) + f64::from(f32::from_bits(8));
+    let o = f32_below(open - p);
+    let c = f32_below(close - p);
+    if !(o.is_finite() && c.is_finite()) {
+        return constant();
+    }
+    let d = f32_below(f64::from(c) - f64::from(o));
+    if !d.is_finite() {
+        return constant();
+    }
+    (o, d)
 }
 
 /// The best SAH split of `items` (reordered in place so the split is at the returned index),
@@ -1051,6 +1107,188 @@ mod tests {
         let mut seen: Vec<u32> = bvh.order().to_vec();
         seen.sort();
         assert_eq!(seen, (0..1000).collect::<Vec<u32>>());
+    }
+
+    /// `f32_below` and `f32_above` bracket every `f64` by adjacent `f32`s (or by one, when
+    /// it is an `f32`), past the `f32` range and down to its subnormals.
+    #[test]
+    fn f32_rounding_is_outward() {
+        let (max, tiny) = (f64::from(f32::MAX), f64::from(f32::from_bits(1)));
+        let cases: [(f64, f32, f32); 14] = [
+            (1.0, 1.0, 1.0),
+            (0.0, 0.0, 0.0),
+            (-2.5, -2.5, -2.5),
+            (1.0 + f64::EPSILON, 1.0, 1.0f32.next_up()),
+            (1.0 - f64::EPSILON / 2.0, 1.0f32.next_down(), 1.0),
+            (-(1.0 + f64::EPSILON), -1.0f32.next_up(), -1.0),
+            (max, f32::MAX, f32::MAX),
+            (3.5e38, f32::MAX, f32::INFINITY),
+            (-3.5e38, f32::NEG_INFINITY, -f32::MAX),
+            (1e-50, 0.0, f32::from_bits(1)),
+            (-1e-50, -f32::from_bits(1), -0.0),
+            (1.5 * tiny, f32::from_bits(1), f32::from_bits(2)),
+            (f64::INFINITY, f32::INFINITY, f32::INFINITY),
+            (f64::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY),
+        ];
+        for (x, lo, hi) in cases {
+            assert_eq!((f32_below(x), f32_above(x)), (lo, hi), "{x:e}");
+        }
+        assert!(f32_below(f64::NAN).is_nan() && f32_above(f64::NAN).is_nan());
+        // Any magnitude, any sign: below <= x <= above, adjacent or equal.
+        let mut r = Pcg32::new(31, 7);
+        for _ in 0..100_000 {
+            let x = (r.next_f64() - 0.5) * 2f64.powi((r.next_f64() * 300.0) as i32 - 160);
+            let (lo, hi) = (f32_below(x), f32_above(x));
+            assert!(f64::from(lo) <= x && x <= f64::from(hi), "{x:e}");
+            assert!(lo == hi || lo.next_up() == hi, "{x:e}");
+        }
+    }
+
+    /// A moving side's `f32` form, evaluated as a traversal does, stays outside the
+    /// interpolation of the `f64` sides at every shutter time, at every scale; an empty slot
+    /// stays empty.
+    #[test]
+    fn moving_sides_are_conservative() {
+        assert_eq!(
+            moving_lower(f64::INFINITY, f64::INFINITY),
+            (f32::INFINITY, 0.0)
+        );
+        assert_eq!(
+            moving_lower(f64::NEG_INFINITY, f64::NEG_INFINITY),
+            (f32::NEG_INFINITY, 0.0)
+        );
+        assert_eq!(
+            moving_lower(1.0, f64::NEG_INFINITY),
+            (f32::NEG_INFINITY, 0.0)
+        );
+        // Beyond the `f32` range: a side past it is the constant infinity, a change past it
+        // the largest `f32`, less than the change.
+        assert_eq!(moving_lower(-3.5e38, 0.0), (f32::NEG_INFINITY, 0.0));
+        assert_eq!(moving_lower(-3.4e38, 3.4e38).1, f32::MAX);
+        let mut r = Pcg32::new(32, 9);
+        for _ in 0..20_000 {
+            let scale = 2f64.powi((r.next_f64() * 260.0) as i32 - 140);
+            let open = (r.next_f64() - 0.5) * scale;
+            // Sometimes far apart, sometimes nearly equal, sometimes equal.
+            let close = match r.next_f64() {
+                x if x < 0.3 => open,
+                x if x < 0.6 => open * (1.0 + (r.next_f64() - 0.5) * 1e-7),
+                _ => (r.next_f64() - 0.5) * scale * 2f64.powi((r.next_f64() * 40.0) as i32 - 20),
+            };
+            for (lo, hi) in [(open, close), (-open, -close)] {
+                let (o, d) = moving_lower(lo, hi);
+                for s in [
+                    0.0,
+                    1.0,
+                    0.5,
+                    r.next_f64(),
+                    1.0 - f64::EPSILON / 2.0,
+                    1e-300,
+                ] {
+                    let got = f64::from(o) + s * f64::from(d);
+                    // Exact at the ends; elsewhere the `f64` interpolation is within a few
+                    // ulps of the exact one, far inside the margin.
+                    let exact = if s == 0.0 {
+                        lo
+                    } else if s == 1.0 {
+                        hi
+                    } else {
+                        lo + s * (hi - lo)
+                    };
+                    assert!(got <= exact, "{lo:e} {hi:e} at {s}: {got:e}");
+                }
+            }
+        }
+    }
+
+    /// Spheres far from the origin (around 1e6) and tiny ones near it (around 1e-6), with rays
+    /// grazing them along the faces of their boxes, where rounding the boxes to `f32` the
+    /// wrong way would cull hits: the hierarchy finds exactly what testing every sphere does.
+    #[test]
+    fn grazing_rays_at_far_and_tiny_scales_agree_with_brute_force() {
+        let mut r = Pcg32::new(33, 11);
+        let mut stack = TraversalStack::default();
+        for (offset, scale) in [(1e6, 30.0), (-3e6, 1.0), (0.0, 1e-6), (2e-6, 3e-8)] {
+            let n = 400;
+            let spheres: Vec<(DVec3, DVec3, f64)> = (0..n)
+                .map(|i| {
+                    let c = DVec3::splat(offset)
+                        + (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale;
+                    let v = if i % 2 == 0 {
+                        DVec3::ZERO
+                    } else {
+                        (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale * 0.1
+                    };
+                    (c, v, scale * (0.002 + r.next_f64() * 0.02))
+                })
+                .collect();
+            let boxes_at = |s: f64| -> Vec<Aabb> {
+                spheres
+                    .iter()
+                    .map(|(c, v, rad)| Aabb::point(*c + *v * s).grow(*rad).pad_for_rounding())
+                    .collect()
+            };
+            let still: Vec<(DVec3, f64)> = spheres.iter().map(|(c, _, rad)| (*c, *rad)).collect();
+            let still_bvh = Bvh::build(&boxes_at(0.0));
+            let moving_bvh = Bvh::build_moving(&boxes_at(0.0), &boxes_at(1.0));
+            let mut hits = 0;
+            for _ in 0..3000 {
+                let (c, v, rad) = spheres[(r.next_f64() * n as f64) as usize];
+                let time = if r.next_f64() < 0.5 {
+                    0.0
+                } else {
+                    r.next_f64()
+                };
+                let moving = r.next_f64() < 0.5;
+                let centre = if moving { c + v * time } else { c };
+                // The ray touches the sphere where its box's face does (an axis-aligned
+                // normal), or elsewhere; it runs along the tangent plane, shifted by a few
+                // ulps of the coordinates either way.
+                let axis = (r.next_f64() * 3.0) as usize;
+                let mut normal = DVec3::ZERO;
+                normal[axis] = if r.next_f64() < 0.5 { 1.0 } else { -1.0 };
+                if r.next_f64() < 0.3 {
+                    normal =
+                        (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5).normalize();
+                }
+                let tangent = normal
+                    .cross(DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5)
+                    .normalize();
+                let shift = (r.next_f64() - 0.5) * 8.0 * f64::EPSILON * (offset.abs() + scale);
+                let touch = centre + normal * (rad + shift);
+                let ray = crate::ray::Ray {
+                    origin: touch - tangent * (scale * (0.01 + r.next_f64())),
+                    dir: tangent,
+                    time,
+                };
+                if moving {
+                    assert!(moving_hit_is_brute(
+                        moving_bvh.view(),
+                        &spheres,
+                        &ray,
+                        &mut stack
+                    ));
+                } else {
+                    let order = still_bvh.order();
+                    let got = still_bvh.closest_hit(
+                        ray.origin,
+                        ray.dir,
+                        0.0,
+                        f64::INFINITY,
+                        &mut stack,
+                        |p, tmax| {
+                            let (c, rad) = still[order[p as usize] as usize];
+                            crate::sphere::intersect(c, rad, &ray, tmax)
+                        },
+                    );
+                    let want = brute(&still, &ray);
+                    hits += want.is_some() as usize;
+                    assert_eq!(got.map(|(t, p)| (t, order[p as usize])), want);
+                }
+            }
+            // Grazing rays hit about half the time: the test is not vacuous.
+            assert!(hits > 100, "{hits} hits at scale {scale}");
+        }
     }
 
     /// The same boxes give the same hierarchy whatever the number of threads building it.
