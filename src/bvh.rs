@@ -1,8 +1,9 @@
 //! A bounding volume hierarchy over boxes: built as a binary tree with the surface-area
 //! heuristic (binned, as in Wald 2007, "On fast Construction of SAH-based Bounding Volume
 //! Hierarchies"), in parallel, then collapsed into a 4-wide tree (as Embree's BVH4) stored as
-//! flat arrays of nodes. A node holds its four children's boxes as structure-of-arrays, so a
-//! ray is tested against all four at once with straight-line arithmetic the compiler
+//! flat arrays of nodes. A node holds its four children's boxes as structure-of-arrays, in
+//! `f32` rounded outward (half the memory of `f64`; a box only ever grows, so no hit is lost),
+//! so a ray is tested against all four at once with straight-line arithmetic the compiler
 //! vectorises, and the children a ray hits are visited nearest first.
 //!
 //! A hierarchy ([`Bvh`]) is kept in two parts: its [`Topology`] (every node's children and
@@ -170,8 +171,8 @@ pub struct Boxes {
     /// For a still hierarchy, per node, its children's boxes.
     still: Vec<Boxes4>,
     /// For a moving hierarchy, per node, its children's boxes at the shutter's opening and
-    /// their change until its closing (`close - open`), side by side: a traversal step reads
-    /// both, with one bounds check.
+    /// their change until its closing (about `close - open`, widened: see [`moving_lower`]),
+    /// side by side: a traversal step reads both, with one bounds check.
     moving: Vec<[Boxes4; 2]>,
     /// The box of everything (over the whole shutter, for a moving hierarchy).
     bounds: Aabb,
@@ -765,7 +766,7 @@ fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) 
 /// Sets child slot `k` of a moving node's `[boxes, delta]` to a box containing, at every
 /// shutter time `s` in [0, 1], the box interpolated from `open` (at `s = 0`) to `close` (at
 /// `s = 1`): stored as its sides at the opening and their change until the closing, both
-/// `f32`, which a traversal evaluates in `f64` as `side + s * change` ([`moving_lower`]).
+/// `f32`, which a traversal evaluates in `f32` as `side + s * change` ([`moving_lower`]).
 fn set_moving(node: &mut [Boxes4; 2], k: usize, open: &Aabb, close: &Aabb) {
     let [boxes, delta] = node;
     for a in 0..3 {
@@ -786,8 +787,8 @@ fn set_moving(node: &mut [Boxes4; 2], k: usize, open: &Aabb, close: &Aabb) {
 /// subtraction, off by at most that) and so `o <= open - (1 - 2^-34) p`; likewise `c` for
 /// `close`. `d` is `c - o` rounded down but for the `f64` rounding of that difference, at most
 /// `2^-52 |c - o| <= 2^-50 (m + p)` above. In exact arithmetic, since the interpolation has
-/// non-negative weights, `o + s d <= (1 - s) o + s c + 2^-50 (m + p) <= open + s (close - open)
-/// - (1 - 2^-34) p + 2^-50 (m + p)`. Evaluating `o + s * d` in `f64` costs two roundings of at
+/// non-negative weights, `o + s d <= (1 - s) o + s c + 2^-50 (m + p)`, which is at most
+/// `open + s (close - open) - (1 - 2^-34) p + 2^-50 (m + p)`. Evaluating `o + s * d` in `f64` costs two roundings of at
 /// most `2^-53 (|s d| + |o + s d|) <= 2^-50 (m + p)`; in `f32`, rounding `s` (by `2^-25`), the
 /// product and the sum cost at most `2^-24 (2.5 |d| + |o|) <= 2^-21 (m + p)`, plus `2^-149`
 /// for each of two underflows. In all the evaluated side lies below the exact interpolation,
