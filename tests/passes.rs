@@ -15,7 +15,7 @@ use raytrace::render::{Budget, FrameResult, render_frame};
 use raytrace::scene::Scene;
 use raytrace::world::StaticGeometry;
 
-use common::scene;
+use common::{ok, run, run_ok, scene};
 
 fn render(scene: &Scene, frame: u32) -> FrameResult {
     let statics = StaticGeometry::new(scene);
@@ -587,10 +587,6 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
 
 // ---- Files ----
 
-fn raytrace() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_raytrace"))
-}
-
 fn write_scene(dir: &Path, text: &str) -> std::path::PathBuf {
     let path = dir.join("s.toml");
     std::fs::write(&path, text).unwrap();
@@ -638,21 +634,19 @@ const CHANNELS: [&str; 18] = [
 #[test]
 fn exr_frames_hold_the_passes_channels_by_name_and_type() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write_scene(dir.path(), SMALL);
-    let out = dir.path().join("o_####.exr");
-    let status = raytrace()
-        .args([
+    write_scene(dir.path(), SMALL);
+    run_ok(
+        dir.path(),
+        &[
             "render",
             "-q",
             "--passes",
             "alpha,depth,normal,albedo,motion,variance",
-        ])
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
+            "s.toml",
+            "-o",
+            "o_####.exr",
+        ],
+    );
     let path = dir.path().join("o_0001.exr");
     let image = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
     assert_eq!(image.layer_data.len(), 1);
@@ -670,16 +664,7 @@ fn exr_frames_hold_the_passes_channels_by_name_and_type() {
     }
     // The colour is the same as written without passes.
     let plain = dir.path().join("p.exr");
-    assert!(
-        raytrace()
-            .args(["render", "-q"])
-            .arg(&scene)
-            .arg("-o")
-            .arg(&plain)
-            .status()
-            .unwrap()
-            .success()
-    );
+    run_ok(dir.path(), &["render", "-q", "s.toml", "-o", "p.exr"]);
     assert_eq!(
         raytrace::io::read_exr_rgb(&plain).unwrap(),
         raytrace::io::read_exr_rgb(&path).unwrap()
@@ -728,16 +713,12 @@ fn png_frames_take_alpha_as_straight_rgba() {
     let dir = tempfile::tempdir().unwrap();
     let text = SMALL.replace("velocity = [1.0, 0.0, 0.0]\n", "")
         + "[background]\ncolor = [0.2, 0.2, 0.2]\ntransparent = true\n";
-    let scene = write_scene(dir.path(), &text);
+    write_scene(dir.path(), &text);
     for (out, passes) in [("a.png", "alpha"), ("a.exr", "alpha")] {
-        let status = raytrace()
-            .args(["render", "-q", "--passes", passes])
-            .arg(&scene)
-            .arg("-o")
-            .arg(dir.path().join(out))
-            .status()
-            .unwrap();
-        assert!(status.success());
+        run_ok(
+            dir.path(),
+            &["render", "-q", "--passes", passes, "s.toml", "-o", out],
+        );
     }
     let png = image::open(dir.path().join("a.png")).unwrap();
     let rgba = png.as_rgba8().expect("an RGBA PNG");
@@ -792,14 +773,8 @@ fn bad_passes_are_refused_by_name_and_nothing_is_written() {
         ("", &["--passes", "alpha,zdepth"], "--passes"),
     ];
     for (text, args, message) in cases {
-        let scene = write_scene(dir.path(), text);
-        let out = raytrace()
-            .current_dir(dir.path())
-            .args(["render", "-q"])
-            .arg(&scene)
-            .args(args)
-            .output()
-            .unwrap();
+        write_scene(dir.path(), text);
+        let out = run(dir.path(), &[&["render", "-q", "s.toml"], args].concat());
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{stderr}");
         assert!(stderr.contains(message), "{message:?} not in {stderr}");
@@ -812,45 +787,39 @@ fn bad_passes_are_refused_by_name_and_nothing_is_written() {
 #[test]
 fn budgets_and_converge_work_with_passes() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write_scene(
+    write_scene(
         dir.path(),
         &SMALL.replace("[output]\n", &format!("[output]\npasses = {ALL}\n")),
     );
     let out = dir.path().join("b.exr");
-    let status = raytrace()
-        .args([
+    run_ok(
+        dir.path(),
+        &[
             "render",
             "-q",
             "--noise-threshold",
             "0.05",
             "--max-samples",
             "16",
-        ])
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
+            "s.toml",
+            "-o",
+            "b.exr",
+        ],
+    );
     let image = exr::prelude::read_all_flat_layers_from_file(&out).unwrap();
     assert_eq!(image.layer_data[0].channel_data.list.len(), 18);
-    let converge = raytrace()
-        .current_dir(dir.path())
-        .args([
+    run_ok(
+        dir.path(),
+        &[
             "converge",
             "--max-samples",
             "4",
             "--reference-samples",
             "16",
-        ])
-        .arg(&scene)
-        .args(["--csv", "c.csv"])
-        .output()
-        .unwrap();
-    assert!(
-        converge.status.success(),
-        "{}",
-        String::from_utf8_lossy(&converge.stderr)
+            "s.toml",
+            "--csv",
+            "c.csv",
+        ],
     );
     assert!(dir.path().join("c.csv").exists());
 }
@@ -886,17 +855,8 @@ fn passes_work_with_shutter_curves_and_rolling_shutters() {
 fn check_lists_the_passes_and_a_transparent_background() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), SMALL);
-    let check = |args: &[&str]| {
-        let out = raytrace()
-            .arg("check")
-            .arg(&scene)
-            .args(args)
-            .output()
-            .unwrap();
-        assert!(out.status.success());
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    };
-    assert!(!check(&[]).contains("passes:"));
+    let check = || ok(dir.path(), &["check", "s.toml"]);
+    assert!(!check().contains("passes:"));
     let text = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(
         &scene,
@@ -904,7 +864,7 @@ fn check_lists_the_passes_and_a_transparent_background() {
             + "[background]\ntransparent = true\n",
     )
     .unwrap();
-    let out = check(&[]);
+    let out = check();
     assert!(
         out.contains("passes: colour, alpha, motion (transparent background)\n"),
         "{out}"
