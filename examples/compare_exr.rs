@@ -9,11 +9,15 @@
 //! the root-mean-square difference of the block means of A and B. With a third image C (A's
 //! frame rendered again with another seed), also the same figures for A against C: the spread
 //! that noise alone gives, to judge A against B by. Used to check that a change to the
-//! renderer keeps its images (docs/architecture.md, docs/convergence.md).
+//! renderer keeps its images (docs/architecture.md, docs/convergence.md). Also prints A's
+//! (and C's) whole-image error with B as the reference: the relative error (the square root
+//! of the relative MSE, as `raytrace converge` and a render's `est. error` state it) and the
+//! RMSE, which measures an image against a high-sample reference (docs/performance.md).
 
 use std::process::ExitCode;
 
 use glam::DVec3;
+use raytrace::analysis::metrics;
 use raytrace::io::read_exr_rgb;
 
 /// Width, height and pixels of an EXR file.
@@ -58,6 +62,16 @@ fn main() -> ExitCode {
     }
     let (max, rms) = block_difference(&images[0], &images[1], block);
     println!("A vs B: block means differ by at most {max:.5}, rms {rms:.5}");
+    for (name, image) in [("A", Some(&images[0])), ("C", images.get(2))] {
+        if let Some(image) = image {
+            let rel = metrics::rel_mse(&image.2, &images[1].2).sqrt();
+            let rmse = metrics::mse(&image.2, &images[1].2).sqrt();
+            println!(
+                "{name} against B as reference: relative error {:.4}%, RMSE {rmse:.6}",
+                100.0 * rel
+            );
+        }
+    }
     if let Some(c) = images.get(2) {
         let (max, rms) = block_difference(&images[0], c, block);
         println!("A vs C (noise): block means differ by at most {max:.5}, rms {rms:.5}");

@@ -37,6 +37,9 @@ pub enum Pass {
     Motion,
     /// `variance.R/G/B`: the estimated variance of the pixel's mean colour.
     Variance,
+    /// `samples`: the samples the pixel took (they differ from pixel to pixel under adaptive
+    /// sampling).
+    Samples,
 }
 
 /// How a pass's channels are stored in an EXR file.
@@ -50,13 +53,14 @@ pub enum Precision {
 
 impl Pass {
     /// Every pass, in the order the scene format lists them.
-    pub const ALL: [Pass; 6] = [
+    pub const ALL: [Pass; 7] = [
         Pass::Alpha,
         Pass::Depth,
         Pass::Normal,
         Pass::Albedo,
         Pass::Motion,
         Pass::Variance,
+        Pass::Samples,
     ];
 
     /// The name in `[output] passes` and `--passes`.
@@ -68,6 +72,7 @@ impl Pass {
             Pass::Albedo => "albedo",
             Pass::Motion => "motion",
             Pass::Variance => "variance",
+            Pass::Samples => "samples",
         }
     }
 
@@ -85,16 +90,18 @@ impl Pass {
             Pass::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
             Pass::Motion => &["forward.u", "forward.v", "backward.u", "backward.v"],
             Pass::Variance => &["variance.R", "variance.G", "variance.B"],
+            Pass::Samples => &["samples"],
         }
     }
 
     /// How the pass is stored: `half` where 11 bits of mantissa lose nothing that matters
     /// (unit normals, albedos and coverage in [0, 1]), `float` where range or precision does
-    /// (depths, displacements in pixels, variances spanning many decades).
+    /// (depths, displacements in pixels, variances spanning many decades, sample counts
+    /// beyond 2048, exact as `float` up to 2^24).
     pub fn precision(self) -> Precision {
         match self {
             Pass::Alpha | Pass::Normal | Pass::Albedo => Precision::Half,
-            Pass::Depth | Pass::Motion | Pass::Variance => Precision::Float,
+            Pass::Depth | Pass::Motion | Pass::Variance | Pass::Samples => Precision::Float,
         }
     }
 }
@@ -414,6 +421,7 @@ impl PassImages {
                 }),
                 Pass::Motion => (0..4).for_each(|j| push(over_hits(slots[layout.motion + j]))),
                 Pass::Variance => (0..3).for_each(|j| push(variance[j])),
+                Pass::Samples => push(samples as f64),
             }
         }
         for (c, v) in self.channels.iter_mut().zip(values) {
@@ -442,13 +450,14 @@ mod tests {
     fn the_layout_holds_only_the_requested_sums() {
         assert_eq!(Layout::new(PassSet::EMPTY).stride, 0);
         assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Variance)).stride, 0);
+        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Samples)).stride, 0);
         assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Alpha)).stride, 1);
         assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Albedo)).stride, 3);
         let all: PassSet = Pass::ALL.into_iter().collect();
         assert_eq!(Layout::new(all).stride, 1 + 1 + 3 + 3 + 4);
         let images = PassImages::new(all, 2, 1);
         let names: Vec<&str> = images.channels.iter().map(|c| c.name).collect();
-        assert_eq!(names.len(), 15);
+        assert_eq!(names.len(), 16);
         assert_eq!(images.channel("Z").map(<[f32]>::len), Some(2));
     }
 
@@ -464,11 +473,12 @@ mod tests {
         slots[l.albedo] = 2.0;
         images.set(&l, 0, 0, &slots, 4, DVec3::ONE);
         // Pixel 1: no hit.
-        images.set(&l, 1, 0, &vec![0.0; l.stride], 4, DVec3::ZERO);
+        images.set(&l, 1, 0, &vec![0.0; l.stride], 8, DVec3::ZERO);
         assert_eq!(images.channel("A").unwrap(), &[0.5, 0.0]);
         assert_eq!(images.channel("Z").unwrap(), &[2.0, NO_DEPTH]);
         assert_eq!(images.channel("albedo.R").unwrap(), &[0.5, 0.0]);
         assert_eq!(images.channel("N.X").unwrap(), &[0.0, 0.0]);
         assert_eq!(images.channel("variance.G").unwrap(), &[1.0, 0.0]);
+        assert_eq!(images.channel("samples").unwrap(), &[4.0, 8.0]);
     }
 }

@@ -22,6 +22,13 @@
 //! - [`SobolSampler`]: an Owen-scrambled Sobol sequence for the pixel position, the lens
 //!   position and time, and the first bounce, so each of them is well stratified over a
 //!   pixel's samples; later bounces draw independent numbers.
+//!
+//! Both split a pixel's samples into [`REPLICATES`] interleaved *replicates* (sample `i`
+//! belongs to replicate `i % 2`) whose numbers are independent of each other: independent
+//! streams for [`IndependentSampler`], independently scrambled sequences for
+//! [`SobolSampler`]. The difference between the replicates' means is what the film estimates
+//! a pixel's error from (`film::Pixel::variance_of_mean`): unlike the spread of the samples,
+//! it does not assume the samples themselves are independent, which stratified ones are not.
 
 use std::fmt;
 use std::str::FromStr;
@@ -232,6 +239,10 @@ impl Sampler for IndependentSampler {
     }
 }
 
+/// The independent replicates a pixel's samples are split into: sample `i` is number `i / 2`
+/// of replicate `i % 2`.
+pub const REPLICATES: u32 = 2;
+
 /// The number of points in one Owen-scrambled Sobol sequence of the `sobol_burley` crate.
 /// Beyond it the crate returns unspecified numbers in release builds, so
 /// [`SobolSampler`] never asks for an index at or above it (see [`SobolSampler`]).
@@ -268,23 +279,33 @@ pub const SOBOL_DOMAINS: u64 = FIRST_BOUNCE_DOMAIN as u64 + SOBOL_BOUNCES;
 /// past the first [`SOBOL_BOUNCES`] take three numbers each, in order, from a PCG32 stream of
 /// the sample.
 ///
-/// A sequence has [`SOBOL_SEQUENCE_LENGTH`] points. Sample indices past it start another
-/// sequence with another seed: each block of 2^16 samples is well stratified on its own and
-/// independent of the others, so the estimate stays unbiased at any sample count.
+/// A pixel's samples form [`REPLICATES`] independently scrambled sequences, interleaved:
+/// sample `i` is point `i / 2` of replicate `i % 2`, each replicate with seeds of its own. So
+/// each replicate's samples are stratified on their own, and the two replicates' means are
+/// independent estimates of the pixel, from which its error can be estimated without bias
+/// (Owen, "Monte Carlo theory, methods and examples", ch. 17: randomized quasi-Monte Carlo
+/// needs independent replicates for a variance estimate). The price is that the pixel's
+/// samples are two nets of half the size instead of one.
+///
+/// A sequence has [`SOBOL_SEQUENCE_LENGTH`] points. A replicate's indices past it start
+/// another sequence with another seed: each block of 2^16 points is well stratified on its
+/// own and independent of the others, so the estimate stays unbiased at any sample count.
 #[derive(Clone, Debug)]
 pub struct SobolSampler {
     key: u64,
-    /// The current sample's seed (frame, pixel and block of 2^16 indices).
-    sample_seed: u64,
-    /// The current sample's index within its block.
+    /// The current sample's replicate.
+    replicate: usize,
+    /// The current sample's index within its replicate's block.
     index: u32,
     /// The next bounce of the current sample.
     bounce: u64,
     /// Independent numbers for the bounces past [`SOBOL_BOUNCES`].
     rng: Pcg32,
-    /// The scrambles of the current pixel's Sobol domains, which do not depend on the sample
-    /// index: computed once for all of a pixel's samples.
-    scrambles: [Scramble; SOBOL_DOMAINS as usize],
+    /// Each replicate's seed (frame, pixel, replicate and block of 2^16 indices).
+    seeds: [u64; REPLICATES as usize],
+    /// Each replicate's scrambles of the current pixel's Sobol domains, which do not depend
+    /// on the sample index: computed once for all of a pixel's samples.
+    scrambles: [[Scramble; SOBOL_DOMAINS as usize]; REPLICATES as usize],
     /// The (pixel, block) the scrambles are for.
     scrambles_for: Option<(u64, u64)>,
 }
@@ -295,11 +316,12 @@ impl SobolSampler {
         SobolSampler {
             // Distinct from the independent sampler's key, so the two never share numbers.
             key: hash_words(&[seed, frame as u64, 0x0005_0b01]),
-            sample_seed: 0,
+            replicate: 0,
             index: 0,
             bounce: 0,
             rng: Pcg32::new(0, 0),
-            scrambles: [Scramble::new(0, false); SOBOL_DOMAINS as usize],
+            seeds: [0; REPLICATES as usize],
+            scrambles: [[Scramble::new(0, false); SOBOL_DOMAINS as usize]; REPLICATES as usize],
             scrambles_for: None,
         }
     }
@@ -308,7 +330,9 @@ impl SobolSampler {
     /// [0, 1).
     #[inline]
     fn point(&self, domain: usize) -> [f64; 4] {
-        self.scrambles[domain].point(self.index).map(f64::from)
+        self.scrambles[self.replicate][domain]
+            .point(self.index)
+            .map(f64::from)
     }
 }
 
@@ -386,19 +410,24 @@ impl Sampler for SobolSampler {
     #[inline]
     fn start_sample(&mut self, x: u32, y: u32, index: u32) {
         let pixel = ((y as u64) << 32) | x as u64;
-        let block = (index / SOBOL_SEQUENCE_LENGTH) as u64;
-        self.index = index % SOBOL_SEQUENCE_LENGTH;
+        self.replicate = (index % REPLICATES) as usize;
+        let point = index / REPLICATES;
+        let block = (point / SOBOL_SEQUENCE_LENGTH) as u64;
+        self.index = point % SOBOL_SEQUENCE_LENGTH;
         self.bounce = 0;
         if self.scrambles_for != Some((pixel, block)) {
             self.scrambles_for = Some((pixel, block));
-            self.sample_seed = hash_words(&[self.key, pixel, block]);
-            for (d, scramble) in self.scrambles.iter_mut().enumerate() {
-                let seed = mix64(self.sample_seed ^ d as u64);
-                // The pixel position takes the sequence in its own order (the first domain
-                // needs no shuffle); later domains are padded: the index shuffled by the
-                // domain's seed (a nested uniform scramble), which makes them independent of
-                // each other.
-                *scramble = Scramble::new((seed ^ (seed >> 32)) as u32, d != PIXEL_DOMAIN);
+            for (r, (seed, scrambles)) in self.seeds.iter_mut().zip(&mut self.scrambles).enumerate()
+            {
+                *seed = hash_words(&[self.key, pixel, block * REPLICATES as u64 + r as u64]);
+                for (d, scramble) in scrambles.iter_mut().enumerate() {
+                    let h = mix64(*seed ^ d as u64);
+                    // The pixel position takes the sequence in its own order (the first
+                    // domain needs no shuffle); later domains are padded: the index shuffled
+                    // by the domain's seed (a nested uniform scramble), which makes them
+                    // independent of each other.
+                    *scramble = Scramble::new((h ^ (h >> 32)) as u32, d != PIXEL_DOMAIN);
+                }
             }
         }
     }
@@ -435,7 +464,7 @@ impl Sampler for SobolSampler {
             };
         }
         if k == SOBOL_BOUNCES {
-            let h = mix64(self.sample_seed ^ mix64(self.index as u64));
+            let h = mix64(self.seeds[self.replicate] ^ mix64(self.index as u64));
             self.rng = Pcg32::new(h, h >> 17);
         }
         let uc = self.rng.next_f64();
@@ -571,12 +600,13 @@ mod tests {
     }
 
     /// The points of domain `domain` of pixel `pixel` (0 the pixel position, 1 the lens
-    /// position and time, 2 the first bounce as (u, uc)), for samples `0..n`.
-    fn domain_points(pixel: (u32, u32), domain: usize, n: u32) -> Vec<[f64; 3]> {
+    /// position and time, 2 the first bounce as (u, uc)), for the first `n` samples of
+    /// replicate `replicate`.
+    fn domain_points(pixel: (u32, u32), replicate: u32, domain: usize, n: u32) -> Vec<[f64; 3]> {
         let mut s = SobolSampler::new(42, 3);
         (0..n)
             .map(|i| {
-                s.start_sample(pixel.0, pixel.1, i);
+                s.start_sample(pixel.0, pixel.1, REPLICATES * i + replicate);
                 let c = s.camera(EVERYTHING);
                 match domain {
                     0 => [c.pixel.0, c.pixel.1, 0.0],
@@ -601,11 +631,11 @@ mod tests {
     }
 
     #[test]
-    fn sobol_domains_are_stratified_over_a_pixels_samples() {
-        for pixel in [(0, 0), (17, 3)] {
+    fn sobol_domains_are_stratified_over_each_replicate() {
+        for (pixel, r) in [((0, 0), 0), ((17, 3), 1)] {
             // The pixel position: 256 points of a (0, m, 2)-net, one in each of 16 x 16
             // squares, and also one in each 256 x 1 and 1 x 256 strip.
-            let p = domain_points(pixel, 0, 256);
+            let p = domain_points(pixel, r, 0, 256);
             assert!(one_per_square(&p, 0, 1, 16));
             for dim in 0..2 {
                 let mut strips = vec![0; 256];
@@ -616,7 +646,7 @@ mod tests {
             // The lens position and time, and the first bounce: every 2-D projection of 256
             // points is stratified in 16 x 16 squares.
             for domain in 1..SOBOL_DOMAINS as usize {
-                let p = domain_points(pixel, domain, 256);
+                let p = domain_points(pixel, r, domain, 256);
                 for (a, b) in [(0, 1), (0, 2), (1, 2)] {
                     assert!(one_per_square(&p, a, b, 16), "domain {domain} dims {a},{b}");
                 }
@@ -702,21 +732,63 @@ mod tests {
     }
 
     #[test]
+    fn replicate_estimates_are_independent() {
+        // A pixel's two replicates: their 8-point estimates of a smooth integrand (x y z over
+        // the first bounce, exactly 1/8) are uncorrelated over 4096 pixels, and each is
+        // unbiased. Between the halves of one scrambled sequence (samples 0-7 against 8-15
+        // of one replicate) the correlation is strongly negative: the halves stratify each
+        // other, which is why an error estimate needs independent replicates.
+        let estimate = |s: &mut SobolSampler, x: u32, indices: &mut dyn Iterator<Item = u32>| {
+            indices
+                .map(|i| {
+                    s.start_sample(x, 7, i);
+                    s.camera(EVERYTHING);
+                    let b = s.next_bounce();
+                    b.u.0 * b.u.1 * b.uc
+                })
+                .sum::<f64>()
+                / 8.0
+        };
+        let mut s = SobolSampler::new(9, 1);
+        let mut pairs = |a: fn(u32) -> u32, b: fn(u32) -> u32| -> (Vec<f64>, Vec<f64>) {
+            (0..4096)
+                .map(|x| {
+                    (
+                        estimate(&mut s, x, &mut (0..8).map(a)),
+                        estimate(&mut s, x, &mut (0..8).map(b)),
+                    )
+                })
+                .unzip()
+        };
+        let (even, odd) = pairs(|i| REPLICATES * i, |i| REPLICATES * i + 1);
+        let r = correlation(&even, &odd);
+        assert!(r.abs() < 4.0 / 64.0, "r = {r}");
+        for v in [&even, &odd] {
+            let mean = v.iter().sum::<f64>() / 4096.0;
+            assert!((mean - 0.125).abs() < 0.002, "{mean}");
+        }
+        let (first, second) = pairs(|i| REPLICATES * i, |i| REPLICATES * (i + 8));
+        let r = correlation(&first, &second);
+        assert!(r < -0.3, "r = {r}");
+    }
+
+    #[test]
     fn indices_past_one_sequence_start_a_new_stratified_block() {
-        // Indices 2^16 .. 2^16 + 256 are a stratified set of their own, not garbage and not a
-        // repeat of the first block.
+        // A replicate's points 2^16 .. 2^16 + 256 are a stratified set of their own, not
+        // garbage and not a repeat of the first block.
         let mut s = SobolSampler::new(42, 3);
         let mut counts = [0u32; 256];
         let mut first = vec![];
+        let past = REPLICATES * SOBOL_SEQUENCE_LENGTH;
         for i in 0..256 {
-            s.start_sample(2, 2, SOBOL_SEQUENCE_LENGTH + i);
+            s.start_sample(2, 2, past + REPLICATES * i);
             let (a, b) = s.camera(CameraUse::default()).pixel;
             counts[(a * 16.0) as usize * 16 + (b * 16.0) as usize] += 1;
-            s.start_sample(2, 2, i);
+            s.start_sample(2, 2, REPLICATES * i);
             first.push(s.camera(CameraUse::default()).pixel);
         }
         assert!(counts.iter().all(|&c| c == 1));
-        s.start_sample(2, 2, SOBOL_SEQUENCE_LENGTH);
+        s.start_sample(2, 2, past);
         assert_ne!(s.camera(CameraUse::default()).pixel, first[0]);
         // The largest index works too.
         s.start_sample(2, 2, u32::MAX);

@@ -386,7 +386,8 @@ mod tests {
 
     #[test]
     fn sobol_times_stay_stratified_after_the_mapping() {
-        // 256 samples of one pixel: one in each of 256 equal-probability strata of the curve.
+        // 256 samples of one pixel's replicate: one in each of 256 equal-probability strata of
+        // the curve.
         let uses = CameraUse {
             lens: false,
             time: true,
@@ -395,7 +396,7 @@ mod tests {
         let mut s = SobolSampler::new(1, 1);
         let mut strata = vec![0; 256];
         for i in 0..256 {
-            s.start_sample(4, 5, i);
+            s.start_sample(4, 5, crate::sampler::REPLICATES * i);
             let pos = t.sample(s.camera(uses).time);
             strata[((t.cdf(pos) * 256.0) as usize).min(255)] += 1;
         }

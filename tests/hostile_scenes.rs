@@ -382,7 +382,7 @@ fn check(text: &[u8], tally: &mut Tally) -> Result<(), TestCaseError> {
             let first = scene.shot.first_frame;
             for frame in [first, scene.shot.last_frame()] {
                 let r = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
-                for p in r.film.pixels() {
+                for p in r.film.means() {
                     // Finite, and within the 32-bit floats frames are written in.
                     prop_assert!(
                         p.is_finite() && p.abs().max_element() <= f32::MAX as f64,
@@ -392,7 +392,7 @@ fn check(text: &[u8], tally: &mut Tally) -> Result<(), TestCaseError> {
                     );
                 }
                 // Not even a sample was dropped for not being finite.
-                prop_assert_eq!(r.stats.dropped, 0, "frame {}", frame);
+                prop_assert_eq!(r.stats.non_finite, 0, "frame {}", frame);
             }
             tally.rendered += 1;
         }
@@ -511,8 +511,8 @@ fn the_brightest_scene_allowed_stays_finite() {
     let scene = Scene::parse(text, Path::new(FILE)).unwrap();
     let statics = StaticGeometry::new(&scene);
     let r = render_frame(&scene, &statics, 1, &Budget::default(), &|_| {});
-    assert_eq!(r.stats.dropped, 0);
-    for p in r.film.pixels() {
+    assert_eq!(r.stats.non_finite, 0);
+    for p in r.film.means() {
         assert!(
             p.is_finite() && p.max_element() <= 1e6 * (1.0 + 1e-12),
             "{p:?}"

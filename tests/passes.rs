@@ -422,8 +422,8 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     let mut spread = 0.0;
     let mut estimated = 0.0;
     let va = passes(&a);
-    for (i, (pa, pb)) in a.film.pixels().iter().zip(b.film.pixels()).enumerate() {
-        let d = *pa - *pb;
+    for (i, (pa, pb)) in a.film.means().iter().zip(b.film.means()).enumerate() {
+        let d = *pa - pb;
         // E[(a - b)^2] = 2 Var(mean) for independent renders.
         spread += (d * d).element_sum() / 2.0;
         estimated += ["variance.R", "variance.G", "variance.B"]
@@ -487,7 +487,7 @@ const ALL: &str = r#"["alpha", "depth", "normal", "albedo", "motion", "variance"
 fn bits(r: &FrameResult) -> (Vec<u64>, Vec<Vec<u32>>) {
     let colour = r
         .film
-        .pixels()
+        .means()
         .iter()
         .flat_map(|p| p.to_array().map(f64::to_bits))
         .collect();
@@ -512,7 +512,7 @@ fn colour_with_passes_is_the_same_bits_as_without() {
         let with = render(&scene(&busy(ALL, &extra)), 3);
         assert!(without.passes.is_none());
         assert_eq!(bits(&with).0, bits(&without).0);
-        assert_eq!(with.variance, without.variance);
+        assert_eq!(with.film, without.film);
     }
 }
 
@@ -568,7 +568,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     let albedo = passes(&clear).channel("albedo.B").unwrap();
     let (mut inside, mut outside) = (0, 0);
     for (i, &a) in alpha.iter().enumerate() {
-        let (c, o) = (clear.film.pixels()[i], opaque.film.pixels()[i]);
+        let (c, o) = (clear.film.means()[i], opaque.film.means()[i]);
         if a == 0.0 {
             outside += 1;
             assert_eq!(c, DVec3::ZERO);

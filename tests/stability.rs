@@ -59,9 +59,9 @@ fn render_checked(scene: &Scene, frame: u32, what: &str) -> FrameResult {
     let statics = StaticGeometry::new(scene);
     let result = render_frame(scene, &statics, frame, &Budget::default(), &|_| {});
     assert_eq!(
-        result.stats.dropped, 0,
+        result.stats.non_finite, 0,
         "{what}: {} non-finite samples",
-        result.stats.dropped
+        result.stats.non_finite
     );
     result
 }
@@ -452,7 +452,7 @@ fn check_furnace(c: &Furnace) -> Figures {
             // Every path returns 1 unless cut at max_depth; the cut probability is bounded
             // below and is far below anything a frame could show.
             fig.exact = max_of(
-                film.pixels()
+                film.means()
                     .iter()
                     .map(|p| (*p - DVec3::ONE).abs().max_element()),
             );
@@ -470,7 +470,7 @@ fn check_furnace(c: &Furnace) -> Figures {
         Surface::Lambertian | Surface::Mirror => {
             let a = c.surface.albedo();
             if c.fully_covered() {
-                fig.exact = max_of(film.pixels().iter().map(|p| (*p - a).abs().max_element()));
+                fig.exact = max_of(film.means().iter().map(|p| (*p - a).abs().max_element()));
                 assert!(
                     fig.exact <= EXACT,
                     "{what}: a pixel is {:e} from the albedo",
@@ -482,8 +482,8 @@ fn check_furnace(c: &Furnace) -> Figures {
                 // Each sample is a (hit) or 1 (missed): the pixel is one of n + 1 means, and
                 // each hit costs exactly one more ray than a miss.
                 let mut hits = 0u64;
-                for p in film.pixels() {
-                    let (k, err) = two_valued(*p, DVec3::ONE, a, n, &what);
+                for p in film.means() {
+                    let (k, err) = two_valued(p, DVec3::ONE, a, n, &what);
                     fig.two_valued = fig.two_valued.max(err);
                     hits += k as u64;
                     fig.partial += (k > 0 && k < n) as u32;
@@ -1461,7 +1461,7 @@ fn negative_zero_is_rejected_where_bounded_below_and_is_zero_in_coordinates() {
                     let b = render_checked(&pos, frame, &field);
                     let bits = |r: &FrameResult| -> Vec<u64> {
                         r.film
-                            .pixels()
+                            .means()
                             .iter()
                             .flat_map(|p| p.to_array().map(f64::to_bits))
                             .collect()

@@ -184,9 +184,9 @@ fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report,
                 sampler: kind,
                 samples: n,
                 seconds,
-                mse: metrics::mse(result.film.pixels(), &reference),
-                rel_mse: metrics::rel_mse(result.film.pixels(), &reference),
-                estimated_mse: metrics::estimated_mse(&result.variance),
+                mse: metrics::mse(&result.film.means(), &reference),
+                rel_mse: metrics::rel_mse(&result.film.means(), &reference),
+                estimated_mse: metrics::estimated_mse(&result.film.variances()),
                 // The square of the frame's estimated relative error.
                 estimated_rel_mse: result.stats.relative_error.powi(2),
             };
@@ -346,27 +346,47 @@ pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec
 
 fn header() -> String {
     format!(
-        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>11} {:>8} {:>11}",
-        "sampler", "samples", "seconds", "RMSE", "relMSE", "est. RMSE", "est/RMSE", "efficiency"
+        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>8} {:>10} {:>10} {:>8} {:>11}",
+        "sampler",
+        "samples",
+        "seconds",
+        "RMSE",
+        "est. RMSE",
+        "est/RMSE",
+        "rel. error",
+        "est. error",
+        "est/true",
+        "efficiency"
     )
 }
 
+/// One measurement's line: the absolute error (RMSE) and the relative error (the square
+/// root of the relative MSE, what a render prints as `est. error`), each against the
+/// reference and as estimated from the samples, with the estimate's ratio to the truth.
 fn row(m: &Measurement) -> String {
-    let est = m.estimated_mse.sqrt();
-    let ratio = if est.is_finite() {
-        format!("{:.3}", est / m.mse.sqrt())
-    } else {
-        "-".into()
+    let ratio = |est: f64, truth: f64| {
+        if est.is_finite() {
+            format!("{:.3}", est / truth)
+        } else {
+            "-".into()
+        }
     };
+    let (est, rel, est_rel) = (
+        m.estimated_mse.sqrt(),
+        m.rel_mse.sqrt(),
+        m.estimated_rel_mse.sqrt(),
+    );
     format!(
-        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>11.4e} {:>8} {:>11.4e}",
+        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>8} {:>9.3}% {:>9.3}% {:>8} {:>11.4e}",
         m.sampler.name(),
         m.samples,
         m.seconds,
         m.mse.sqrt(),
-        m.rel_mse,
         est,
-        ratio,
+        ratio(est, m.mse.sqrt()),
+        100.0 * rel,
+        100.0 * est_rel,
+        ratio(est_rel, rel),
         m.efficiency()
     )
 }

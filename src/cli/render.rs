@@ -31,7 +31,8 @@ pub(crate) struct RunSummary {
     pub(crate) skipped: u64,
     pub(crate) seconds: f64,
     pub(crate) samples: u64,
-    pub(crate) dropped: u64,
+    /// Samples that were not finite (counted as black).
+    pub(crate) non_finite: u64,
     /// The mean and the largest estimated relative error of the rendered frames.
     pub(crate) error_mean: f64,
     pub(crate) error_max: f64,
@@ -305,7 +306,7 @@ impl RunSummary {
         self.rendered += shot.rendered;
         self.skipped += shot.skipped;
         self.samples += shot.samples;
-        self.dropped += shot.dropped;
+        self.non_finite += shot.non_finite;
     }
 }
 
@@ -391,11 +392,11 @@ fn render_shot(
             String::new()
         };
         progress.line(&format!(
-            "frame {frame}: {seconds:.2} s, {} spp{stop}, est. error {}, {:.2} M samples/s, {} dropped, {}{}",
-            st.samples_per_pixel,
+            "frame {frame}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
+            spp_note(st),
             percent(st.relative_error),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
-            st.dropped,
+            st.non_finite,
             non_finite_note(non_finite),
             clip_path(&path)
         ));
@@ -406,7 +407,7 @@ fn render_shot(
         summary.error_max = summary.error_max.max(st.relative_error);
         summary.rendered += 1;
         summary.samples += st.samples;
-        summary.dropped += st.dropped;
+        summary.non_finite += st.non_finite;
         progress.frame_done();
     }
     summary.seconds = start.elapsed().as_secs_f64();
@@ -414,6 +415,19 @@ fn render_shot(
         summary.error_mean = error_sum / summary.rendered as f64;
     }
     Ok(summary)
+}
+
+/// The frame line's samples per pixel: `100 spp`, or with adaptive sampling `mean 37.5 spp
+/// (16 to 512)`.
+fn spp_note(st: &crate::render::FrameStats) -> String {
+    if st.min_samples_per_pixel == st.samples_per_pixel {
+        format!("{} spp", st.samples_per_pixel)
+    } else {
+        format!(
+            "mean {:.1} spp ({} to {})",
+            st.mean_samples_per_pixel, st.min_samples_per_pixel, st.samples_per_pixel
+        )
+    }
 }
 
 /// The attributes of `frame` of `scene`, rendered with `samples` per pixel.
@@ -448,14 +462,16 @@ pub(crate) fn write_film_with_passes(
     passes: Option<(&PassImages, bool)>,
     mut info: FrameInfo,
 ) -> Result<u64, Error> {
-    let (rgb, non_finite) = film.to_rgb_f32();
+    let non_finite = film.non_finite();
     if non_finite > 0 {
         info.extra
             .push(("nonFinitePixels".to_string(), non_finite as f64));
     }
     let (channels, premultiplied) =
         passes.map_or((&[][..], false), |(p, pre)| (&p.channels[..], pre));
-    io::write_frame_with_passes(
+    let width = film.width as usize;
+    let rgb = |i: usize| film.rgb_f32((i % width) as u32, (i / width) as u32);
+    io::write_frame_from(
         path,
         film.width,
         film.height,
@@ -522,11 +538,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("f.exr");
         let scene = Scene::parse("", Path::new("empty.toml")).unwrap();
-        let mut film = Film::new(3, 2);
-        film.set(0, 0, DVec3::splat(0.5));
-        // Finite means in f64 that no f32 holds, and a NaN.
-        film.set(1, 0, DVec3::new(1e39, 0.0, 0.0));
-        film.set(2, 1, DVec3::new(0.0, -1e300, f64::NAN));
+        // Finite means in f64 that no f32 holds.
+        let film = Film::from_fn(3, 2, |x, y| match (x, y) {
+            (0, 0) => DVec3::splat(0.5),
+            (1, 0) => DVec3::new(1e39, 0.0, 0.0),
+            (2, 1) => DVec3::new(0.0, -1e300, 1.0),
+            _ => DVec3::ZERO,
+        });
         let info = frame_info(&scene, 1, 4);
         assert_eq!(write_film(&path, &film, info).unwrap(), 2);
         let (w, h, pixels) = io::read_exr_rgb(&path).unwrap();

@@ -239,36 +239,21 @@ pub(super) fn write(
         return write_with_passes(writer, path, image, attributes, encoding);
     }
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
-        let i = 3 * (p.y() * w + p.x());
-        (rgb[i], rgb[i + 1], rgb[i + 2])
+        let [r, g, b] = rgb(p.y() * w + p.x());
+        (r, g, b)
     });
     // The exr crate writes custom attributes in the iteration order of a randomly seeded
-    // HashMap, so the same frame would get different bytes in different processes. Write the
-    // image without them, then splice them into the header in name order.
-    let (attributes, custom) = sorted_custom(attributes);
+    // HashMap, so the same frame would get different bytes in different processes: see
+    // `Placeholder`.
+    let (attributes, placeholder) = Placeholder::take(attributes).map_err(|m| output(path, m))?;
     let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
-    let mut bytes = std::io::Cursor::new(Vec::new());
+    let mut sink = HeaderCapture::new(writer);
     Image::from_layer(layer)
         .write()
         .non_parallel()
-        .to_buffered(&mut bytes)
+        .to_buffered(&mut sink)
         .map_err(|e| encoder_error(path, e))?;
-    finish(writer, path, height, bytes.into_inner(), &custom)
-}
-
-/// Custom attributes taken out of `attributes`, in name order (see [`write`]).
-type Custom = Vec<(
-    exr::meta::attribute::Text,
-    exr::meta::attribute::AttributeValue,
-)>;
-
-/// `attributes` without their custom attributes, and those in name order.
-fn sorted_custom(
-    mut attributes: exr::meta::header::LayerAttributes,
-) -> (exr::meta::header::LayerAttributes, Custom) {
-    let mut custom: Custom = attributes.other.drain().collect();
-    custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
-    (attributes, custom)
+    placeholder.fill(sink).map_err(|e| Error::io(path, e))
 }
 
 /// The encoder's error as the renderer's.
@@ -299,8 +284,9 @@ fn write_with_passes(
 
     let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
     let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    let pixels = w * height as usize;
     for (k, name) in ["R", "G", "B"].into_iter().enumerate() {
-        let values = rgb.iter().skip(k).step_by(3).copied().collect();
+        let values = (0..pixels).map(|i| rgb(i)[k]).collect();
         list.push(AnyChannel::new(name, FlatSamples::F32(values)));
     }
     for c in image.channels {
@@ -312,108 +298,186 @@ fn write_with_passes(
         };
         list.push(AnyChannel::new(c.name, samples));
     }
-    let (attributes, custom) = sorted_custom(attributes);
+    let (attributes, placeholder) = Placeholder::take(attributes).map_err(|m| output(path, m))?;
     let layer = Layer::new(
         (w, height as usize),
         attributes,
         encoding,
         AnyChannels::sort(list),
     );
-    let mut bytes = std::io::Cursor::new(Vec::new());
+    let mut sink = HeaderCapture::new(writer);
     Image::from_layer(layer)
         .write()
         .non_parallel()
-        .to_buffered(&mut bytes)
+        .to_buffered(&mut sink)
         .map_err(|e| encoder_error(path, e))?;
-    finish(writer, path, height, bytes.into_inner(), &custom)
+    placeholder.fill(sink).map_err(|e| Error::io(path, e))
 }
 
-/// Splices `custom` into the encoded file `bytes` and writes it.
-fn finish(
-    writer: &mut BufWriter<File>,
-    path: &Path,
-    height: u32,
-    bytes: Vec<u8>,
-    custom: &Custom,
-) -> Result<(), Error> {
-    let chunks = (height as usize).div_ceil(16);
-    let bytes = splice_exr_attributes(bytes, custom, chunks).map_err(|message| Error::Output {
+/// An output error naming `path`.
+fn output(path: &Path, message: String) -> Error {
+    Error::Output {
         path: path.to_path_buf(),
         message,
-    })?;
-    writer.write_all(&bytes).map_err(|e| Error::io(path, e))
+    }
 }
 
-/// Inserts `attributes` at the end of the header of a single-part scanline EXR file with
-/// `chunks` chunks, and moves the offset table's entries by the inserted length. (OpenEXR file
-/// layout: magic and version, attributes as `name\0 type\0 size value`, a null byte, the offset
-/// table of u64 file positions, the chunks.)
-fn splice_exr_attributes(
-    file: Vec<u8>,
-    attributes: &[(
-        exr::meta::attribute::Text,
-        exr::meta::attribute::AttributeValue,
-    )],
-    chunks: usize,
-) -> Result<Vec<u8>, String> {
-    use exr::meta::attribute::AttributeValue;
-    let malformed = || "EXR encoder produced an unexpected header".to_string();
-    // Find the null byte that ends the header.
-    let mut pos = 8;
-    loop {
-        let name_end = pos
-            + file
-                .get(pos..)
-                .and_then(|r| r.iter().position(|&b| b == 0))
-                .ok_or_else(malformed)?;
-        if name_end == pos {
-            break;
+/// The name of the attribute that holds the custom attributes' place while the encoder writes.
+const PLACEHOLDER: &str = "~";
+
+/// The frame's custom attributes, in name order, serialized, and the placeholder the encoder
+/// writes in their stead.
+///
+/// The exr crate writes custom attributes in the iteration order of a randomly seeded
+/// `HashMap`, so the same frame would get different bytes in different processes. So the
+/// encoder gets one custom attribute only, a string attribute as long in the file as all of
+/// them together; it writes the image straight into the file (no copy of the encoded image in
+/// memory), and [`fill`](Placeholder::fill) then overwrites the placeholder's bytes with the
+/// attributes in name order. No offset in the file moves. (OpenEXR layout: magic and version,
+/// attributes as `name\0 type\0 size value`, a null byte, the offset table, the chunks.)
+struct Placeholder {
+    /// The custom attributes as the file holds them, in name order.
+    bytes: Vec<u8>,
+}
+
+impl Placeholder {
+    /// Takes the custom attributes out of `attributes` and puts the placeholder in.
+    fn take(
+        mut attributes: exr::meta::header::LayerAttributes,
+    ) -> Result<(exr::meta::header::LayerAttributes, Placeholder), String> {
+        use exr::meta::attribute::{AttributeValue, Text};
+        let mut custom: Vec<_> = attributes.other.drain().collect();
+        custom.sort_by(|a, b| a.0.as_slice().cmp(b.0.as_slice()));
+        let mut bytes = Vec::new();
+        for (name, value) in &custom {
+            let (kind, data): (&str, Vec<u8>) = match value {
+                AttributeValue::I32(v) => ("int", v.to_le_bytes().to_vec()),
+                AttributeValue::F64(v) => ("double", v.to_le_bytes().to_vec()),
+                AttributeValue::Text(t) => ("string", t.as_slice().to_vec()),
+                other => return Err(format!("unsupported custom attribute {other:?}")),
+            };
+            bytes.extend_from_slice(name.as_slice());
+            bytes.push(0);
+            bytes.extend_from_slice(kind.as_bytes());
+            bytes.push(0);
+            bytes.extend_from_slice(&(data.len() as u32).to_le_bytes());
+            bytes.extend_from_slice(&data);
         }
-        let type_end = name_end
-            + 1
-            + file
-                .get(name_end + 1..)
-                .and_then(|r| r.iter().position(|&b| b == 0))
-                .ok_or_else(malformed)?;
-        let size_bytes: [u8; 4] = file
-            .get(type_end + 1..type_end + 5)
-            .ok_or_else(malformed)?
-            .try_into()
-            .unwrap();
-        pos = type_end + 5 + u32::from_le_bytes(size_bytes) as usize;
+        // The placeholder's own name, type and size fields; its value fills the rest. Every
+        // frame has more custom attributes than these 14 bytes.
+        let overhead = PLACEHOLDER.len() + 1 + "string".len() + 1 + 4;
+        let fill = bytes
+            .len()
+            .checked_sub(overhead)
+            .ok_or("too few custom attributes for the placeholder")?;
+        attributes.other.insert(
+            Text::from(PLACEHOLDER),
+            AttributeValue::Text(Text::from_bytes_unchecked(vec![b' '; fill].into())),
+        );
+        Ok((attributes, Placeholder { bytes }))
     }
-    let mut inserted = Vec::new();
-    for (name, value) in attributes {
-        let (kind, data): (&str, Vec<u8>) = match value {
-            AttributeValue::I32(v) => ("int", v.to_le_bytes().to_vec()),
-            AttributeValue::F64(v) => ("double", v.to_le_bytes().to_vec()),
-            AttributeValue::Text(t) => ("string", t.as_slice().to_vec()),
-            other => return Err(format!("unsupported custom attribute {other:?}")),
+
+    /// Finds the placeholder in the header `sink` captured and overwrites it with the
+    /// attributes; leaves the file's position at its end.
+    fn fill(self, sink: HeaderCapture) -> std::io::Result<()> {
+        use std::io::{Seek, SeekFrom};
+        let malformed =
+            || std::io::Error::other("EXR encoder produced an unexpected header".to_string());
+        let header = &sink.header;
+        let mut pos = 8;
+        loop {
+            let field_end = |from: usize| {
+                header
+                    .get(from..)
+                    .and_then(|r| r.iter().position(|&b| b == 0))
+                    .map(|i| from + i)
+                    .ok_or_else(malformed)
+            };
+            let name_end = field_end(pos)?;
+            if name_end == pos {
+                return Err(malformed());
+            }
+            let type_end = field_end(name_end + 1)?;
+            let size: [u8; 4] = header
+                .get(type_end + 1..type_end + 5)
+                .ok_or_else(malformed)?
+                .try_into()
+                .expect("four bytes");
+            let end = type_end + 5 + u32::from_le_bytes(size) as usize;
+            if &header[pos..name_end] == PLACEHOLDER.as_bytes() {
+                if end - pos != self.bytes.len() {
+                    return Err(malformed());
+                }
+                break;
+            }
+            pos = end;
+        }
+        let writer = sink.writer;
+        writer.seek(SeekFrom::Start(sink.start + pos as u64))?;
+        writer.write_all(&self.bytes)?;
+        writer.seek(SeekFrom::End(0))?;
+        Ok(())
+    }
+}
+
+/// A writer into the file that keeps a copy of the file's first [`HeaderCapture::LIMIT`] bytes
+/// (the header, where [`Placeholder`] is found) and passes everything on.
+struct HeaderCapture<'a> {
+    writer: &'a mut BufWriter<File>,
+    /// The file position the image starts at.
+    start: u64,
+    /// The position relative to `start`.
+    pos: u64,
+    header: Vec<u8>,
+}
+
+impl<'a> HeaderCapture<'a> {
+    /// Headers are a few hundred bytes.
+    const LIMIT: usize = 1 << 16;
+
+    fn new(writer: &'a mut BufWriter<File>) -> HeaderCapture<'a> {
+        use std::io::Seek;
+        let start = writer.stream_position().unwrap_or(0);
+        HeaderCapture {
+            writer,
+            start,
+            pos: 0,
+            header: Vec::new(),
+        }
+    }
+}
+
+impl Write for HeaderCapture<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.writer.write(buf)?;
+        let from = self.pos as usize;
+        if from < Self::LIMIT {
+            let to = (from + n).min(Self::LIMIT);
+            if self.header.len() < to {
+                self.header.resize(to, 0);
+            }
+            self.header[from..to].copy_from_slice(&buf[..to - from]);
+        }
+        self.pos += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.writer.flush()
+    }
+}
+
+impl std::io::Seek for HeaderCapture<'_> {
+    fn seek(&mut self, to: std::io::SeekFrom) -> std::io::Result<u64> {
+        use std::io::SeekFrom;
+        let to = match to {
+            SeekFrom::Start(p) => SeekFrom::Start(self.start + p),
+            other => other,
         };
-        inserted.extend_from_slice(name.as_slice());
-        inserted.push(0);
-        inserted.extend_from_slice(kind.as_bytes());
-        inserted.push(0);
-        inserted.extend_from_slice(&(data.len() as u32).to_le_bytes());
-        inserted.extend_from_slice(&data);
+        let absolute = self.writer.seek(to)?;
+        self.pos = absolute - self.start;
+        Ok(self.pos)
     }
-    let delta = inserted.len() as u64;
-    let table = pos + 1;
-    let mut out = Vec::with_capacity(file.len() + inserted.len());
-    out.extend_from_slice(&file[..pos]);
-    out.extend_from_slice(&inserted);
-    out.push(0);
-    for i in 0..chunks {
-        let at = table + 8 * i;
-        let entry: [u8; 8] = file
-            .get(at..at + 8)
-            .ok_or_else(malformed)?
-            .try_into()
-            .unwrap();
-        out.extend_from_slice(&(u64::from_le_bytes(entry) + delta).to_le_bytes());
-    }
-    out.extend_from_slice(&file[table + 8 * chunks..]);
-    Ok(out)
 }
 
 /// Whether the EXR file at `path` is whole, cheaply: its header reads, every chunk its offset

@@ -112,12 +112,15 @@ impl Format {
     }
 }
 
-/// A frame's pixels as the encoders take them: linear RGB, row-major, top row first, and the
-/// passes' channels.
+/// A frame's colour as the encoders take it: pixel `i` (row-major, top row first) to its
+/// linear RGB, computed as the encoder asks, so no copy of the image is made.
+pub type RgbSource<'a> = &'a (dyn Fn(usize) -> [f32; 3] + Sync);
+
+/// A frame's pixels as the encoders take them: linear RGB and the passes' channels.
 struct Image<'a> {
     width: u32,
     height: u32,
-    rgb: &'a [f32],
+    rgb: RgbSource<'a>,
     /// The passes' channels, one value per pixel each (EXR: all; PNG: only `A`).
     channels: &'a [Channel],
     /// Whether `rgb` is premultiplied by the `A` channel (a transparent background).
@@ -153,6 +156,34 @@ pub fn write_frame_with_passes(
     premultiplied: bool,
     info: &FrameInfo,
 ) -> Result<(), Error> {
+    let expected = (width as usize)
+        .checked_mul(height as usize)
+        .and_then(|n| n.checked_mul(3));
+    if width > 0 && height > 0 && expected != Some(rgb.len()) {
+        return Err(Error::Output {
+            path: path.to_path_buf(),
+            message: format!(
+                "{} floats given for a {width}x{height} RGB image (expected {})",
+                rgb.len(),
+                expected.map_or("more than fit in memory".to_string(), |n| n.to_string())
+            ),
+        });
+    }
+    let source = |i: usize| [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]];
+    write_frame_from(path, width, height, &source, channels, premultiplied, info)
+}
+
+/// [`write_frame_with_passes`] with the colour given by a function of the pixel's index
+/// (row-major) instead of an array: the renderer writes its film this way, without a copy.
+pub fn write_frame_from(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: RgbSource,
+    channels: &[Channel],
+    premultiplied: bool,
+    info: &FrameInfo,
+) -> Result<(), Error> {
     let output_error = |message: String| Error::Output {
         path: path.to_path_buf(),
         message,
@@ -162,25 +193,16 @@ pub fn write_frame_with_passes(
             "cannot write an empty {width}x{height} image"
         )));
     }
-    let expected = (width as usize)
-        .checked_mul(height as usize)
-        .and_then(|n| n.checked_mul(3));
-    if expected != Some(rgb.len()) {
-        return Err(output_error(format!(
-            "{} floats given for a {width}x{height} RGB image (expected {})",
-            rgb.len(),
-            expected.map_or("more than fit in memory".to_string(), |n| n.to_string())
-        )));
-    }
+    let pixels = width as usize * height as usize;
     let format = Format::from_extension(path, FRAME_FORMATS)
         .ok_or_else(|| output_error(Format::unsupported(FRAME_FORMATS, "output")))?;
     for c in channels {
-        if c.values.len() != rgb.len() / 3 {
+        if c.values.len() != pixels {
             return Err(output_error(format!(
                 "channel {} has {} values for {} pixels",
                 c.name,
                 c.values.len(),
-                rgb.len() / 3
+                pixels
             )));
         }
         if format == Format::Png && c.name != "A" {

@@ -28,9 +28,12 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
     use ::image::codecs::png::PngEncoder;
 
     let alpha = image.channels.iter().find(|c| c.name == "A");
+    let pixels = image.width as usize * image.height as usize;
     let (bytes, kind) = match alpha {
         None => (
-            image.rgb.iter().map(|&v| linear_to_srgb8(v)).collect(),
+            (0..pixels)
+                .flat_map(|i| (image.rgb)(i).map(linear_to_srgb8))
+                .collect(),
             ::image::ExtendedColorType::Rgb8,
         ),
         Some(a) => (
@@ -52,9 +55,10 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
 
 /// 8-bit RGBA with straight alpha, as PNG requires: the colour sRGB encoded, divided by the
 /// alpha first where it is `premultiplied` (and the alpha above 0), the alpha linear.
-fn rgba_straight(rgb: &[f32], alpha: &[f32], premultiplied: bool) -> Vec<u8> {
+fn rgba_straight(rgb: super::RgbSource, alpha: &[f32], premultiplied: bool) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(alpha.len() * 4);
-    for (c, &a) in rgb.chunks_exact(3).zip(alpha) {
+    for (i, &a) in alpha.iter().enumerate() {
+        let c = rgb(i);
         let scale = if premultiplied && a > 0.0 {
             1.0 / a
         } else {

@@ -48,7 +48,7 @@ pub fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
 
 /// The image's mean.
 pub fn mean(film: &Film) -> DVec3 {
-    film.pixels().iter().copied().sum::<DVec3>() / film.pixels().len() as f64
+    film.means().iter().copied().sum::<DVec3>() / film.means().len() as f64
 }
 
 /// Formats a float for TOML so that it parses back to the same bits.
@@ -90,4 +90,46 @@ pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
 /// output.
 pub fn ok(dir: &Path, args: &[&str]) -> String {
     String::from_utf8_lossy(&run_ok(dir, args).stdout).into_owned()
+}
+
+/// An EXR frame's float channels by name.
+pub fn exr_channels(path: &Path) -> std::collections::HashMap<String, Vec<f32>> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let mut out = std::collections::HashMap::new();
+    for c in &layer.channel_data.list {
+        if let exr::image::FlatSamples::F32(v) = &c.sample_data {
+            out.insert(c.name.to_string(), v.clone());
+        }
+    }
+    out
+}
+
+/// Checks a frame rendered under a budget with the `samples` pass (`adaptive`'s channels)
+/// against plain renders: for each sample count a pixel took, `plain(n)` renders the frame
+/// with exactly `n` samples and returns its channels, and every pixel that took `n` samples
+/// must have the same colour bits. Returns the distinct counts, smallest first.
+pub fn matches_plain_renders(
+    adaptive: &std::collections::HashMap<String, Vec<f32>>,
+    mut plain: impl FnMut(u32) -> std::collections::HashMap<String, Vec<f32>>,
+) -> Vec<u32> {
+    let counts: Vec<u32> = adaptive["samples"].iter().map(|&c| c as u32).collect();
+    let mut distinct = counts.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    for &n in &distinct {
+        let plain = plain(n);
+        for c in ["R", "G", "B"] {
+            for (i, &count) in counts.iter().enumerate() {
+                if count == n {
+                    assert_eq!(
+                        plain[c][i].to_bits(),
+                        adaptive[c][i].to_bits(),
+                        "pixel {i} ({n} samples), channel {c}"
+                    );
+                }
+            }
+        }
+    }
+    distinct
 }
