@@ -79,12 +79,10 @@ impl Pixel {
     }
 
     /// The pixel's estimated relative squared error: [`variance_of_mean`](Self::variance_of_mean)
-    /// over `(mean + 0.01)^2`, averaged over the channels (the terms of
-    /// `metrics::estimated_rel_mse`).
+    /// over `(mean + 0.01)^2`, averaged over the channels
+    /// (`metrics::estimated_rel_mse_term`).
     pub fn relative_variance(&self) -> f64 {
-        let s = self.mean().max(DVec3::ZERO) + crate::analysis::metrics::RELATIVE_EPSILON;
-        let r = self.variance_of_mean() / (s * s);
-        (r.x + r.y + r.z) / 3.0
+        crate::analysis::metrics::estimated_rel_mse_term(self.mean(), self.variance_of_mean())
     }
 }
 

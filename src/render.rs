@@ -67,8 +67,9 @@ impl Budget {
     }
 }
 
-/// The fewest samples per pixel whose variance estimate may stop a render at its noise
-/// threshold. Below it, a pixel's sample variance misses rare bright paths too often.
+/// The samples every pixel takes before a budget's passes become adaptive, and the fewest
+/// whose estimate may stop a render at its noise threshold. Below it, a pixel's estimate
+/// misses rare bright paths too often.
 pub const MIN_SAMPLES_FOR_THRESHOLD: u32 = 16;
 
 /// Why a frame stopped sampling.
@@ -126,9 +127,9 @@ pub struct FrameStats {
     pub non_finite: u64,
     /// Spheres moving during the frame's shutter.
     pub moving_spheres: usize,
-    /// The relative error estimated from the pixels' sample variances: the square root of
-    /// the estimated relative mean squared error ([`metrics::estimated_rel_mse`]). Infinite
-    /// with fewer than two samples per pixel.
+    /// The relative error estimated from the pixels' replicates ([`relative_error`]): the
+    /// square root of the estimated relative mean squared error. Infinite with fewer than two
+    /// samples per pixel.
     pub relative_error: f64,
 }
 

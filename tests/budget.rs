@@ -119,6 +119,10 @@ fn noise_threshold_samples_pixels_adaptively_and_each_pixel_matches_a_plain_rend
             as_f64(attr(&a, "samples")),
             *distinct.last().unwrap() as f64
         );
+        assert_eq!(as_f64(attr(&a, "minSamples")), distinct[0] as f64);
+        let counts = &adaptive["samples"];
+        let mean = counts.iter().map(|&c| c as f64).sum::<f64>() / counts.len() as f64;
+        assert_eq!(as_f64(attr(&a, "meanSamples")), mean);
     }
 }
 

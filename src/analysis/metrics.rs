@@ -40,17 +40,26 @@ pub fn estimated_mse(variance_of_mean: &[DVec3]) -> f64 {
     mean_over(variance_of_mean.iter().copied(), variance_of_mean.len())
 }
 
-/// The relative mean squared error estimated from each pixel's (mean, variance of its mean),
-/// with the pixel's own mean standing in for the reference.
+/// One pixel's term of [`estimated_rel_mse`]: the variance of its mean over
+/// `(mean + 0.01)^2`, averaged over the channels, with the pixel's own mean standing in for
+/// the reference (clamped at 0).
+pub fn estimated_rel_mse_term(mean: DVec3, variance_of_mean: DVec3) -> f64 {
+    let s = mean.max(DVec3::ZERO) + RELATIVE_EPSILON;
+    let r = variance_of_mean / (s * s);
+    (r.x + r.y + r.z) / 3.0
+}
+
+/// The relative mean squared error estimated from each pixel's (mean, variance of its mean):
+/// the mean of [`estimated_rel_mse_term`] over the pixels.
 pub fn estimated_rel_mse(pixels: impl Iterator<Item = (DVec3, DVec3)>) -> f64 {
     let mut count = 0;
-    let terms = pixels.map(|(m, var)| {
-        count += 1;
-        let s = m.max(DVec3::ZERO) + RELATIVE_EPSILON;
-        var / (s * s)
-    });
-    let sum: f64 = terms.map(|v| v.x + v.y + v.z).sum();
-    sum / (3 * count.max(1)) as f64
+    let sum: f64 = pixels
+        .map(|(m, var)| {
+            count += 1;
+            estimated_rel_mse_term(m, var)
+        })
+        .sum();
+    sum / count.max(1) as f64
 }
 
 #[cfg(test)]

@@ -3,8 +3,9 @@
 //! A reference render of many samples (or an EXR the user gives) stands in for the converged
 //! image. The frame is then rendered at 1, 2, 4, ... samples per pixel with each sampler,
 //! timing the rendering alone, and each render is compared with the reference: mean squared
-//! error, relative mean squared error, the error estimated from the pixels' sample variances
-//! (which needs no reference), and the efficiency `1 / (MSE x seconds)`.
+//! error, relative mean squared error, the error estimated from the pixels' replicates (which
+//! needs no reference; see `film::Pixel::variance_of_mean`), and the efficiency
+//! `1 / (MSE x seconds)`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -42,7 +43,7 @@ pub(crate) struct Measurement {
     pub(crate) seconds: f64,
     pub(crate) mse: f64,
     pub(crate) rel_mse: f64,
-    /// The mean squared error estimated from the pixels' sample variances.
+    /// The mean squared error estimated from the pixels' replicates.
     pub(crate) estimated_mse: f64,
     pub(crate) estimated_rel_mse: f64,
 }

@@ -383,6 +383,12 @@ fn render_shot(
         if let Some(t) = budget.time_limit {
             info.extra.push(("timeLimit".to_string(), t));
         }
+        if st.min_samples_per_pixel != st.samples_per_pixel {
+            info.extra
+                .push(("minSamples".to_string(), st.min_samples_per_pixel as f64));
+            info.extra
+                .push(("meanSamples".to_string(), st.mean_samples_per_pixel));
+        }
         let passes = result.passes.as_ref().map(|p| (p, scene.transparent));
         let non_finite = write_film_with_passes(&path, &result.film, passes, info)?;
         let seconds = st.prepare_seconds + st.render_seconds;
