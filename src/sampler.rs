@@ -706,24 +706,32 @@ mod tests {
         }
     }
 
+    /// The 8-sample estimate, over samples `indices` of pixel (`x`, 7), of a smooth integrand
+    /// of the first bounce: x y z, exactly 1/8.
+    fn smooth_estimate(s: &mut SobolSampler, x: u32, indices: impl Iterator<Item = u32>) -> f64 {
+        indices
+            .map(|i| {
+                s.start_sample(x, 7, i);
+                s.camera(EVERYTHING);
+                let b = s.next_bounce();
+                b.u.0 * b.u.1 * b.uc
+            })
+            .sum::<f64>()
+            / 8.0
+    }
+
     #[test]
     fn pixel_estimates_are_uncorrelated() {
-        // The 8-sample estimates of a smooth integrand (x y z over the first bounce, exactly
-        // 1/8) in horizontally neighbouring pixels are uncorrelated over 4096 pairs.
-        let estimate = |s: &mut SobolSampler, x: u32| {
-            (0..8)
-                .map(|i| {
-                    s.start_sample(x, 7, i);
-                    s.camera(EVERYTHING);
-                    let b = s.next_bounce();
-                    b.u.0 * b.u.1 * b.uc
-                })
-                .sum::<f64>()
-                / 8.0
-        };
+        // The 8-sample estimates in horizontally neighbouring pixels are uncorrelated over
+        // 4096 pairs.
         let mut s = SobolSampler::new(9, 1);
         let (left, right): (Vec<f64>, Vec<f64>) = (0..4096)
-            .map(|k| (estimate(&mut s, 2 * k), estimate(&mut s, 2 * k + 1)))
+            .map(|k| {
+                (
+                    smooth_estimate(&mut s, 2 * k, 0..8),
+                    smooth_estimate(&mut s, 2 * k + 1, 0..8),
+                )
+            })
             .unzip();
         let r = correlation(&left, &right);
         assert!(r.abs() < 4.0 / 64.0, "r = {r}");
@@ -733,29 +741,18 @@ mod tests {
 
     #[test]
     fn replicate_estimates_are_independent() {
-        // A pixel's two replicates: their 8-point estimates of a smooth integrand (x y z over
-        // the first bounce, exactly 1/8) are uncorrelated over 4096 pixels, and each is
-        // unbiased. Between the halves of one scrambled sequence (samples 0-7 against 8-15
-        // of one replicate) the correlation is strongly negative: the halves stratify each
-        // other, which is why an error estimate needs independent replicates.
-        let estimate = |s: &mut SobolSampler, x: u32, indices: &mut dyn Iterator<Item = u32>| {
-            indices
-                .map(|i| {
-                    s.start_sample(x, 7, i);
-                    s.camera(EVERYTHING);
-                    let b = s.next_bounce();
-                    b.u.0 * b.u.1 * b.uc
-                })
-                .sum::<f64>()
-                / 8.0
-        };
+        // A pixel's two replicates: their 8-point estimates of the smooth integrand are
+        // uncorrelated over 4096 pixels, and each is unbiased. Between the halves of one
+        // scrambled sequence (samples 0-7 against 8-15 of one replicate) the correlation is
+        // strongly negative: the halves stratify each other, which is why an error estimate
+        // needs independent replicates.
         let mut s = SobolSampler::new(9, 1);
         let mut pairs = |a: fn(u32) -> u32, b: fn(u32) -> u32| -> (Vec<f64>, Vec<f64>) {
             (0..4096)
                 .map(|x| {
                     (
-                        estimate(&mut s, x, &mut (0..8).map(a)),
-                        estimate(&mut s, x, &mut (0..8).map(b)),
+                        smooth_estimate(&mut s, x, (0..8).map(a)),
+                        smooth_estimate(&mut s, x, (0..8).map(b)),
                     )
                 })
                 .unzip()
