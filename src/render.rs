@@ -352,19 +352,21 @@ impl TileCounts {
     }
 }
 
-/// Each pixel's estimated relative variance *per sample* (its [`Pixel::relative_variance`]
-/// times its samples), averaged over its 3x3 neighbourhood inside the tile (fewer neighbours
-/// at the tile's edges): a pixel's own estimate has one degree of freedom (see
-/// [`Pixel::variance_of_mean`]) and is zero for one pixel in about sixteen by chance alone,
-/// while its neighbours see nearly the same integrand. Read from the tile only, so the tiles
-/// of a pass can decide in parallel and alike on any thread count.
+/// Each pixel's estimated relative variance *per sample* (its
+/// [`film::relative_variances`](crate::film::relative_variances) term times its samples),
+/// averaged over its 3x3 neighbourhood inside the tile (fewer neighbours at the tile's edges):
+/// a pixel's own estimate has one degree of freedom (see [`Pixel::variance_of_mean`]) and is
+/// near zero for one pixel in sixteen by chance alone, while its neighbours see nearly the
+/// same integrand. Read from the tile only, so the tiles of a pass can decide in parallel and
+/// alike on any thread count.
 fn smoothed_variances(rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
     let w = rect.width() as usize;
     let h = pixels.len() / w;
-    let own: Vec<f64> = pixels
-        .iter()
-        .map(|p| {
-            let v = p.relative_variance() * p.taken() as f64;
+    let own: Vec<f64> = crate::film::relative_variances(rect, pixels)
+        .into_iter()
+        .zip(pixels)
+        .map(|(r, p)| {
+            let v = r * p.taken() as f64;
             if v.is_finite() { v } else { f64::MAX }
         })
         .collect();
@@ -814,11 +816,15 @@ pub fn memory_estimate(scene: &Scene) -> u64 {
 }
 
 /// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):
-/// the square root of the mean of their [`Pixel::relative_variance`], summed in storage order.
+/// the square root of the mean of their
+/// [`film::relative_variances`](crate::film::relative_variances), summed in storage order.
 pub fn relative_error(film: &Film) -> f64 {
-    let pixels = film.all_pixels();
-    let sum: f64 = pixels.iter().map(Pixel::relative_variance).sum();
-    (sum / pixels.len().max(1) as f64).sqrt()
+    let sum: f64 = film
+        .tiles()
+        .iter()
+        .flat_map(|(rect, pixels)| crate::film::relative_variances(rect, pixels))
+        .sum();
+    (sum / film.all_pixels().len().max(1) as f64).sqrt()
 }
 
 #[cfg(test)]
