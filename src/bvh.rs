@@ -23,7 +23,7 @@
 //! Primitives are identified by their position in [`Topology::order`]: callers store their
 //! primitives in that order, so the leaves of the hierarchy read memory front to back.
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 
 use crate::aabb::Aabb;
 
@@ -572,24 +572,6 @@ impl<'a> BvhView<'a> {
                 if mask != 0 {
                     next = node.child[mask.trailing_zeros() as usize];
                 }
-            } else if mask.count_ones() == 2 {
-                // Two: the nearer is next (the higher slot on a tie), the other pushed.
-                let (k0, k1) = (
-                    mask.trailing_zeros() as usize & 3,
-                    (31 - mask.leading_zeros()) as usize & 3,
-                );
-                let (first, second) = if near[k0] < near[k1] {
-                    (k0, k1)
-                } else {
-                    (k1, k0)
-                };
-                let w = node.child[second];
-                let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
-                stack.links[sp] = links[at];
-                stack.entry[sp] = w;
-                stack.near[sp] = near[second];
-                sp += 1;
-                next = node.child[first];
             } else {
                 let mut hits = [0usize; 4];
                 let mut n = 0;
@@ -666,19 +648,17 @@ impl<'a> BvhView<'a> {
 }
 
 /// The relative error of an entry or exit distance computed in `f32` as
-/// `(side - origin) * inverse`, with the side and the origin `f32` and the inverse computed
-/// in `f32` from the direction rounded to `f32`: four roundings to `f32` (the direction, the
-/// quotient, the difference, the product), so within `(1 + u)^4 < 1 + 4.01 u` with
-/// `u = 2^-24` (pbrt-v4, section 6.8.2), unless the product is subnormal (then off by at
-/// most `2^-150`) or overflows (then infinite, beyond every finite `f32` limit). The origin's
-/// own rounding is taken care of by rounding it towards the box for an entry and away from
-/// it for an exit ([`RayLanes`]).
+/// `(side - origin) * inverse`, with the side and origin `f32` and the inverse the `f32`
+/// rounding of the `f64` reciprocal: at most three roundings to `f32` and one to `f64`, so
+/// within `(1 + u)^3 (1 + 2^-53) < 1 + 3.01 u` with `u = 2^-24` (pbrt-v4, section 6.8.2),
+/// unless the product is subnormal (then off by at most `2^-150`) or overflows (then
+/// infinite, beyond every finite `f32` limit).
 ///
-/// An entry distance is scaled by `NEAR_SCALE = 1 - 8u` (with its rounding, by less than
-/// `1 - 2u` of the computed one): below the exact one. An exit distance is scaled by
-/// `FAR_SCALE = 1 + 16u` and `TINY` (the smallest normal `f32`, for the subnormal case) is
-/// added: above the exact one. pbrt-v4's robust slab test widens the exit only (by
-/// `1 + 2 gamma(3)`); here both are bounded, since entry distances also prune the stack.
+/// An entry distance is scaled by `NEAR_SCALE = 1 - 8u` (rounded, below `1 - 4u` of it):
+/// below the exact one. An exit distance is scaled by `FAR_SCALE = 1 + 16u` and `TINY` added
+/// (the smallest normal `f32`, for the subnormal case): above the exact one. pbrt-v4's
+/// robust slab test widens the exit only (by `1 + 2 gamma(3)`); here both are bounded, since
+/// entry distances also prune the stack.
 const NEAR_SCALE: f32 = 1.0 - 1.0 / (1 << 21) as f32;
 const FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
 const TINY: f32 = f32::MIN_POSITIVE;
@@ -700,20 +680,18 @@ trait SlabTest {
     fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; 4]);
 }
 
-/// A ray as the `f32` slab test reads it: per axis, its reciprocal direction, its origin
-/// rounded to `f32` for the side it enters boxes through and for the side it leaves through,
-/// and which sides those are; the shutter time.
+/// A ray as the `f32` slab test reads it: per axis, its reciprocal direction, and its origin
+/// rounded to `f32` both ways; whether its direction is negative; the shutter time.
 struct RayLanes {
     inv: [lanes::F4; 3],
-    /// The origin rounded for entry sides: up for a positive direction (entering through
-    /// the lower side, `lower - origin` then comes out at most the exact difference, so the
-    /// entry distance is not overestimated), down for a negative one.
-    o_near: [lanes::F4; 3],
-    /// The origin rounded the other way, for exit sides (not underestimated).
-    o_far: [lanes::F4; 3],
-    /// Per axis, 1 if the direction is negative (the ray enters boxes through their upper
-    /// side), else 0.
-    negative: [usize; 3],
+    /// The origin rounded up, subtracted from lower sides: `lower - origin` comes out at
+    /// most the exact difference, so a positive direction's entry distance is not
+    /// overestimated, nor a negative one's exit distance underestimated.
+    o_up: [lanes::F4; 3],
+    /// The origin rounded down, for upper sides (the mirror image).
+    o_down: [lanes::F4; 3],
+    /// Per axis, whether the direction is negative: the ray enters through the upper side.
+    negative: [bool; 3],
     s: lanes::F4,
 }
 
@@ -725,27 +703,34 @@ impl RayLanes {
         if !(origin.abs().max_element() <= 1e30 && dir.abs().min_element() >= 1e-30) {
             return None;
         }
-        // In `f32` (one `divps`): the rounding of the direction and of the quotient are two
-        // of the four roundings [`NEAR_SCALE`] allows for.
-        let inv = Vec3::ONE / dir.as_vec3();
+        let inv = (DVec3::ONE / dir).as_vec3();
         // `origin -+ m` rounded to the nearest `f32` is below (above) `origin`: `m` exceeds
         // the rounding to `f32` (at most 2^-24 of the magnitude, or 2^-150 below the normal
         // range) and the two `f64` roundings before it. Without the branches of
         // `f32_below`, whose outcome is a coin toss per ray; one `f32` ulp looser.
         let m = origin.abs() * f64::from(2f32.powi(-23)) + f64::from(f32::MIN_POSITIVE);
-        // Per axis, the origin rounded up and down: the entry takes the first for a
-        // positive direction, the second for a negative one. Indexed, not branched on: the
-        // sign changes from ray to ray.
         let (up, down) = ((origin + m).as_vec3(), (origin - m).as_vec3());
-        let rounded = [up.to_array(), down.to_array()];
-        let negative: [usize; 3] = std::array::from_fn(|a| usize::from(inv[a] < 0.0));
         Some(RayLanes {
             inv: std::array::from_fn(|a| lanes::F4::splat(inv[a])),
-            o_near: std::array::from_fn(|a| lanes::F4::splat(rounded[negative[a]][a])),
-            o_far: std::array::from_fn(|a| lanes::F4::splat(rounded[1 - negative[a]][a])),
-            negative,
+            o_up: std::array::from_fn(|a| lanes::F4::splat(up[a])),
+            o_down: std::array::from_fn(|a| lanes::F4::splat(down[a])),
+            negative: std::array::from_fn(|a| inv[a] < 0.0),
             s: lanes::F4::splat(s as f32),
         })
+    }
+
+    /// Along axis `a`, the distances to a box's lower and upper sides, with the rounded
+    /// origins they take, as (entry, exit).
+    #[inline(always)]
+    fn axis(&self, a: usize, lower: lanes::F4, upper: lanes::F4) -> (lanes::F4, lanes::F4) {
+        let lower = lower.sub(self.o_up[a]).mul(self.inv[a]);
+        let upper = upper.sub(self.o_down[a]).mul(self.inv[a]);
+        // A select of values, not of indices: no bounds checks in the loop.
+        if self.negative[a] {
+            (upper, lower)
+        } else {
+            (lower, upper)
+        }
     }
 }
 
@@ -757,28 +742,24 @@ impl SlabTest for RayLanes {
         use lanes::F4;
         let mut near = F4::splat(0.0);
         let mut far = F4::splat(f32::INFINITY);
+        // `max` and `min` keep the running value when the new one is NaN (0 * inf cannot
+        // arise with a finite reciprocal, but a NaN side can), which leaves that axis out.
         for a in 0..3 {
-            // The entry and exit sides in `Boxes4::planes`, found without a branch (whose
-            // outcome would change from ray to ray) or a bounds check (`& 1`).
-            let n = self.negative[a] & 1;
-            let (e, x) = (3 * n + a, 3 * (1 - n) + a);
-            let (entry, exit) = if boxes.moving.is_empty() {
+            let (lower, upper) = if boxes.moving.is_empty() {
                 let planes = &boxes.still[node].planes;
-                (F4::load(&planes[e]), F4::load(&planes[x]))
+                (F4::load(&planes[a]), F4::load(&planes[3 + a]))
             } else {
                 let [planes, d] = &boxes.moving[node];
                 let (planes, d) = (&planes.planes, &d.planes);
                 // Evaluated in `f32`, as `moving_lower` allows for.
                 (
-                    F4::load(&planes[e]).add(self.s.mul(F4::load(&d[e]))),
-                    F4::load(&planes[x]).add(self.s.mul(F4::load(&d[x]))),
+                    F4::load(&planes[a]).add(self.s.mul(F4::load(&d[a]))),
+                    F4::load(&planes[3 + a]).add(self.s.mul(F4::load(&d[3 + a]))),
                 )
             };
-            // `max` and `min` keep the running value when the new one is NaN (0 * inf
-            // cannot arise with a finite reciprocal, but a NaN side can), which leaves that
-            // axis out.
-            near = entry.sub(self.o_near[a]).mul(self.inv[a]).max_keep(near);
-            far = exit.sub(self.o_far[a]).mul(self.inv[a]).min_keep(far);
+            let (n, f) = self.axis(a, lower, upper);
+            near = n.max_keep(near);
+            far = f.min_keep(far);
         }
         let near = near.mul(F4::splat(NEAR_SCALE));
         let far = far
