@@ -72,7 +72,7 @@ pub struct TraversalStack {
     links: [Links; STACK],
     /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
     /// are skipped.
-    near: [f64; STACK],
+    near: [f32; STACK],
 }
 
 impl Default for TraversalStack {
@@ -523,120 +523,425 @@ impl<'a> BvhView<'a> {
         origin: DVec3,
         dir: DVec3,
         s: f64,
-        mut t_max: f64,
+        t_max: f64,
         stack: &mut TraversalStack,
-        mut hit: impl FnMut(u32, f64) -> Option<f64>,
+        hit: impl FnMut(u32, f64) -> Option<f64>,
     ) -> Option<(f64, u32)> {
-        let links = &self.topology.links[..];
-        let still = &self.boxes.still[..];
-        let moving_boxes = &self.boxes.moving[..];
         // A ray with a NaN or infinite origin or direction has no meaningful hit, and its
-        // slab tests give NaN everywhere (which `max` and `min` below ignore): it would enter
-        // every box. Checked once per ray.
-        if links.is_empty() || !(origin.is_finite() && dir.is_finite() && !s.is_nan()) {
+        // slab tests give NaN everywhere (which the tests ignore): it would enter every box.
+        // Checked once per ray.
+        if self.topology.links.is_empty() || !(origin.is_finite() && dir.is_finite() && !s.is_nan())
+        {
             return None;
         }
-        let moving = !moving_boxes.is_empty();
-        let s32 = s as f32;
-        let inv = (DVec3::ONE / dir).to_array();
-        let o = origin.to_array();
-        // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
-        // and leaves boxes: the upper one first for a negative direction. Taken from the
-        // reciprocal so that a direction of -0 (reciprocal -inf) counts as negative.
-        let entry: [usize; 3] = std::array::from_fn(|a| if inv[a] < 0.0 { 3 + a } else { a });
-        let exit: [usize; 3] = std::array::from_fn(|a| if inv[a] < 0.0 { a } else { 3 + a });
+        match RayLanes::new(origin, dir, s) {
+            Some(ray) => self.traverse(stack, t_max, hit, &ray),
+            // Rare: an origin beyond 1e30 or a direction with a component below 1e-30 (an
+            // axis-parallel ray), whose reciprocal has no `f32`.
+            None => {
+                let ray = RayF64::new(origin, dir, s);
+                self.traverse(stack, t_max, hit, &ray)
+            }
+        }
+    }
+
+    /// The traversal of [`BvhView::closest_hit`], with `test(node, limit)` the slab test of
+    /// the children of `node`: a bit per child the ray may enter before `limit` (a bound on
+    /// the distance, [`widened_limit`]), and its entry distance (at most the true one).
+    #[inline(always)]
+    fn traverse(
+        &self,
+        stack: &mut TraversalStack,
+        mut t_max: f64,
+        mut hit: impl FnMut(u32, f64) -> Option<f64>,
+        ray: &impl SlabTest,
+    ) -> Option<(f64, u32)> {
+        let links = &self.topology.links[..];
+        let mut limit = widened_limit(t_max);
         let mut best = None;
         let mut sp = 0usize;
         let mut current = 0usize;
         let mut node = links[0];
         loop {
-            // Test the four children of `current` at once.
-            let mut near = [0.0f64; 4];
-            let mut far = [t_max; 4];
-            // `max` and `min` ignore a NaN (0 * inf: a ray in a box's face plane, parallel
-            // to it), which leaves that axis out of the interval.
-            if moving {
-                let [planes, d] = &moving_boxes[current];
-                let (planes, d) = (&planes.planes, &d.planes);
-                for a in 0..3 {
-                    let (e, x) = (entry[a], exit[a]);
-                    for k in 0..4 {
-                        // In `f32`, which `moving_lower`'s margin allows for.
-                        let n = f64::from(planes[e][k] + s32 * d[e][k]);
-                        let f = f64::from(planes[x][k] + s32 * d[x][k]);
-                        near[k] = near[k].max((n - o[a]) * inv[a]);
-                        far[k] = far[k].min((f - o[a]) * inv[a]);
-                    }
+            let (mask, near) = ray.test(self.boxes, current, limit, t_max);
+            // The child to go to next (a child slot, 0 for none): the nearest child hit. The
+            // others are pushed, nearest last, so the nearest of them is popped first.
+            let mut next = 0;
+            if mask & mask.wrapping_sub(1) == 0 {
+                // None or one: nothing to sort or push (the most frequent cases).
+                if mask != 0 {
+                    next = node.child[mask.trailing_zeros() as usize];
                 }
             } else {
-                let planes = &still[current].planes;
-                for a in 0..3 {
-                    let (e, x) = (entry[a], exit[a]);
-                    for k in 0..4 {
-                        near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
-                        far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
+                let mut hits = [0usize; 4];
+                let mut n = 0;
+                for k in 0..4 {
+                    if mask & (1 << k) != 0 {
+                        let mut j = n;
+                        while j > 0 && near[hits[j - 1]] < near[k] {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = k;
+                        n += 1;
                     }
                 }
-            }
-            // The children hit, nearest last, so the nearest is popped first.
-            let mut hits = [(0.0f64, 0usize); 4];
-            let mut n = 0;
-            for k in 0..4 {
-                if near[k] <= far[k] {
-                    let mut j = n;
-                    while j > 0 && hits[j - 1].0 < near[k] {
-                        hits[j] = hits[j - 1];
-                        j -= 1;
-                    }
-                    hits[j] = (near[k], k);
-                    n += 1;
+                for &k in &hits[..n - 1] {
+                    let w = node.child[k];
+                    // A node's children are read now, when it is pushed, not when it is
+                    // visited: the load then overlaps the rest of this node's work instead
+                    // of delaying the child's, which measured a few percent faster than
+                    // reading them at the visit. A leaf reads the root's (always cached)
+                    // without a branch.
+                    let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
+                    stack.links[sp] = links[at];
+                    stack.entry[sp] = w;
+                    stack.near[sp] = near[k];
+                    sp += 1;
                 }
+                next = node.child[hits[n - 1]];
             }
-            for &(d, k) in &hits[..n] {
-                let w = node.child[k];
-                // A node's children are read now, when it is pushed, not when it is visited:
-                // the load then overlaps the rest of this node's work instead of delaying
-                // the child's, which measured a few percent faster than reading them at the
-                // visit. A leaf reads the root's (always cached) without a branch.
-                let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
-                stack.links[sp] = links[at];
-                stack.entry[sp] = w;
-                stack.near[sp] = d;
-                sp += 1;
-            }
-            // Pop until an inner node to descend into; leaves are intersected on the way.
+            // Its children, if it is a node (a leaf reads the root's).
+            let mut next_links = links[if next >> COUNT_SHIFT == 0 {
+                next as usize
+            } else {
+                0
+            }];
+            // Intersect leaves until an inner node to descend into, popping the stack.
             loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                if stack.near[sp] > t_max {
-                    continue;
-                }
-                let e = stack.entry[sp];
-                let count = e >> COUNT_SHIFT;
+                let count = next >> COUNT_SHIFT;
                 if count == 0 {
                     // An empty slot (0), entered only through NaN boxes, would read as the
                     // root, and descending into it would push the root again and again until
                     // the stack overflowed. Skipped, every descent is one level down, so the
                     // stack holds at most 3 entries per level of a tree `STACK` is sized for.
-                    // Checked here, on nodes popped, rather than on every child tested: that
-                    // cost nothing measurable.
-                    if e == 0 {
-                        continue;
+                    if next != 0 {
+                        current = next as usize;
+                        node = next_links;
+                        break;
                     }
-                    current = e as usize;
-                    node = stack.links[sp];
-                    break;
+                } else {
+                    let first = next & POSITION_MASK;
+                    for pos in first..first + count {
+                        if let Some(t) = hit(pos, t_max) {
+                            t_max = t;
+                            limit = widened_limit(t);
+                            best = Some((t, pos));
+                        }
+                    }
                 }
-                let first = e & POSITION_MASK;
-                for pos in first..first + count {
-                    if let Some(t) = hit(pos, t_max) {
-                        t_max = t;
-                        best = Some((t, pos));
+                // Pop the nearest child pushed that may still hold a nearer hit.
+                loop {
+                    if sp == 0 {
+                        return best;
+                    }
+                    sp -= 1;
+                    if stack.near[sp] <= limit {
+                        next = stack.entry[sp];
+                        next_links = stack.links[sp];
+                        break;
                     }
                 }
             }
+        }
+    }
+}
+
+/// The relative error of an entry or exit distance computed in `f32` as
+/// `(side - origin) * inverse`, with the side and origin `f32` and the inverse the `f32`
+/// rounding of the `f64` reciprocal: at most three roundings to `f32` and one to `f64`, so
+/// within `(1 + u)^3 (1 + 2^-53) < 1 + 3.01 u` with `u = 2^-24` (pbrt-v4, section 6.8.2),
+/// unless the product is subnormal (then off by at most `2^-150`) or overflows (then
+/// infinite, beyond every finite `f32` limit).
+///
+/// An entry distance is scaled by `NEAR_SCALE = 1 - 8u` (rounded, below `1 - 4u` of it):
+/// below the exact one. An exit distance is scaled by `FAR_SCALE = 1 + 16u` and `TINY` added
+/// (the smallest normal `f32`, for the subnormal case): above the exact one. pbrt-v4's
+/// robust slab test widens the exit only (by `1 + 2 gamma(3)`); here both are bounded, since
+/// entry distances also prune the stack.
+const NEAR_SCALE: f32 = 1.0 - 1.0 / (1 << 21) as f32;
+const FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
+const TINY: f32 = f32::MIN_POSITIVE;
+
+/// An `f32` at or above `t * (1 + 16u)` (see [`NEAR_SCALE`]) past any nonnegative `f64`
+/// `t`: children entered beyond it are not visited. `+inf` for `t` beyond the `f32` range.
+#[inline]
+fn widened_limit(t: f64) -> f32 {
+    // Rounded up past `t` without a branch: `t (1 + 2^-22)` exceeds `t` by more than its
+    // rounding to `f32` (2^-24 of it), and `TINY` covers a subnormal `t`.
+    (t * (1.0 + f64::from(2f32.powi(-22)))) as f32 * FAR_SCALE + TINY
+}
+
+/// A ray's test against the four children of a node.
+trait SlabTest {
+    /// The children of `node` (with `boxes`) the ray may enter before the distance `t_max`,
+    /// or `limit` (an `f32` at or above it, [`widened_limit`]), as bits, and their entry
+    /// distances, at most the true ones.
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; 4]);
+}
+
+/// A ray as the `f32` slab test reads it: per axis, its reciprocal direction, and its origin
+/// rounded to `f32` both ways; whether its direction is negative; the shutter time.
+struct RayLanes {
+    inv: [lanes::F4; 3],
+    /// The origin rounded up, subtracted from lower sides: `lower - origin` comes out at
+    /// most the exact difference, so a positive direction's entry distance is not
+    /// overestimated, nor a negative one's exit distance underestimated.
+    o_up: [lanes::F4; 3],
+    /// The origin rounded down, for upper sides (the mirror image).
+    o_down: [lanes::F4; 3],
+    /// Per axis, whether the direction is negative: the ray enters through the upper side.
+    negative: [bool; 3],
+    s: lanes::F4,
+}
+
+impl RayLanes {
+    /// `None` if some origin coordinate exceeds 1e30 in magnitude or some direction
+    /// component is below 1e-30 (its reciprocal would be beyond the `f32` range).
+    #[inline(always)]
+    fn new(origin: DVec3, dir: DVec3, s: f64) -> Option<RayLanes> {
+        if !(origin.abs().max_element() <= 1e30 && dir.abs().min_element() >= 1e-30) {
+            return None;
+        }
+        let inv = (DVec3::ONE / dir).as_vec3();
+        // `origin -+ m` rounded to the nearest `f32` is below (above) `origin`: `m` exceeds
+        // the rounding to `f32` (at most 2^-24 of the magnitude, or 2^-150 below the normal
+        // range) and the two `f64` roundings before it. Without the branches of
+        // `f32_below`, whose outcome is a coin toss per ray; one `f32` ulp looser.
+        let m = origin.abs() * f64::from(2f32.powi(-23)) + f64::from(f32::MIN_POSITIVE);
+        let (up, down) = ((origin + m).as_vec3(), (origin - m).as_vec3());
+        Some(RayLanes {
+            inv: std::array::from_fn(|a| lanes::F4::splat(inv[a])),
+            o_up: std::array::from_fn(|a| lanes::F4::splat(up[a])),
+            o_down: std::array::from_fn(|a| lanes::F4::splat(down[a])),
+            negative: std::array::from_fn(|a| inv[a] < 0.0),
+            s: lanes::F4::splat(s as f32),
+        })
+    }
+
+    /// Along axis `a`, the distances to a box's lower and upper sides, with the rounded
+    /// origins they take, as (entry, exit).
+    #[inline(always)]
+    fn axis(&self, a: usize, lower: lanes::F4, upper: lanes::F4) -> (lanes::F4, lanes::F4) {
+        let lower = lower.sub(self.o_up[a]).mul(self.inv[a]);
+        let upper = upper.sub(self.o_down[a]).mul(self.inv[a]);
+        // A select of values, not of indices: no bounds checks in the loop.
+        if self.negative[a] {
+            (upper, lower)
+        } else {
+            (lower, upper)
+        }
+    }
+}
+
+impl SlabTest for RayLanes {
+    /// Entry distances at most the exact ones (computed in real arithmetic from the `f64`
+    /// origin and direction, against the box a traversal's `f32` evaluation gives).
+    #[inline(always)]
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, _: f64) -> (u32, [f32; 4]) {
+        use lanes::F4;
+        let mut near = F4::splat(0.0);
+        let mut far = F4::splat(f32::INFINITY);
+        // `max` and `min` keep the running value when the new one is NaN (0 * inf cannot
+        // arise with a finite reciprocal, but a NaN side can), which leaves that axis out.
+        for a in 0..3 {
+            let (lower, upper) = if boxes.moving.is_empty() {
+                let planes = &boxes.still[node].planes;
+                (F4::load(&planes[a]), F4::load(&planes[3 + a]))
+            } else {
+                let [planes, d] = &boxes.moving[node];
+                let (planes, d) = (&planes.planes, &d.planes);
+                // Evaluated in `f32`, as `moving_lower` allows for.
+                (
+                    F4::load(&planes[a]).add(self.s.mul(F4::load(&d[a]))),
+                    F4::load(&planes[3 + a]).add(self.s.mul(F4::load(&d[3 + a]))),
+                )
+            };
+            let (n, f) = self.axis(a, lower, upper);
+            near = n.max_keep(near);
+            far = f.min_keep(far);
+        }
+        let near = near.mul(F4::splat(NEAR_SCALE));
+        let far = far
+            .mul(F4::splat(FAR_SCALE))
+            .add(F4::splat(TINY))
+            .min_keep(F4::splat(limit));
+        (near.le_mask(far), near.to_array())
+    }
+}
+
+/// A ray as the `f64` slab test reads it, for rays [`RayLanes`] cannot take.
+struct RayF64 {
+    inv: [f64; 3],
+    o: [f64; 3],
+    entry: [usize; 3],
+    exit: [usize; 3],
+    s: f32,
+}
+
+impl RayF64 {
+    fn new(origin: DVec3, dir: DVec3, s: f64) -> RayF64 {
+        let inv = (DVec3::ONE / dir).to_array();
+        // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
+        // and leaves boxes: the upper one first for a negative direction. Taken from the
+        // reciprocal so that a direction of -0 (reciprocal -inf) counts as negative.
+        RayF64 {
+            inv,
+            o: origin.to_array(),
+            entry: std::array::from_fn(|a| if inv[a] < 0.0 { 3 + a } else { a }),
+            exit: std::array::from_fn(|a| if inv[a] < 0.0 { a } else { 3 + a }),
+            s: s as f32,
+        }
+    }
+}
+
+impl SlabTest for RayF64 {
+    /// Tested against `t_max`, with the entry distances rounded down to `f32`.
+    #[inline(never)]
+    fn test(&self, boxes: &Boxes, node: usize, _: f32, t_max: f64) -> (u32, [f32; 4]) {
+        let (o, inv, s32) = (&self.o, &self.inv, self.s);
+        let mut near = [0.0f64; 4];
+        let mut far = [t_max; 4];
+        // `max` and `min` ignore a NaN (0 * inf: a ray in a box's face plane, parallel
+        // to it), which leaves that axis out of the interval.
+        if boxes.moving.is_empty() {
+            let planes = &boxes.still[node].planes;
+            for a in 0..3 {
+                let (e, x) = (self.entry[a], self.exit[a]);
+                for k in 0..4 {
+                    near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
+                    far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
+                }
+            }
+        } else {
+            let [planes, d] = &boxes.moving[node];
+            let (planes, d) = (&planes.planes, &d.planes);
+            for a in 0..3 {
+                let (e, x) = (self.entry[a], self.exit[a]);
+                for k in 0..4 {
+                    // In `f32`, which `moving_lower`'s margin allows for.
+                    let n = f64::from(planes[e][k] + s32 * d[e][k]);
+                    let f = f64::from(planes[x][k] + s32 * d[x][k]);
+                    near[k] = near[k].max((n - o[a]) * inv[a]);
+                    far[k] = far[k].min((f - o[a]) * inv[a]);
+                }
+            }
+        }
+        let mut mask = 0;
+        for k in 0..4 {
+            mask |= u32::from(near[k] <= far[k]) << k;
+        }
+        (mask, near.map(f32_below))
+    }
+}
+
+/// Four `f32` lanes: SSE registers on x86-64 (SSE2 is part of its baseline; `safe_arch`
+/// wraps the intrinsics, which the standard library has as unsafe functions), plain arrays
+/// elsewhere, with the same results lane by lane.
+mod lanes {
+    #[cfg(target_arch = "x86_64")]
+    use safe_arch::*;
+
+    /// Four `f32`s.
+    #[cfg(target_arch = "x86_64")]
+    #[derive(Clone, Copy, Debug)]
+    pub struct F4(m128);
+
+    #[cfg(target_arch = "x86_64")]
+    impl F4 {
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4(set_splat_m128(x))
+        }
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            F4(load_unaligned_m128(a))
+        }
+        #[inline(always)]
+        pub fn add(self, o: F4) -> F4 {
+            F4(add_m128(self.0, o.0))
+        }
+        #[inline(always)]
+        pub fn sub(self, o: F4) -> F4 {
+            F4(sub_m128(self.0, o.0))
+        }
+        #[inline(always)]
+        pub fn mul(self, o: F4) -> F4 {
+            F4(mul_m128(self.0, o.0))
+        }
+        /// Per lane, `self` if it is greater than `acc`, else `acc` (so `acc` when `self` is
+        /// NaN): SSE's `maxps`.
+        #[inline(always)]
+        pub fn max_keep(self, acc: F4) -> F4 {
+            F4(max_m128(self.0, acc.0))
+        }
+        /// Per lane, `self` if it is less than `acc`, else `acc` (so `acc` when `self` is
+        /// NaN): SSE's `minps`.
+        #[inline(always)]
+        pub fn min_keep(self, acc: F4) -> F4 {
+            F4(min_m128(self.0, acc.0))
+        }
+        /// Bit `k` set where lane `k` of `self` is at most that of `o` (false for NaN).
+        #[inline(always)]
+        pub fn le_mask(self, o: F4) -> u32 {
+            move_mask_m128(cmp_le_mask_m128(self.0, o.0)) as u32
+        }
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            self.0.to_array()
+        }
+    }
+
+    /// Four `f32`s.
+    #[cfg(not(target_arch = "x86_64"))]
+    #[derive(Clone, Copy, Debug)]
+    pub struct F4([f32; 4]);
+
+    #[cfg(not(target_arch = "x86_64"))]
+    impl F4 {
+        #[inline(always)]
+        pub fn splat(x: f32) -> F4 {
+            F4([x; 4])
+        }
+        #[inline(always)]
+        pub fn load(a: &[f32; 4]) -> F4 {
+            F4(*a)
+        }
+        #[inline(always)]
+        fn zip(self, o: F4, f: impl Fn(f32, f32) -> f32) -> F4 {
+            F4(std::array::from_fn(|k| f(self.0[k], o.0[k])))
+        }
+        #[inline(always)]
+        pub fn add(self, o: F4) -> F4 {
+            self.zip(o, |a, b| a + b)
+        }
+        #[inline(always)]
+        pub fn sub(self, o: F4) -> F4 {
+            self.zip(o, |a, b| a - b)
+        }
+        #[inline(always)]
+        pub fn mul(self, o: F4) -> F4 {
+            self.zip(o, |a, b| a * b)
+        }
+        /// Per lane, `self` if it is greater than `acc`, else `acc` (so `acc` when `self` is
+        /// NaN).
+        #[inline(always)]
+        pub fn max_keep(self, acc: F4) -> F4 {
+            self.zip(acc, |a, b| if a > b { a } else { b })
+        }
+        /// Per lane, `self` if it is less than `acc`, else `acc` (so `acc` when `self` is NaN).
+        #[inline(always)]
+        pub fn min_keep(self, acc: F4) -> F4 {
+            self.zip(acc, |a, b| if a < b { a } else { b })
+        }
+        /// Bit `k` set where lane `k` of `self` is at most that of `o` (false for NaN).
+        #[inline(always)]
+        pub fn le_mask(self, o: F4) -> u32 {
+            (0..4).fold(0, |m, k| m | (u32::from(self.0[k] <= o.0[k]) << k))
+        }
+        #[inline(always)]
+        pub fn to_array(self) -> [f32; 4] {
+            self.0
         }
     }
 }
@@ -1290,6 +1595,102 @@ mod tests {
             // Grazing rays hit about half the time: the test is not vacuous.
             assert!(hits > 100, "{hits} hits at scale {scale}");
         }
+    }
+
+    /// The `f32` slab test never misses a child the `f64` one hits, and never puts a child's
+    /// entry beyond the `f64` one's: random boxes and rays at scales from 1e-6 to 1e6 and far
+    /// from the origin, rays starting on or a few ulps off a face, running along faces, and
+    /// nearly axis-parallel (reciprocals up to 1e29); still and moving nodes, any time and
+    /// limit.
+    #[test]
+    fn f32_slab_test_is_conservative() {
+        let mut r = Pcg32::new(41, 3);
+        let (mut checked, mut hits) = (0u32, 0u32);
+        for round in 0..40_000 {
+            let offset = [0.0, 1e6, -3e4, 2e-6][round % 4];
+            let scale = [1.0, 30.0, 1e-6, 1e-3][(round / 4) % 4];
+            let v = |r: &mut Pcg32| {
+                (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale
+            };
+            let boxes: Vec<Aabb> = (0..4)
+                .map(|_| {
+                    let c = DVec3::splat(offset) + v(&mut r);
+                    Aabb {
+                        min: c - v(&mut r).abs(),
+                        max: c + v(&mut r).abs(),
+                    }
+                })
+                .collect();
+            let moved: Vec<Aabb> = boxes
+                .iter()
+                .map(|b| Aabb {
+                    min: b.min + v(&mut r) * 0.3,
+                    max: b.max + v(&mut r) * 0.3,
+                })
+                .collect();
+            let mut still = Boxes4::EMPTY;
+            let mut moving = [Boxes4::EMPTY, Boxes4::ZERO];
+            // Slot 3 stays empty one time in four.
+            for k in 0..4 - usize::from(round % 4 == 1) {
+                still.set(k, &boxes[k]);
+                set_moving(&mut moving, k, &boxes[k], &moved[k]);
+            }
+            let nodes = [
+                Boxes {
+                    still: vec![still],
+                    ..Boxes::default()
+                },
+                Boxes {
+                    moving: vec![moving],
+                    ..Boxes::default()
+                },
+            ];
+            // A point on a face of a box (as stored), or a few ulps off it, or anywhere.
+            let k = (r.next_f64() * 4.0) as usize % 3;
+            let axis = (r.next_f64() * 3.0) as usize;
+            let mut origin = DVec3::splat(offset) + v(&mut r) * 1.5;
+            let side = if r.next_f64() < 0.5 { axis } else { 3 + axis };
+            match round % 3 {
+                0 => origin[axis] = f64::from(still.planes[side][k]),
+                1 => {
+                    let p = f64::from(still.planes[side][k]);
+                    origin[axis] = p + (r.next_f64() - 0.5) * 8.0 * f64::EPSILON * p.abs();
+                }
+                _ => {}
+            }
+            let mut dir = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5;
+            // Along a face, or nearly axis-parallel.
+            match (round / 3) % 4 {
+                0 => dir[axis] = 0.0,
+                1 => dir[axis] = 1e-29 * (r.next_f64() - 0.5),
+                _ => {}
+            }
+            let dir = dir.normalize();
+            let s = [0.0, 1.0, r.next_f64()][round % 3];
+            let t_max = [f64::INFINITY, r.next_f64() * 2.0 * scale][round % 2];
+            let Some(lanes) = RayLanes::new(origin, dir, s) else {
+                assert!(dir.abs().min_element() < 1e-30);
+                continue;
+            };
+            let exact = RayF64::new(origin, dir, s);
+            for boxes in &nodes {
+                let limit = widened_limit(t_max);
+                let (mask, near) = lanes.test(boxes, 0, limit, t_max);
+                let (want, want_near) = exact.test(boxes, 0, limit, t_max);
+                // The `f64` entry, as exact: `RayF64` rounds it down to `f32`.
+                assert_eq!(mask & want, want, "{origin:?} {dir:?} {s} {t_max}");
+                for k in 0..4 {
+                    if want & (1 << k) != 0 {
+                        assert!(near[k] <= want_near[k], "{origin:?} {dir:?} {k}");
+                        assert!(near[k] <= limit);
+                    }
+                }
+                checked += 1;
+                hits += want.count_ones();
+            }
+        }
+        // Most rays are taken by the `f32` test, and a fair share of children are hit.
+        assert!(checked > 50_000 && hits > 20_000, "{checked} {hits}");
     }
 
     /// The same boxes give the same hierarchy whatever the number of threads building it.
