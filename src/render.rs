@@ -360,8 +360,6 @@ impl TileCounts {
 /// same integrand. Read from the tile only, so the tiles of a pass can decide in parallel and
 /// alike on any thread count.
 fn smoothed_variances(rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
-    let w = rect.width() as usize;
-    let h = pixels.len() / w;
     let own: Vec<f64> = crate::film::relative_variances(rect, pixels)
         .into_iter()
         .zip(pixels)
@@ -370,20 +368,10 @@ fn smoothed_variances(rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
             if v.is_finite() { v } else { f64::MAX }
         })
         .collect();
-    let mut out = Vec::with_capacity(pixels.len());
-    for y in 0..h {
-        for x in 0..w {
-            let (mut sum, mut n) = (0.0, 0.0);
-            for ny in y.saturating_sub(1)..(y + 2).min(h) {
-                for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                    sum += own[ny * w + nx];
-                    n += 1.0;
-                }
-            }
-            out.push(if sum.is_finite() { sum / n } else { f64::MAX });
-        }
-    }
-    out
+    rect.neighbourhood_means(&own)
+        .into_iter()
+        .map(|v| if v.is_finite() { v } else { f64::MAX })
+        .collect()
 }
 
 /// Buckets of a pixel's priority (its target over its samples) on a log scale: four to an
