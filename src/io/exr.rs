@@ -242,17 +242,31 @@ pub(super) fn write(
         let [r, g, b] = rgb(p.y() * w + p.x());
         (r, g, b)
     });
-    // The exr crate writes custom attributes in the iteration order of a randomly seeded
-    // HashMap, so the same frame would get different bytes in different processes: see
-    // `Placeholder`.
+    encode(writer, path, attributes, |attributes, sink| {
+        let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
+        Image::from_layer(layer)
+            .write()
+            .non_parallel()
+            .to_buffered(sink)
+    })
+}
+
+/// Encodes a frame into `writer` with `write`, which builds the layer from the attributes it
+/// is handed and writes it into the sink. The exr crate writes custom attributes in the
+/// iteration order of a randomly seeded HashMap, so the same frame would get different bytes
+/// in different processes: `write` gets them as a [`Placeholder`], filled in afterwards.
+fn encode(
+    writer: &mut BufWriter<File>,
+    path: &Path,
+    attributes: exr::meta::header::LayerAttributes,
+    write: impl FnOnce(
+        exr::meta::header::LayerAttributes,
+        &mut HeaderCapture,
+    ) -> Result<(), exr::error::Error>,
+) -> Result<(), Error> {
     let (attributes, placeholder) = Placeholder::take(attributes).map_err(|m| output(path, m))?;
-    let layer = Layer::new((w, height as usize), attributes, encoding, pixels);
     let mut sink = HeaderCapture::new(writer);
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_buffered(&mut sink)
-        .map_err(|e| encoder_error(path, e))?;
+    write(attributes, &mut sink).map_err(|e| encoder_error(path, e))?;
     placeholder.fill(sink).map_err(|e| Error::io(path, e))
 }
 
@@ -260,10 +274,7 @@ pub(super) fn write(
 fn encoder_error(path: &Path, e: exr::error::Error) -> Error {
     match e {
         exr::error::Error::Io(e) => Error::io(path, e),
-        other => Error::Output {
-            path: path.to_path_buf(),
-            message: format!("EXR encoder: {other}"),
-        },
+        other => output(path, format!("EXR encoder: {other}")),
     }
 }
 
@@ -298,20 +309,18 @@ fn write_with_passes(
         };
         list.push(AnyChannel::new(c.name, samples));
     }
-    let (attributes, placeholder) = Placeholder::take(attributes).map_err(|m| output(path, m))?;
-    let layer = Layer::new(
-        (w, height as usize),
-        attributes,
-        encoding,
-        AnyChannels::sort(list),
-    );
-    let mut sink = HeaderCapture::new(writer);
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_buffered(&mut sink)
-        .map_err(|e| encoder_error(path, e))?;
-    placeholder.fill(sink).map_err(|e| Error::io(path, e))
+    encode(writer, path, attributes, |attributes, sink| {
+        let layer = Layer::new(
+            (w, height as usize),
+            attributes,
+            encoding,
+            AnyChannels::sort(list),
+        );
+        Image::from_layer(layer)
+            .write()
+            .non_parallel()
+            .to_buffered(sink)
+    })
 }
 
 /// An output error naming `path`.
