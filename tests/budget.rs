@@ -1,12 +1,8 @@
 //! Rendering under a noise threshold or a time limit, end to end.
 
-use std::path::Path;
-
 mod common;
 use common::run_ok as run;
-use common::{exr_channels, matches_plain_renders};
-
-use exr::meta::attribute::{AttributeValue, Text};
+use common::{exr_bits_and_attributes, exr_channels, exr_number, matches_plain_renders};
 
 const SCENE: &str = r#"
 [shot]
@@ -47,31 +43,6 @@ fn render_scene(args: &[&str]) -> (tempfile::TempDir, String) {
     (dir, String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// The pixels (as bits) and the custom attributes of an EXR frame.
-fn read(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
-    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
-    let layer = &image.layer_data[0];
-    let mut bits = Vec::new();
-    for c in &layer.channel_data.list {
-        if let exr::image::FlatSamples::F32(v) = &c.sample_data {
-            bits.extend(v.iter().map(|x| x.to_bits()));
-        }
-    }
-    (bits, layer.attributes.clone())
-}
-
-fn attr(a: &exr::meta::header::LayerAttributes, name: &str) -> Option<AttributeValue> {
-    a.other.get(&Text::from(name)).cloned()
-}
-
-fn as_f64(v: Option<AttributeValue>) -> f64 {
-    match v {
-        Some(AttributeValue::F64(x)) => x,
-        Some(AttributeValue::I32(x)) => x as f64,
-        other => panic!("not a number: {other:?}"),
-    }
-}
-
 #[test]
 fn noise_threshold_samples_pixels_adaptively_and_each_pixel_matches_a_plain_render() {
     for sampler in ["independent", "sobol"] {
@@ -96,10 +67,10 @@ fn noise_threshold_samples_pixels_adaptively_and_each_pixel_matches_a_plain_rend
         let o = render(&["--noise-threshold", "0.03"]);
         let stdout = String::from_utf8_lossy(&o.stdout);
         assert!(stdout.contains("noise threshold reached"), "{stdout}");
-        let (_, a) = read(&d.join("f_0001.exr"));
-        let error = as_f64(attr(&a, "estimatedRelativeError"));
+        let (_, a) = exr_bits_and_attributes(&d.join("f_0001.exr"));
+        let error = exr_number(&a, "estimatedRelativeError");
         assert!(error <= 0.03, "{error}");
-        assert_eq!(as_f64(attr(&a, "noiseThreshold")), 0.03);
+        assert_eq!(exr_number(&a, "noiseThreshold"), 0.03);
         let adaptive = exr_channels(&d.join("f_0001.exr"));
         // Each pixel is the same bits as that pixel rendered with exactly its samples in one
         // pass.
@@ -115,14 +86,11 @@ fn noise_threshold_samples_pixels_adaptively_and_each_pixel_matches_a_plain_rend
             distinct.iter().all(|n| n.is_power_of_two() && *n >= 16),
             "{distinct:?}"
         );
-        assert_eq!(
-            as_f64(attr(&a, "samples")),
-            *distinct.last().unwrap() as f64
-        );
-        assert_eq!(as_f64(attr(&a, "minSamples")), distinct[0] as f64);
+        assert_eq!(exr_number(&a, "samples"), *distinct.last().unwrap() as f64);
+        assert_eq!(exr_number(&a, "minSamples"), distinct[0] as f64);
         let counts = &adaptive["samples"];
         let mean = counts.iter().map(|&c| c as f64).sum::<f64>() / counts.len() as f64;
-        assert_eq!(as_f64(attr(&a, "meanSamples")), mean);
+        assert_eq!(exr_number(&a, "meanSamples"), mean);
     }
 }
 
@@ -138,9 +106,9 @@ fn max_samples_caps_a_threshold_that_is_not_reached() {
     ]);
     let d = dir.path();
     assert!(stdout.contains("24 spp (max samples)"), "{stdout}");
-    let (_, a) = read(&d.join("f_0002.exr"));
-    assert_eq!(as_f64(attr(&a, "samples")), 24.0);
-    assert!(as_f64(attr(&a, "estimatedRelativeError")) > 1e-6);
+    let (_, a) = exr_bits_and_attributes(&d.join("f_0002.exr"));
+    assert_eq!(exr_number(&a, "samples"), 24.0);
+    assert!(exr_number(&a, "estimatedRelativeError") > 1e-6);
 }
 
 /// The seconds a frame took, from its summary line (`frame N: S s, ...`).
@@ -176,9 +144,9 @@ fn time_limit_stops_within_ten_percent_of_it() {
         assert!((1.35..=1.65).contains(&t), "frame {frame}: {t} s\n{stdout}");
     }
     assert!(stdout.contains("(time limit)"), "{stdout}");
-    let (_, a) = read(&d.join("f_0002.exr"));
-    assert_eq!(as_f64(attr(&a, "timeLimit")), 1.5);
-    assert!(as_f64(attr(&a, "samples")) > 16.0);
+    let (_, a) = exr_bits_and_attributes(&d.join("f_0002.exr"));
+    assert_eq!(exr_number(&a, "timeLimit"), 1.5);
+    assert!(exr_number(&a, "samples") > 16.0);
 }
 
 /// The frame of `SCENE` rendered through the library with `sampler`, `samples` and `budget`,

@@ -5,9 +5,10 @@
 
 mod common;
 
-use std::path::Path;
-
-use common::{exr_channels, f, matches_plain_renders, render, run_ok, scene};
+use common::{
+    exr_attribute, exr_bits_and_attributes, exr_channels, exr_number, f, matches_plain_renders,
+    render, run_ok, scene,
+};
 use exr::meta::attribute::{AttributeValue, Text};
 use glam::DVec3;
 use raytrace::bvh::TraversalStack;
@@ -443,27 +444,6 @@ material = { type = "lambertian", albedo = [0.7, 0.2, 0.1] }
 velocity = [20.0, 3.0, 0.0]
 "#;
 
-/// The pixels (as bits) and the custom attributes of an EXR frame.
-fn read_exr(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
-    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
-    let layer = &image.layer_data[0];
-    let mut bits = Vec::new();
-    for c in &layer.channel_data.list {
-        if let exr::image::FlatSamples::F32(v) = &c.sample_data {
-            bits.extend(v.iter().map(|x| x.to_bits()));
-        }
-    }
-    (bits, layer.attributes.clone())
-}
-
-fn number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
-    match a.other.get(&Text::from(name)) {
-        Some(AttributeValue::F64(x)) => *x,
-        Some(AttributeValue::I32(x)) => *x as f64,
-        other => panic!("{name}: {other:?}"),
-    }
-}
-
 #[test]
 fn check_and_the_exr_report_the_whole_exposure() {
     let dir = tempfile::tempdir().unwrap();
@@ -492,13 +472,13 @@ fn check_and_the_exr_report_the_whole_exposure() {
         "{line}"
     );
     run_ok(d, &["render", "s.toml", "--frames", "2"]);
-    let (_, attrs) = read_exr(&d.join("f_0002.exr"));
-    assert!((number(&attrs, "shutterOpen") - open).abs() < 1e-15);
-    assert!((number(&attrs, "shutterClose") - close).abs() < 1e-15);
-    assert_eq!(number(&attrs, "rollingShutterReadout"), 0.01);
+    let (_, attrs) = exr_bits_and_attributes(&d.join("f_0002.exr"));
+    assert!((exr_number(&attrs, "shutterOpen") - open).abs() < 1e-15);
+    assert!((exr_number(&attrs, "shutterClose") - close).abs() < 1e-15);
+    assert_eq!(exr_number(&attrs, "rollingShutterReadout"), 0.01);
     assert_eq!(
-        attrs.other.get(&Text::from("shutterCurve")),
-        Some(&AttributeValue::Text(Text::from(
+        exr_attribute(&attrs, "shutterCurve"),
+        Some(AttributeValue::Text(Text::from(
             "[[0, 0], [0.2, 1], [0.8, 1], [1, 0]]"
         )))
     );
@@ -529,9 +509,9 @@ fn budgets_work_with_a_curve_and_a_rolling_shutter() {
             ]);
             let stdout = String::from_utf8_lossy(&out.stdout);
             assert!(stdout.contains(stop), "{stdout}");
-            let (_, a) = read_exr(&d.join("budget_0001.exr"));
-            assert!(number(&a, "samples") >= 1.0);
-            assert_eq!(number(&a, "rollingShutterReadout"), 0.01);
+            let (_, a) = exr_bits_and_attributes(&d.join("budget_0001.exr"));
+            assert!(exr_number(&a, "samples") >= 1.0);
+            assert_eq!(exr_number(&a, "rollingShutterReadout"), 0.01);
             // Each pixel stopped at its own N samples: the same bits as exactly N samples in
             // one pass.
             let adaptive = exr_channels(&d.join("budget_0001.exr"));

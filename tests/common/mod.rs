@@ -133,3 +133,37 @@ pub fn matches_plain_renders(
     }
     distinct
 }
+
+/// The pixels (as bits, every float channel in turn) and the attributes of an EXR frame.
+pub fn exr_bits_and_attributes(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let mut bits = Vec::new();
+    for c in &layer.channel_data.list {
+        if let exr::image::FlatSamples::F32(v) = &c.sample_data {
+            bits.extend(v.iter().map(|x| x.to_bits()));
+        }
+    }
+    (bits, layer.attributes.clone())
+}
+
+/// The custom attribute `name` of an EXR frame's attributes `a`, if it has it.
+pub fn exr_attribute(
+    a: &exr::meta::header::LayerAttributes,
+    name: &str,
+) -> Option<exr::meta::attribute::AttributeValue> {
+    a.other
+        .get(&exr::meta::attribute::Text::from(name))
+        .cloned()
+}
+
+/// The numeric (int or double) custom attribute `name` of `a`, as an `f64`; panics if it is
+/// missing or not a number.
+pub fn exr_number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
+    use exr::meta::attribute::AttributeValue;
+    match exr_attribute(a, name) {
+        Some(AttributeValue::F64(x)) => x,
+        Some(AttributeValue::I32(x)) => x as f64,
+        other => panic!("{name}: {other:?}"),
+    }
+}
