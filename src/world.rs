@@ -411,6 +411,20 @@ fn shutter_boxes(prepared: &[PreparedSphere], interval: Interval) -> (Vec<Aabb>,
     (boxes(false), boxes(true))
 }
 
+/// The nearest sphere along `ray` at its time and its distance, found by testing every sphere
+/// of `scene` where its motion puts it: no hierarchy, no boxes. The reference the hierarchies
+/// are tested against (here and in tests/shutter.rs).
+pub fn nearest_by_testing_every_sphere(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
+    let mut best: Option<(f64, u32)> = None;
+    for (i, s) in scene.spheres.iter().enumerate() {
+        let t_max = best.map_or(f64::INFINITY, |b| b.0);
+        if let Some(t) = intersect(s.motion.at(ray.time), s.radius, ray, t_max) {
+            best = Some((t, i as u32));
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use std::path::Path;
@@ -418,18 +432,6 @@ mod tests {
     use super::*;
     use crate::rng::Pcg32;
     use crate::scene::generate::{CUBE, RandomScene, scene_text};
-
-    /// The nearest sphere along `ray`, by testing every one.
-    fn brute(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
-        let mut best: Option<(f64, u32)> = None;
-        for (i, s) in scene.spheres.iter().enumerate() {
-            let t_max = best.map_or(f64::INFINITY, |b| b.0);
-            if let Some(t) = intersect(s.motion.at(ray.time), s.radius, ray, t_max) {
-                best = Some((t, i as u32));
-            }
-        }
-        best
-    }
 
     /// A generated scene of `n` spheres, a share `moving` of them animated.
     fn generated(n: u64, moving: f64, seed: u64, frames: u32) -> Scene {
@@ -460,7 +462,7 @@ mod tests {
     /// `None` if it does not, else whether there is a hit.
     fn agrees(world: &World, scene: &Scene, ray: &Ray, stack: &mut TraversalStack) -> Option<bool> {
         let got = world.hit(ray, u32::MAX, stack).map(|h| (h.t, h.sphere));
-        match (got, brute(scene, ray)) {
+        match (got, nearest_by_testing_every_sphere(scene, ray)) {
             (Some((t, i)), Some((u, j))) => (i == j && (t - u).abs() <= 1e-9 * u).then_some(true),
             (None, None) => Some(false),
             _ => None,

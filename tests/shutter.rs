@@ -16,8 +16,7 @@ use raytrace::film::Film;
 use raytrace::ray::Ray;
 use raytrace::rng::Pcg32;
 use raytrace::scene::Scene;
-use raytrace::sphere::intersect;
-use raytrace::world::{StaticGeometry, World};
+use raytrace::world::{StaticGeometry, World, nearest_by_testing_every_sphere};
 
 /// Distance from the camera to the plane the spheres move in.
 const DEPTH: f64 = 10.0;
@@ -327,18 +326,6 @@ fn a_box_curve_and_no_readout_render_as_without_them_bit_for_bit() {
     }
 }
 
-/// The nearest sphere along `ray`, by testing every one at the ray's time.
-fn brute(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
-    let mut best: Option<(f64, u32)> = None;
-    for (i, s) in scene.spheres.iter().enumerate() {
-        let t_max = best.map_or(f64::INFINITY, |b| b.0);
-        if let Some(t) = intersect(s.motion.at(ray.time), s.radius, ray, t_max) {
-            best = Some((t, i as u32));
-        }
-    }
-    best
-}
-
 #[test]
 fn boxes_hold_fast_spheres_over_a_long_readout() {
     // Fast spheres of every motion kind under a readout ten times the shutter: camera rays
@@ -383,7 +370,7 @@ fn boxes_hold_fast_spheres_over_a_long_readout() {
             let got = world
                 .hit(ray, u32::MAX, &mut stack)
                 .map(|h| (h.t, h.sphere));
-            let want = brute(&scene, ray);
+            let want = nearest_by_testing_every_sphere(&scene, ray);
             match (got, want) {
                 (Some((t, i)), Some((u, j))) if i == j && (t - u).abs() <= 1e-9 * u => hits += 1,
                 (None, None) => {}
