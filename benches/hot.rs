@@ -13,10 +13,11 @@ use glam::DVec3;
 use raytrace::aabb::Aabb;
 use raytrace::bvh::{Bvh, TraversalStack};
 use raytrace::ray::Ray;
-use raytrace::render::{Budget, render_frame};
+use raytrace::renderer::{Budget, render_frame};
 use raytrace::rng::Pcg32;
 use raytrace::sampler::SamplerKind;
-use raytrace::scene::{Overrides, Scene};
+use raytrace::scene::Scene;
+use raytrace::scene_file::Overrides;
 use raytrace::sphere::intersect;
 use raytrace::world::StaticGeometry;
 

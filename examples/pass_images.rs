@@ -14,9 +14,11 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use raytrace::io::{FrameInfo, write_frame};
-use raytrace::passes::{Pass, PassImages, PassSet};
-use raytrace::render::{Budget, render_frame};
+use raytrace::pass::Pass;
+use raytrace::passes::PassImages;
+use raytrace::renderer::{Budget, render_frame};
 use raytrace::scene::Scene;
+use raytrace::scene_file::Overrides;
 use raytrace::world::StaticGeometry;
 
 fn main() -> ExitCode {
@@ -25,7 +27,14 @@ fn main() -> ExitCode {
         eprintln!("usage: pass_images SCENE FRAME OUT_DIR");
         return ExitCode::from(2);
     }
-    let mut scene = match Scene::load(Path::new(&args[0])) {
+    // Every pass, requested as `--passes` would (through the validator); the passes need an
+    // EXR output, which is never written here.
+    let every_pass = Overrides {
+        output: Some("passes_####.exr".to_string()),
+        passes: Some(Pass::ALL.to_vec()),
+        ..Overrides::default()
+    };
+    let scene = match Scene::load_with(Path::new(&args[0]), &every_pass) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");
@@ -36,10 +45,9 @@ fn main() -> ExitCode {
         eprintln!("not a frame number: {}", args[1]);
         return ExitCode::from(2);
     };
-    scene.output.passes = Pass::ALL.into_iter().collect::<PassSet>();
     let statics = StaticGeometry::new(&scene);
     let result = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
-    let p = result.passes.expect("every pass was requested");
+    let p = result.pass_images().expect("every pass was requested");
     let out = Path::new(&args[2]);
     let (w, h) = (p.width, p.height);
     let info = FrameInfo {

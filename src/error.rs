@@ -47,11 +47,11 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Scene(m) | Error::Usage(m) | Error::Resource(m) => {
-                write!(f, "{}", clip_message(m))
+                write!(f, "{}", elide_message(m))
             }
-            Error::Io { path, source } => write!(f, "{}: {source}", clip_path(path)),
+            Error::Io { path, source } => write!(f, "{}: {source}", elide_path(path)),
             Error::Output { path, message } => {
-                write!(f, "{}: {}", clip_path(path), clip_message(message))
+                write!(f, "{}: {}", elide_path(path), elide_message(message))
             }
         }
     }
@@ -66,7 +66,7 @@ const MAX_MESSAGE: usize = 4000;
 /// `text` itself when it is at most [`MAX_QUOTED`] bytes; else its start, an ellipsis, its
 /// last few characters and its length: `renders/aaaaaaaa…aaa/f_####.exr (20971531 bytes)`.
 /// A message never repeats a huge argument.
-pub fn clip(text: &str) -> Cow<'_, str> {
+pub fn elide(text: &str) -> Cow<'_, str> {
     if text.len() <= MAX_QUOTED {
         return Cow::Borrowed(text);
     }
@@ -86,15 +86,15 @@ pub fn clip(text: &str) -> Cow<'_, str> {
     ))
 }
 
-/// A path for a message, shortened as [`clip`] does.
-pub fn clip_path(path: &Path) -> String {
-    clip(&path.to_string_lossy()).into_owned()
+/// A path for a message, shortened as [`elide`] does.
+pub fn elide_path(path: &Path) -> String {
+    elide(&path.to_string_lossy()).into_owned()
 }
 
 /// A message with every run of more than [`MAX_QUOTED`] non-blank characters shortened as
-/// [`clip`] does, and cut after [`MAX_MESSAGE`] bytes: messages that quote a value of the
+/// [`elide`] does, and cut after [`MAX_MESSAGE`] bytes: messages that quote a value of the
 /// input (a scene's output path, say) stay readable however long the value is.
-fn clip_message(message: &str) -> Cow<'_, str> {
+fn elide_message(message: &str) -> Cow<'_, str> {
     let long_run = message
         .split(char::is_whitespace)
         .any(|w| w.len() > MAX_QUOTED);
@@ -104,7 +104,7 @@ fn clip_message(message: &str) -> Cow<'_, str> {
     let mut out = String::new();
     let mut word = String::new();
     let flush = |out: &mut String, word: &mut String| {
-        out.push_str(&clip(word));
+        out.push_str(&elide(word));
         word.clear();
     };
     for c in message.chars() {
@@ -141,9 +141,9 @@ mod tests {
 
     #[test]
     fn long_texts_are_quoted_by_their_start_and_length() {
-        assert_eq!(clip("out/f_####.exr"), "out/f_####.exr");
+        assert_eq!(elide("out/f_####.exr"), "out/f_####.exr");
         let long = format!("renders/{}/f_####.exr", "a".repeat(20 << 20));
-        let short = clip(&long);
+        let short = elide(&long);
         assert!(short.len() < MAX_QUOTED, "{short}");
         assert!(short.starts_with("renders/aaa"), "{short}");
         assert!(
@@ -151,7 +151,7 @@ mod tests {
             "{short}"
         );
         // Never cut inside a character.
-        let accents = clip(&"é".repeat(1000)).into_owned();
+        let accents = elide(&"é".repeat(1000)).into_owned();
         assert!(accents.ends_with("é (2000 bytes)"), "{accents}");
 
         let e = Error::io(&long, std::io::Error::other("File name too long"));

@@ -5,6 +5,11 @@
 //! samples (the second replicate, `sampler::REPLICATES`) in `f32`, and its sample count. The
 //! film is the frame's only per-pixel store: the renderer's tiles sample into it in place and
 //! the writers read the means from it, so a frame without passes holds 40 bytes a pixel.
+//!
+//! A frame with passes for compositing keeps their per-sample sums in the film too (as pbrt's
+//! `GBufferFilm` does): `pass_stride` numbers per pixel, stored tile by tile like the pixels,
+//! handed to the same tiles ([`FilmTile`]). The film does not know what they mean:
+//! [`crate::passes`] says what each number sums and makes the pass images from them.
 
 use glam::DVec3;
 
@@ -56,6 +61,18 @@ impl Pixel {
             DVec3::ZERO
         } else {
             self.sum / self.taken as f64
+        }
+    }
+
+    /// The mean as written: `f32` RGB, black if a component is not finite as an `f32` (NaN,
+    /// infinite, or beyond `f32::MAX`, which the conversion rounds to infinity).
+    pub fn rgb_f32(&self) -> [f32; 3] {
+        let m = self.mean();
+        let v = [m.x as f32, m.y as f32, m.z as f32];
+        if v.iter().all(|c| c.is_finite()) {
+            v
+        } else {
+            [0.0; 3]
         }
     }
 
@@ -169,24 +186,49 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pixels: Vec<Pixel>,
+    /// Numbers of pass sums per pixel (0: no passes).
+    pass_stride: usize,
+    /// The pass sums, `pass_stride` per pixel, in the pixels' order (tile by tile).
+    pass_sums: Vec<f64>,
+}
+
+/// One tile of a film, mutable: where it lies, its pixels and their pass sums
+/// ([`Film::pass_stride`] numbers per pixel, in the pixels' order; empty without passes).
+pub struct FilmTile<'f> {
+    pub rect: TileRect,
+    pub pixels: &'f mut [Pixel],
+    pub pass_sums: &'f mut [f64],
 }
 
 impl Film {
-    /// A film with no samples.
+    /// A film with no samples and no pass sums.
     pub fn new(width: u32, height: u32) -> Film {
+        Film::with_pass_sums(width, height, 0)
+    }
+
+    /// A film with no samples that also keeps `pass_stride` pass sums per pixel, all 0.
+    pub fn with_pass_sums(width: u32, height: u32, pass_stride: usize) -> Film {
+        let n = width as usize * height as usize;
         Film {
             width,
             height,
-            pixels: vec![Pixel::default(); width as usize * height as usize],
+            pixels: vec![Pixel::default(); n],
+            pass_stride,
+            pass_sums: vec![0.0; n * pass_stride],
         }
+    }
+
+    /// Numbers of pass sums per pixel (0 without passes).
+    pub fn pass_stride(&self) -> usize {
+        self.pass_stride
     }
 
     /// A film whose pixels each hold one sample, `f(x, y)`: an image given by its values.
     pub fn from_fn(width: u32, height: u32, f: impl Fn(u32, u32) -> DVec3) -> Film {
         let mut film = Film::new(width, height);
-        for (rect, pixels) in film.tiles_mut() {
-            for (i, p) in pixels.iter_mut().enumerate() {
-                let (x, y) = rect.position(i);
+        for tile in film.tiles_mut() {
+            for (i, p) in tile.pixels.iter_mut().enumerate() {
+                let (x, y) = tile.rect.position(i);
                 p.add(f(x, y));
             }
         }
@@ -249,16 +291,40 @@ impl Film {
             .collect()
     }
 
-    /// Each tile with its pixels, mutable, in storage order: disjoint, for parallel work.
-    pub fn tiles_mut(&mut self) -> Vec<(TileRect, &mut [Pixel])> {
+    /// Each tile with its pixels and pass sums, mutable, in storage order: disjoint, for
+    /// parallel work.
+    pub fn tiles_mut(&mut self) -> Vec<FilmTile<'_>> {
         let rects = self.tile_rects();
+        let stride = self.pass_stride;
         let mut rest = &mut self.pixels[..];
+        let mut sums_rest = &mut self.pass_sums[..];
         rects
             .into_iter()
             .map(|rect| {
-                let (tile, after) = std::mem::take(&mut rest).split_at_mut(rect.len());
+                let (pixels, after) = std::mem::take(&mut rest).split_at_mut(rect.len());
                 rest = after;
-                (rect, tile)
+                let (pass_sums, after) =
+                    std::mem::take(&mut sums_rest).split_at_mut(rect.len() * stride);
+                sums_rest = after;
+                FilmTile {
+                    rect,
+                    pixels,
+                    pass_sums,
+                }
+            })
+            .collect()
+    }
+
+    /// Each tile with its pixels and their pass sums, in storage order.
+    pub fn tiles_with_pass_sums(&self) -> Vec<(TileRect, &[Pixel], &[f64])> {
+        let stride = self.pass_stride;
+        let mut rest = &self.pass_sums[..];
+        self.tiles()
+            .into_iter()
+            .map(|(rect, pixels)| {
+                let (sums, after) = rest.split_at(rect.len() * stride);
+                rest = after;
+                (rect, pixels, sums)
             })
             .collect()
     }
@@ -289,16 +355,9 @@ impl Film {
         out
     }
 
-    /// Pixel (`x`, `y`)'s mean as written: `f32` RGB, black if a component is not finite as
-    /// an `f32` (NaN, infinite, or beyond `f32::MAX`, which the conversion rounds to infinity).
+    /// Pixel (`x`, `y`)'s mean as written ([`Pixel::rgb_f32`]).
     pub fn rgb_f32(&self, x: u32, y: u32) -> [f32; 3] {
-        let m = self.get(x, y);
-        let v = [m.x as f32, m.y as f32, m.z as f32];
-        if v.iter().all(|c| c.is_finite()) {
-            v
-        } else {
-            [0.0; 3]
-        }
+        self.pixel(x, y).rgb_f32()
     }
 
     /// The number of pixels [`rgb_f32`](Self::rgb_f32) writes as black because they are not

@@ -1,5 +1,6 @@
 //! Passes for compositing: what a pixel's camera samples say besides their colour (coverage,
-//! depth, normal, albedo, motion, variance), as the scene format's "Passes" names them.
+//! depth, normal, albedo, motion, variance), as the scene format's "Passes" names them
+//! ([`crate::pass`] names them; this room computes them).
 //!
 //! A frame with passes keeps, beside each pixel's colour accumulator, a few sums per sample
 //! ([`Layout`]: only those of the requested passes, in one flat buffer). Each sample adds
@@ -17,129 +18,12 @@
 use glam::{DVec2, DVec3};
 
 use crate::camera::{CameraRig, View};
+use crate::film::{Film, Pixel};
+use crate::hit::Hit;
 use crate::material::{Background, Material};
+use crate::pass::{Channel, Pass, PassSet};
 use crate::ray::Ray;
 use crate::sphere::SphereDesc;
-use crate::world::Hit;
-
-/// A pass: a closed set, named as in the scene format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Pass {
-    /// `A`: the fraction of the camera samples whose ray hits a sphere.
-    Alpha,
-    /// `Z`: distance along the view direction to the first hit, mean over the hits.
-    Depth,
-    /// `N.X`, `N.Y`, `N.Z`: world-space outward unit normal at the first hit, mean over hits.
-    Normal,
-    /// `albedo.R/G/B`: the first hit's albedo, or the background's radiance for a miss.
-    Albedo,
-    /// `forward.u/v`, `backward.u/v`: image-space displacement in pixels, mean over hits.
-    Motion,
-    /// `variance.R/G/B`: the estimated variance of the pixel's mean colour.
-    Variance,
-    /// `samples`: the samples the pixel took (they differ from pixel to pixel under adaptive
-    /// sampling).
-    Samples,
-}
-
-/// How a pass's channels are stored in an EXR file.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Precision {
-    /// 16-bit float (`half`).
-    Half,
-    /// 32-bit float.
-    Float,
-}
-
-impl Pass {
-    /// Every pass, in the order the scene format lists them.
-    pub const ALL: [Pass; 7] = [
-        Pass::Alpha,
-        Pass::Depth,
-        Pass::Normal,
-        Pass::Albedo,
-        Pass::Motion,
-        Pass::Variance,
-        Pass::Samples,
-    ];
-
-    /// The name in `[output] passes` and `--passes`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Pass::Alpha => "alpha",
-            Pass::Depth => "depth",
-            Pass::Normal => "normal",
-            Pass::Albedo => "albedo",
-            Pass::Motion => "motion",
-            Pass::Variance => "variance",
-            Pass::Samples => "samples",
-        }
-    }
-
-    /// The pass named `name`, if any.
-    pub fn from_name(name: &str) -> Option<Pass> {
-        Pass::ALL.into_iter().find(|p| p.name() == name)
-    }
-
-    /// The EXR channels of the pass, in the order [`PassImages`] holds them.
-    pub fn channels(self) -> &'static [&'static str] {
-        match self {
-            Pass::Alpha => &["A"],
-            Pass::Depth => &["Z"],
-            Pass::Normal => &["N.X", "N.Y", "N.Z"],
-            Pass::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
-            Pass::Motion => &["forward.u", "forward.v", "backward.u", "backward.v"],
-            Pass::Variance => &["variance.R", "variance.G", "variance.B"],
-            Pass::Samples => &["samples"],
-        }
-    }
-
-    /// How the pass is stored: `half` where 11 bits of mantissa lose nothing that matters
-    /// (unit normals, albedos and coverage in [0, 1]), `float` where range or precision does
-    /// (depths, displacements in pixels, variances spanning many decades, sample counts
-    /// beyond 2048, exact as `float` up to 2^24).
-    pub fn precision(self) -> Precision {
-        match self {
-            Pass::Alpha | Pass::Normal | Pass::Albedo => Precision::Half,
-            Pass::Depth | Pass::Motion | Pass::Variance | Pass::Samples => Precision::Float,
-        }
-    }
-}
-
-/// A set of passes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PassSet(u8);
-
-impl PassSet {
-    /// No pass: colour only.
-    pub const EMPTY: PassSet = PassSet(0);
-
-    /// The set with `pass` added.
-    pub fn with(self, pass: Pass) -> PassSet {
-        PassSet(self.0 | 1 << pass as u8)
-    }
-
-    /// Whether `pass` is in the set.
-    pub fn contains(self, pass: Pass) -> bool {
-        self.0 & (1 << pass as u8) != 0
-    }
-
-    /// Whether the set is empty.
-    pub fn is_empty(self) -> bool {
-        self.0 == 0
-    }
-
-    /// The passes of the set, in [`Pass::ALL`]'s order.
-    pub fn iter(self) -> impl Iterator<Item = Pass> {
-        Pass::ALL.into_iter().filter(move |p| self.contains(*p))
-    }
-}
-
-impl FromIterator<Pass> for PassSet {
-    fn from_iter<I: IntoIterator<Item = Pass>>(iter: I) -> PassSet {
-        iter.into_iter().fold(PassSet::EMPTY, PassSet::with)
-    }
-}
 
 /// Where each requested pass keeps its per-pixel sums in a pixel's run of `stride` numbers.
 /// Only the requested passes have sums: the hit count (alpha, depth, normal and motion divide
@@ -322,15 +206,6 @@ fn albedo(m: &Material) -> DVec3 {
     }
 }
 
-/// One channel of a frame's passes: its EXR name, storage, and values row-major, top row
-/// first.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Channel {
-    pub name: &'static str,
-    pub precision: Precision,
-    pub values: Vec<f32>,
-}
-
 /// The depth written where no sample hit.
 pub const NO_DEPTH: f32 = 1e10;
 
@@ -366,6 +241,26 @@ impl PassImages {
         }
     }
 
+    /// The images of `passes` from a finished film: its pass sums (laid out by
+    /// [`Layout::new`] of the same passes), its pixels' sample counts and their variances.
+    pub fn from_film(passes: PassSet, film: &Film) -> PassImages {
+        let layout = Layout::new(passes);
+        let stride = layout.stride;
+        assert_eq!(
+            film.pass_stride(),
+            stride,
+            "the film keeps these passes' sums"
+        );
+        let mut images = PassImages::new(passes, film.width, film.height);
+        for (rect, pixels, sums) in film.tiles_with_pass_sums() {
+            for (i, pixel) in pixels.iter().enumerate() {
+                let (x, y) = rect.position(i);
+                images.set(&layout, x, y, &sums[i * stride..(i + 1) * stride], pixel);
+            }
+        }
+        images
+    }
+
     /// The channel named `name`, if the frame has it.
     pub fn channel(&self, name: &str) -> Option<&[f32]> {
         self.channels
@@ -374,17 +269,10 @@ impl PassImages {
             .map(|c| c.values.as_slice())
     }
 
-    /// Sets pixel (`x`, `y`) from its sums `slots` over `samples` samples and its colour's
-    /// estimated variance of the mean.
-    pub fn set(
-        &mut self,
-        layout: &Layout,
-        x: u32,
-        y: u32,
-        slots: &[f64],
-        samples: u32,
-        variance: DVec3,
-    ) {
+    /// Sets pixel (`x`, `y`) from its pass sums `slots` and its colour's sums `pixel` (its
+    /// samples, its mean as written, its estimated variance of the mean).
+    pub fn set(&mut self, layout: &Layout, x: u32, y: u32, slots: &[f64], pixel: &Pixel) {
+        let samples = pixel.taken();
         let i = y as usize * self.width as usize + x as usize;
         let hits = if layout.counts_hits {
             slots[layout.hits]
@@ -393,7 +281,7 @@ impl PassImages {
         };
         // Means over the hits: 0 where none hit.
         let over_hits = |s: f64| if hits > 0.0 { s / hits } else { 0.0 };
-        let mut values: [f32; 18] = [0.0; 18];
+        let mut values: [f32; 21] = [0.0; 21];
         let mut k = 0;
         let mut push = |v: f64| {
             values[k] = v as f32;
@@ -420,8 +308,12 @@ impl PassImages {
                     })
                 }),
                 Pass::Motion => (0..4).for_each(|j| push(over_hits(slots[layout.motion + j]))),
-                Pass::Variance => (0..3).for_each(|j| push(variance[j])),
+                Pass::Variance => {
+                    let variance = pixel.variance_of_mean();
+                    (0..3).for_each(|j| push(variance[j]));
+                }
                 Pass::Samples => push(samples as f64),
+                Pass::Noisy => pixel.rgb_f32().iter().for_each(|&c| push(c as f64)),
             }
         }
         for (c, v) in self.channels.iter_mut().zip(values) {
@@ -435,18 +327,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn names_round_trip_and_sets_hold_what_was_added() {
-        for p in Pass::ALL {
-            assert_eq!(Pass::from_name(p.name()), Some(p));
-        }
-        assert_eq!(Pass::from_name("beauty"), None);
-        let s: PassSet = [Pass::Motion, Pass::Alpha].into_iter().collect();
-        assert_eq!(s.iter().collect::<Vec<_>>(), [Pass::Alpha, Pass::Motion]);
-        assert!(!s.contains(Pass::Depth));
-        assert!(PassSet::EMPTY.is_empty());
-    }
-
-    #[test]
     fn the_layout_holds_only_the_requested_sums() {
         assert_eq!(Layout::new(PassSet::EMPTY).stride, 0);
         assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Variance)).stride, 0);
@@ -457,7 +337,7 @@ mod tests {
         assert_eq!(Layout::new(all).stride, 1 + 1 + 3 + 3 + 4);
         let images = PassImages::new(all, 2, 1);
         let names: Vec<&str> = images.channels.iter().map(|c| c.name).collect();
-        assert_eq!(names.len(), 16);
+        assert_eq!(names.len(), 19);
         assert_eq!(images.channel("Z").map(<[f32]>::len), Some(2));
     }
 
@@ -471,14 +351,25 @@ mod tests {
         slots[l.hits] = 2.0;
         slots[l.depth] = 4.0;
         slots[l.albedo] = 2.0;
-        images.set(&l, 0, 0, &slots, 4, DVec3::ONE);
-        // Pixel 1: no hit.
-        images.set(&l, 1, 0, &vec![0.0; l.stride], 8, DVec3::ZERO);
+        // Its colour: even samples 0, odd samples 2, so a mean of 1 and an estimated variance
+        // of the mean of (0 - 2)^2 / (1/2 + 1/2) / 4 = 1.
+        let mut colour = Pixel::default();
+        for v in [0.0, 2.0, 0.0, 2.0] {
+            colour.add(DVec3::splat(v));
+        }
+        images.set(&l, 0, 0, &slots, &colour);
+        // Pixel 1: no hit, 8 black samples.
+        let mut black = Pixel::default();
+        (0..8).for_each(|_| {
+            black.add(DVec3::ZERO);
+        });
+        images.set(&l, 1, 0, &vec![0.0; l.stride], &black);
         assert_eq!(images.channel("A").unwrap(), &[0.5, 0.0]);
         assert_eq!(images.channel("Z").unwrap(), &[2.0, NO_DEPTH]);
         assert_eq!(images.channel("albedo.R").unwrap(), &[0.5, 0.0]);
         assert_eq!(images.channel("N.X").unwrap(), &[0.0, 0.0]);
         assert_eq!(images.channel("variance.G").unwrap(), &[1.0, 0.0]);
         assert_eq!(images.channel("samples").unwrap(), &[4.0, 8.0]);
+        assert_eq!(images.channel("noisy.B").unwrap(), &[1.0, 0.0]);
     }
 }

@@ -8,10 +8,11 @@
 use glam::DVec3;
 
 use crate::bvh::TraversalStack;
+use crate::hit::Hit;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
 use crate::sampler::{BounceSample, Sampler};
-use crate::world::{Hit, World};
+use crate::world::World;
 
 /// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
 #[derive(Clone, Debug, Default)]

@@ -23,12 +23,13 @@ use rayon::prelude::*;
 
 use crate::aabb::Aabb;
 use crate::bvh::{Boxes, Bvh, BvhView, Topology, TraversalStack};
+use crate::hit::Hit;
 use crate::material::{Background, Material};
 use crate::motion::FrameMotion;
 use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::sphere::{PreparedSphere, SurfacePoint, intersect, surface_point};
+use crate::sphere::{PreparedSphere, intersect, surface_point};
 
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
@@ -214,16 +215,6 @@ impl StaticGeometry {
             },
         )
     }
-}
-
-/// A ray's nearest intersection.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit {
-    pub t: f64,
-    pub surface: SurfacePoint,
-    pub material: Material,
-    /// Index of the sphere in the scene.
-    pub sphere: u32,
 }
 
 /// Everything the tracer needs for one frame. It owns everything that depends on the frame
@@ -431,7 +422,7 @@ mod tests {
 
     use super::*;
     use crate::rng::Pcg32;
-    use crate::scene::generate::{CUBE, RandomScene, scene_text};
+    use crate::scene_file::generate::{CUBE, RandomScene, scene_text};
 
     /// A generated scene of `n` spheres, a share `moving` of them animated.
     fn generated(n: u64, moving: f64, seed: u64, frames: u32) -> Scene {

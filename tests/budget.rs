@@ -155,9 +155,9 @@ fn render_lib(
     sampler: &str,
     samples: u32,
     seed: u64,
-    budget: &raytrace::render::Budget,
+    budget: &raytrace::renderer::Budget,
     threads: usize,
-) -> raytrace::render::FrameResult {
+) -> raytrace::renderer::FrameResult {
     let mut scene = common::scene(SCENE);
     // Four times the pixels: the frame's estimate averages over 3840 of them.
     (scene.output.width, scene.output.height) = (80, 48);
@@ -169,7 +169,7 @@ fn render_lib(
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| raytrace::render::render_frame(&scene, &statics, 1, budget, &|_| {}))
+    pool.install(|| raytrace::renderer::render_frame(&scene, &statics, 1, budget, &|_| {}))
 }
 
 #[test]
@@ -182,7 +182,7 @@ fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
     let reference_error = reference.stats.relative_error;
     assert!(reference_error < 0.006, "{reference_error}");
     let threshold = 0.03;
-    let budget = raytrace::render::Budget {
+    let budget = raytrace::renderer::Budget {
         noise_threshold: Some(threshold),
         ..Default::default()
     };
@@ -210,7 +210,7 @@ fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
 
 #[test]
 fn adaptive_frames_are_the_same_on_any_thread_count() {
-    let budget = raytrace::render::Budget {
+    let budget = raytrace::renderer::Budget {
         noise_threshold: Some(0.02),
         ..Default::default()
     };

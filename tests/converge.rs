@@ -234,7 +234,7 @@ fn bad_converge_arguments_exit_2_and_write_nothing() {
 #[test]
 fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
     use raytrace::analysis::metrics::rel_mse;
-    use raytrace::render::{Budget, render_frame};
+    use raytrace::renderer::{Budget, render_frame};
     use raytrace::world::StaticGeometry;
     let render = |sampler: &str, samples: u32, seed: u64| {
         let mut scene = common::scene(SCENE);

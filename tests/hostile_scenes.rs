@@ -16,7 +16,7 @@ use std::time::Instant;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
 use raytrace::Scene;
-use raytrace::render::{Budget, render_frame};
+use raytrace::renderer::{Budget, render_frame};
 use raytrace::world::StaticGeometry;
 
 /// The shipped scenes, and one that uses every key of the format (camera keyframes and a

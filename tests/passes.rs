@@ -11,7 +11,7 @@ use std::process::Command;
 
 use glam::{DVec2, DVec3};
 use raytrace::passes::PassImages;
-use raytrace::render::{Budget, FrameResult, render_frame};
+use raytrace::renderer::{Budget, FrameResult, render_frame};
 use raytrace::scene::Scene;
 use raytrace::world::StaticGeometry;
 
@@ -22,8 +22,8 @@ fn render(scene: &Scene, frame: u32) -> FrameResult {
     render_frame(scene, &statics, frame, &Budget::default(), &|_| {})
 }
 
-fn passes(r: &FrameResult) -> &PassImages {
-    r.passes.as_ref().expect("the frame has passes")
+fn passes(r: &FrameResult) -> PassImages {
+    r.pass_images().expect("the frame has passes")
 }
 
 /// A pinhole camera of the test's own: the image plane at the focal length `f` in pixels,
@@ -131,7 +131,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     );
     let s = scene(&text);
     let r = render(&s, 1);
-    let alpha = passes(&r).channel("A").unwrap();
+    let alpha = passes(&r).channel("A").unwrap().to_vec();
     let sum: f64 = alpha.iter().map(|&a| a as f64).sum();
     let f = Pinhole::new(DVec3::ZERO, -DVec3::Z, 40.0, 64, 64).f;
     let area = projected_area(DVec3::new(0.0, 0.0, 5.0), 1.0, f);
@@ -321,7 +321,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     let (a, u) = (p.channel("A").unwrap(), p.channel("forward.u").unwrap());
     let with_depth = scene(&text.replace("\"motion\", \"alpha\"", "\"depth\""));
     let z = render(&with_depth, 1)
-        .passes
+        .pass_images()
         .unwrap()
         .channel("Z")
         .unwrap()
@@ -492,8 +492,7 @@ fn bits(r: &FrameResult) -> (Vec<u64>, Vec<Vec<u32>>) {
         .flat_map(|p| p.to_array().map(f64::to_bits))
         .collect();
     let passes = r
-        .passes
-        .as_ref()
+        .pass_images()
         .map(|p| {
             p.channels
                 .iter()
@@ -510,9 +509,9 @@ fn colour_with_passes_is_the_same_bits_as_without() {
         let extra = format!("sampler = \"{sampler}\"");
         let without = render(&scene(&busy("[]", &extra)), 3);
         let with = render(&scene(&busy(ALL, &extra)), 3);
-        assert!(without.passes.is_none());
+        assert!(without.pass_images().is_none());
         assert_eq!(bits(&with).0, bits(&without).0);
-        assert_eq!(with.film, without.film);
+        assert_eq!(with.film.all_pixels(), without.film.all_pixels());
     }
 }
 
@@ -539,7 +538,7 @@ fn same_bits_across_threads_ranges_and_budgets(s: &Scene) -> FrameResult {
         ..Budget::default()
     };
     let budgeted = render_frame(s, &statics, 2, &budget, &|_| {});
-    assert_eq!(budgeted.stats.passes, 4);
+    assert_eq!(budgeted.stats.rounds, 4);
     assert_eq!(bits(&budgeted), bits(&one));
     one
 }
@@ -564,8 +563,8 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     };
     let opaque = render(&scene(&text(false)), 1);
     let clear = render(&scene(&text(true)), 1);
-    let alpha = passes(&clear).channel("A").unwrap();
-    let albedo = passes(&clear).channel("albedo.B").unwrap();
+    let alpha = passes(&clear).channel("A").unwrap().to_vec();
+    let albedo = passes(&clear).channel("albedo.B").unwrap().to_vec();
     let (mut inside, mut outside) = (0, 0);
     for (i, &a) in alpha.iter().enumerate() {
         let (c, o) = (clear.film.means()[i], opaque.film.means()[i]);

@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use raytrace::camera::View;
 use raytrace::material::schlick;
 use raytrace::ray::Ray;
-use raytrace::render::{Budget, FrameResult, render_frame};
+use raytrace::renderer::{Budget, FrameResult, render_frame};
 use raytrace::sampler::{CameraUse, IndependentSampler, Sampler};
 use raytrace::scene::Scene;
 use raytrace::sphere::{intersect, surface_point};

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 use raytrace::Scene;
-use raytrace::render::{Budget, render_frame};
+use raytrace::renderer::{Budget, render_frame};
 use raytrace::world::StaticGeometry;
 
 fuzz_target!(|data: &[u8]| {

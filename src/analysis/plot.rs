@@ -18,7 +18,8 @@ use plotters::prelude::*;
 use plotters::style::{FontStyle, TextStyle, register_font};
 
 use super::fit::usable;
-use crate::io::{self, Format};
+use crate::format::Format;
+use crate::io;
 
 /// The formats a plot can be written in.
 const PLOT_FORMATS: &[Format] = &[Format::Png, Format::Svg];

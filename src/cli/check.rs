@@ -3,12 +3,13 @@
 
 use std::fmt::Write;
 
-use super::CheckArgs;
+use super::args::CheckArgs;
 use super::frames;
-use super::render::{Shot, check_memory, load_shots, mib};
-use crate::error::{Error, clip, clip_path};
+use super::jobs::{Job, load_shots};
+use crate::error::{Error, elide, elide_path};
+use crate::memory::{check_memory, mib};
 use crate::motion::Motion;
-use crate::scene::Overrides;
+use crate::scene_file::Overrides;
 use crate::shutter::ShutterCurve;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
@@ -36,13 +37,13 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
 }
 
 /// The description of one shot (with its chunk count when `chunk_size` is given).
-fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
+fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
     let (scene_path, scene) = (&shot.path, &shot.scene);
     let selected = &shot.targets.frames;
     let memory = check_memory(scene)?;
     let shot = &scene.shot;
     let mut s = String::new();
-    let _ = writeln!(s, "{}: ok", clip_path(scene_path));
+    let _ = writeln!(s, "{}: ok", elide_path(scene_path));
     let _ = writeln!(
         s,
         "shot: {} frames ({}-{}) at {} fps, shutter {} s ({}), start time {} s",
@@ -101,7 +102,7 @@ fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
         scene.render.samples,
         scene.render.max_depth,
         scene.render.seed,
-        clip(&scene.output.path)
+        elide(&scene.output.path)
     );
     if !scene.output.passes.is_empty() || scene.transparent {
         let mut passes = vec!["colour"];
@@ -114,7 +115,7 @@ fn describe(shot: &Shot, chunk_size: Option<u64>) -> Result<String, Error> {
         let _ = writeln!(s, "passes: {}{background}", passes.join(", "));
     }
     if let Some(c) = &scene.output.clip {
-        let _ = writeln!(s, "clip: {}", clip(c));
+        let _ = writeln!(s, "clip: {}", elide(c));
     }
     let _ = writeln!(s, "memory: about {}", mib(memory));
     // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.

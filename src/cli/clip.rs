@@ -2,12 +2,13 @@
 
 use std::path::Path;
 
-use super::ClipArgs;
+use super::args::ClipArgs;
+use super::jobs::select_frames;
 use super::progress::print_line;
-use super::render::select_frames;
 use crate::clip::{self, Source};
-use crate::error::{Error, clip as clip_text};
-use crate::io::{self, FRAME_FORMATS, Format};
+use crate::error::{Error, elide};
+use crate::format::{FRAME_FORMATS, Format};
+use crate::path_pattern;
 use crate::scene::Scene;
 
 /// `raytrace clip`: the frames selected by `--frames` (default: every frame of the shot),
@@ -19,23 +20,23 @@ pub(crate) fn clip(args: &ClipArgs) -> Result<(), Error> {
             if Format::from_extension(Path::new(p), FRAME_FORMATS).is_none() {
                 return Err(Error::Usage(format!(
                     "--input \"{}\": {}",
-                    clip_text(p),
+                    elide(p),
                     Format::unsupported(FRAME_FORMATS, "frame")
                 )));
             }
-            io::with_scene(p, &args.scene)
+            path_pattern::with_scene(p, &args.scene)
         }
         None => scene.output.path.clone(),
     };
     let selected = select_frames(&scene, args.frames.as_ref(), None)?;
-    if selected.len() > 1 && !io::pattern_has_frame_number(&pattern) {
+    if selected.len() > 1 && !path_pattern::pattern_has_frame_number(&pattern) {
         return Err(Error::Usage(format!(
             "frame path \"{}\" has no '#' for the frame number, so it names one file for {} frames",
-            clip_text(&pattern),
+            elide(&pattern),
             selected.len()
         )));
     }
-    let path = io::with_scene(&args.clip.to_string_lossy(), &args.scene);
+    let path = path_pattern::with_scene(&args.clip.to_string_lossy(), &args.scene);
     let path = Path::new(&path);
     let source = Source {
         pattern: &pattern,

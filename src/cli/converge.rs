@@ -13,17 +13,19 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::ConvergeArgs;
+use super::args::ConvergeArgs;
 use super::progress::print_line;
-use super::render::frame_info;
 use crate::analysis::fit::log_log_slope;
 use crate::analysis::{metrics, plot};
 use crate::error::Error;
-use crate::io::{self, FRAME_FORMATS, Format};
-use crate::render::{Budget, FrameResult, render_frame};
+use crate::format::{FRAME_FORMATS, Format};
+use crate::io;
+use crate::output;
+use crate::renderer::{Budget, FrameResult, render_frame};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
+use crate::scene_file::{Overrides, SceneSource};
 use crate::world::StaticGeometry;
 
 /// Default samples per pixel of the reference render.
@@ -128,7 +130,9 @@ pub(crate) fn schedule(max_samples: u32) -> Vec<u32> {
 
 /// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
 pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
-    let mut scene = Scene::load_with(&args.scene, &args.scene_args.overrides())?;
+    let source = SceneSource::read(&args.scene)?;
+    let overrides = args.scene_args.overrides();
+    let scene = source.scene(&overrides)?;
     let frame = args.frame.unwrap_or(scene.shot.first_frame);
     if !scene.shot.contains_frame(frame) {
         return Err(Error::Usage(format!(
@@ -143,19 +147,36 @@ pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
     if let Some(path) = &args.csv {
         Format::of(path, &[Format::Csv], "measurements").map_err(Error::Usage)?;
     }
-    super::thread_pool(args.scene_args.threads)?.install(|| measure(&mut scene, frame, args))
+    let variant = |samples: u32, seed: Option<u64>, sampler: SamplerKind| {
+        source.scene(&Overrides {
+            samples: Some(samples),
+            seed: seed.or(overrides.seed),
+            sampler: Some(sampler),
+            ..overrides.clone()
+        })
+    };
+    super::threads::thread_pool(args.scene_args.threads)?
+        .install(|| measure(&scene, &variant, frame, args))
 }
 
-/// Measures `frame` of `scene`; `scene.render`'s samples, seed and sampler are set for each
-/// render in turn.
-fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report, Error> {
+/// A variant of the measured scene with other samples, seed (`None`: the scene's) and
+/// sampler, made from the scene file through the validator.
+type Variant<'a> = dyn Fn(u32, Option<u64>, SamplerKind) -> Result<Scene, Error> + Sync + 'a;
+
+/// Measures `frame` of `scene`, rendering the `variant` of each sample count and sampler.
+fn measure(
+    scene: &Scene,
+    variant: &Variant,
+    frame: u32,
+    args: &ConvergeArgs,
+) -> Result<Report, Error> {
     let say = |s: &str| {
         if !args.scene_args.quiet {
             print_line(s);
         }
     };
     let statics = StaticGeometry::new(scene);
-    let reference = reference(scene, &statics, frame, args, &say)?;
+    let reference = reference(scene, variant, &statics, frame, args, &say)?;
 
     let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -178,9 +199,7 @@ fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report,
             if !active[i] {
                 continue;
             }
-            scene.render.samples = n;
-            scene.render.sampler = kind;
-            let (result, seconds) = timed_render(scene, &statics, frame);
+            let (result, seconds) = timed_render(&variant(n, None, kind)?, &statics, frame);
             let m = Measurement {
                 sampler: kind,
                 samples: n,
@@ -248,7 +267,8 @@ fn measure(scene: &mut Scene, frame: u32, args: &ConvergeArgs) -> Result<Report,
 /// The reference image of `frame`: read from `--reference`, or rendered with many samples
 /// and a seed of its own, written to EXR, and read back.
 fn reference(
-    scene: &mut Scene,
+    scene: &Scene,
+    variant: &Variant,
     statics: &StaticGeometry,
     frame: u32,
     args: &ConvergeArgs,
@@ -263,19 +283,17 @@ fn reference(
         .write_reference
         .clone()
         .unwrap_or_else(|| default_reference_path(scene, frame, samples, args));
-    Format::of(&path, FRAME_FORMATS, "reference").map_err(Error::Usage)?;
-    let mut reference = scene.clone();
-    reference.render.samples = samples;
-    // A seed of its own, so the reference's noise is independent of every measured render's.
-    reference.render.seed = hash_words(&[scene.render.seed, 0x7265_6665_7265_6e63]);
-    reference.render.sampler = SamplerKind::default();
+    let format = Format::of(&path, FRAME_FORMATS, "reference").map_err(Error::Usage)?;
+    // A seed of its own, so the reference's noise is independent of every measured render's;
+    // 63 bits, as every seed a scene file or --seed can give.
+    let seed = hash_words(&[scene.render.seed, 0x7265_6665_7265_6e63]) >> 1;
+    let reference = variant(samples, Some(seed), SamplerKind::default())?;
     say(&format!(
         "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
         reference.render.sampler
     ));
     let result = render_frame(&reference, statics, frame, &Budget::default(), &|_| {});
-    let info = frame_info(&reference, frame, samples);
-    let non_finite = super::render::write_film(&path, &result.film, info)?;
+    let non_finite = output::write_frame(&path, format, &reference, &result, &Budget::default())?;
     if non_finite > 0 {
         say(&format!(
             "reference: {non_finite} non-finite pixels written as 0"

@@ -90,13 +90,13 @@ impl Selection {
                 return Err(format!(
                     "empty part {} in frame specification \"{}\" (parts are separated by commas)",
                     index + 1,
-                    crate::error::clip(spec.trim())
+                    crate::error::elide(spec.trim())
                 ));
             }
             let fail = |reason: String| {
                 format!(
                     "frame specification \"{}\": {reason}",
-                    crate::error::clip(part)
+                    crate::error::elide(part)
                 )
             };
             let (start, end, step) = parse_part(part).map_err(fail)?;
@@ -437,13 +437,13 @@ fn parse_number(text: &str, what: &str) -> Result<u32, String> {
     if !text.bytes().all(|b| b.is_ascii_digit()) {
         return Err(format!(
             "\"{}\" is not a valid {what}",
-            crate::error::clip(text)
+            crate::error::elide(text)
         ));
     }
     text.parse::<u32>().map_err(|_| {
         format!(
             "{what} {} is too large (the largest is {})",
-            crate::error::clip(text),
+            crate::error::elide(text),
             u32::MAX
         )
     })

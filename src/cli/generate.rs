@@ -1,9 +1,10 @@
-//! `raytrace generate`: writes a large random test scene (see [`crate::scene::generate`]).
+//! `raytrace generate`: writes a large random test scene (see [`crate::scene_file::generate`]).
 
-use super::GenerateArgs;
+use super::args::GenerateArgs;
 use crate::error::Error;
-use crate::io::{self, Format};
-use crate::scene::generate::{RandomScene, scene_text};
+use crate::format::Format;
+use crate::io;
+use crate::scene_file::generate::{RandomScene, scene_text};
 
 /// Writes the scene to its `.toml` file, atomically. The argument ranges were checked by the
 /// command line's parsers.

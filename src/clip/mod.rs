@@ -25,8 +25,9 @@ use std::path::Path;
 pub(crate) use source::Source;
 pub(crate) use timing::Rate;
 
-use crate::error::{Error, clip_path};
-use crate::io::{self, CLIP_FORMATS, Format};
+use crate::error::{Error, elide_path};
+use crate::format::{CLIP_FORMATS, Format};
+use crate::io;
 
 /// What a clip holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,7 +43,7 @@ impl Made {
     pub(crate) fn line(&self, path: &Path) -> String {
         format!(
             "clip {}: {} frames, {}x{} at {} fps, {:.3} s",
-            clip_path(path),
+            elide_path(path),
             self.frames,
             self.width,
             self.height,
@@ -64,7 +65,7 @@ pub(crate) fn check(path: &Path, fps: f64) -> Result<(Format, Rate), Error> {
     let rate = Rate::of_fps(fps).ok_or_else(|| {
         Error::Usage(format!(
             "{}: the shot's rate of {fps} fps cannot be written as a clip's frame rate",
-            clip_path(path)
+            elide_path(path)
         ))
     })?;
     io::check_target(path).map_err(Error::Usage)?;
@@ -91,7 +92,7 @@ where
     if count == 0 {
         return Err(Error::Usage(format!(
             "{}: no frames selected for the clip",
-            clip_path(path)
+            elide_path(path)
         )));
     }
     if source.exposure != 0.0
@@ -105,7 +106,7 @@ where
         return Err(Error::Usage(format!(
             "{}: a contact sheet shows at most {} frames, and {count} are selected: choose \
              fewer with --frames (1-480:10 is every 10th)",
-            clip_path(path),
+            elide_path(path),
             sheet::MAX_FRAMES
         )));
     }
@@ -123,7 +124,7 @@ where
             if size.0 > u16::MAX as u32 || size.1 > u16::MAX as u32 {
                 return Err(Error::Usage(format!(
                     "{}: GIF images are at most 65535 pixels a side, the frames are {}x{}",
-                    clip_path(path),
+                    elide_path(path),
                     size.0,
                     size.1
                 )));
@@ -132,7 +133,7 @@ where
         }
         Format::Apng => {
             let n = u32::try_from(count).map_err(|_| {
-                Error::Usage(format!("{}: too many frames for APNG", clip_path(path)))
+                Error::Usage(format!("{}: too many frames for APNG", elide_path(path)))
             })?;
             io::write_with(path, |w| {
                 apng::write(&mut *w, path, (size.0, size.1, n), rate, all)

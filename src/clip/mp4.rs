@@ -20,7 +20,7 @@ use std::process::{Command, Stdio};
 
 use super::source::FrameImage;
 use super::timing::Rate;
-use crate::error::{Error, clip_path};
+use crate::error::{Error, elide_path};
 
 /// The program that encodes MP4 clips.
 const FFMPEG: &str = "ffmpeg";
@@ -45,7 +45,7 @@ pub(super) fn check_ffmpeg(clip: &Path) -> Result<(), Error> {
             "cannot make {}: .mp4 clips are made by the ffmpeg program, which could not be run \
              ({e}); install ffmpeg, or make a .gif, .apng or .png clip, which need no other \
              program",
-            clip_path(clip)
+            elide_path(clip)
         ))),
     }
 }
@@ -106,7 +106,7 @@ pub(super) fn write(
         .stdout(Stdio::from(out))
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| Error::Resource(format!("cannot run ffmpeg for {}: {e}", clip_path(clip))))?;
+        .map_err(|e| Error::Resource(format!("cannot run ffmpeg for {}: {e}", elide_path(clip))))?;
     // ffmpeg's messages are read while it runs, so that it never blocks on a full pipe.
     let mut stderr = child.stderr.take().expect("piped stderr");
     let messages = std::thread::spawn(move || {

@@ -3,8 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, clip_path};
-use crate::io::{self, Format};
+use crate::error::{Error, elide_path};
+use crate::format::Format;
+use crate::io;
+use crate::path_pattern;
 
 /// One frame as a clip shows it: 8-bit sRGB, three bytes a pixel, row-major, top row first.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -26,7 +28,7 @@ pub(crate) struct Source<'a> {
 impl Source<'_> {
     /// The file of `frame`.
     pub(crate) fn path(&self, frame: u32) -> PathBuf {
-        io::frame_path(self.pattern, frame)
+        path_pattern::frame_path(self.pattern, frame)
     }
 
     /// Checks that every frame's file is there and complete, cheaply (no pixel is decoded):
@@ -38,13 +40,13 @@ impl Source<'_> {
                 return Err(Error::Usage(format!(
                     "frame {frame} is missing: {} does not exist (render it first, or choose \
                      frames with --frames)",
-                    clip_path(&path)
+                    elide_path(&path)
                 )));
             }
             io::check_frame_file(&path).map_err(|why| {
                 Error::Usage(format!(
                     "frame {frame}: {} is not a complete frame ({why})",
-                    clip_path(&path)
+                    elide_path(&path)
                 ))
             })?;
         }
@@ -55,8 +57,9 @@ impl Source<'_> {
     /// usage error, as is a file that does not decode.
     pub(crate) fn read(&self, frame: u32, size: Option<(u32, u32)>) -> Result<FrameImage, Error> {
         let path = self.path(frame);
-        let bad = |why: String| Error::Usage(format!("frame {frame}: {}: {why}", clip_path(&path)));
-        let image = match Format::from_extension(&path, io::FRAME_FORMATS) {
+        let bad =
+            |why: String| Error::Usage(format!("frame {frame}: {}: {why}", elide_path(&path)));
+        let image = match Format::from_extension(&path, crate::format::FRAME_FORMATS) {
             Some(Format::Exr) => read_exr(&path, frame, self.exposure).map_err(bad)?,
             _ => read_png(&path, frame).map_err(bad)?,
         };

@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard, OnceLock, PoisonError};
 use std::time::Duration;
 
-use crate::error::{Error, clip_path};
+use crate::error::{Error, elide_path};
 
 /// Writes `bytes` to `path` atomically: through a temporary file beside it, renamed into
 /// place, so readers never see a partial file. Parent folders are created as needed.
@@ -107,7 +107,7 @@ const MAX_NAME_BYTES: usize = 255;
 /// touching the disk: the path, one of its names, or its temporary file's name or path is
 /// longer than the system allows. Lets a command refuse such a path before it starts work.
 pub(crate) fn check_target(path: &Path) -> Result<(), String> {
-    let shown = clip_path(path);
+    let shown = elide_path(path);
     let bytes = path.as_os_str().len();
     if let Some(long) = path
         .components()
@@ -117,7 +117,7 @@ pub(crate) fn check_target(path: &Path) -> Result<(), String> {
         return Err(format!(
             "{shown}: the name \"{}\" is {} bytes long; file and folder names are limited to \
              {MAX_NAME_BYTES} bytes",
-            crate::error::clip(&long.to_string_lossy()),
+            crate::error::elide(&long.to_string_lossy()),
             long.len()
         ));
     }
@@ -293,7 +293,7 @@ fn create_folders(dir: &Path, pending: &mut Pending) -> io::Result<()> {
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {
                 return Err(io::Error::new(
                     io::ErrorKind::NotADirectory,
-                    format!("{} is not a folder", clip_path(folder)),
+                    format!("{} is not a folder", elide_path(folder)),
                 ));
             }
             Err(e) => return Err(e),

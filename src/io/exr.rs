@@ -5,7 +5,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use super::Image;
+use super::image::Image;
 use crate::error::Error;
 
 /// The metadata stored with a frame (in EXR headers; PNG files carry none).
@@ -288,7 +288,7 @@ fn write_with_passes(
     attributes: exr::meta::header::LayerAttributes,
     encoding: exr::prelude::Encoding,
 ) -> Result<(), Error> {
-    use crate::passes::Precision;
+    use crate::pass::Precision;
     use exr::prelude::{
         AnyChannel, AnyChannels, FlatSamples, Image, Layer, SmallVec, WritableImage, f16,
     };

@@ -4,7 +4,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use super::Image;
+use super::image::Image;
 use crate::error::Error;
 
 /// Encodes a linear value as an 8-bit sRGB value with the exact piecewise sRGB curve,
@@ -55,7 +55,7 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
 
 /// 8-bit RGBA with straight alpha, as PNG requires: the colour sRGB encoded, divided by the
 /// alpha first where it is `premultiplied` (and the alpha above 0), the alpha linear.
-fn rgba_straight(rgb: super::RgbSource, alpha: &[f32], premultiplied: bool) -> Vec<u8> {
+fn rgba_straight(rgb: super::image::RgbSource, alpha: &[f32], premultiplied: bool) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(alpha.len() * 4);
     for (i, &a) in alpha.iter().enumerate() {
         let c = rgb(i);

@@ -7,6 +7,10 @@ use std::time::Duration;
 use super::atomic::{Writer, host_name, parse_temp_name, split_target, temp_name, write_with};
 use super::exr::fps_rational;
 use super::*;
+use crate::error::Error;
+use crate::format::{FRAME_FORMATS, Format};
+use crate::path_pattern::{frame_path, pattern_has_frame_number};
+use std::ffi::OsStr;
 
 fn info() -> FrameInfo {
     FrameInfo {
@@ -307,13 +311,13 @@ fn png_round_trip() {
     ];
     write_frame(&path, w, h, &rgb, &info()).unwrap();
     assert_eq!(dir_names(dir.path()), vec!["f.0001.PNG"]);
-    let image = image::ImageReader::open(&path)
+    let image = ::image::ImageReader::open(&path)
         .unwrap()
         .with_guessed_format()
         .unwrap()
         .decode()
         .unwrap();
-    assert_eq!(image.color(), image::ColorType::Rgb8);
+    assert_eq!(image.color(), ::image::ColorType::Rgb8);
     let image = image.to_rgb8();
     assert_eq!(image.dimensions(), (w, h));
     let expected: Vec<u8> = rgb.iter().map(|&v| linear_to_srgb8(v)).collect();
@@ -348,7 +352,7 @@ fn overwrite_replaces_and_leaves_only_the_frame() {
     let path = dir.path().join("f.png");
     write_frame(&path, 1, 1, &[0.0, 0.0, 0.0], &info()).unwrap();
     write_frame(&path, 1, 1, &[1.0, 1.0, 1.0], &info()).unwrap();
-    let image = image::open(&path).unwrap().to_rgb8();
+    let image = ::image::open(&path).unwrap().to_rgb8();
     assert_eq!(image.as_raw(), &[255, 255, 255]);
     assert_eq!(dir_names(dir.path()), vec!["f.png"]);
 }
@@ -666,7 +670,7 @@ fn complete_frames_are_told_from_empty_and_truncated_ones() {
 
 #[test]
 fn passes_channels_are_written_by_name_and_type_and_checked_first() {
-    use crate::passes::{Channel, Precision};
+    use crate::pass::{Channel, Precision};
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (3, 2);
     let channel = |name, precision, v: f32| Channel {

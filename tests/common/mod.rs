@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 
 use glam::DVec3;
 use raytrace::film::Film;
-use raytrace::render::{Budget, render_frame};
+use raytrace::renderer::{Budget, render_frame};
 use raytrace::scene::Scene;
 use raytrace::world::StaticGeometry;
 

@@ -4,9 +4,15 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::load::{MAX_FILE_BYTES, parse_whole, read_scene};
+use super::overrides::Overrides;
 use super::pieces::parse_in_pieces;
-use super::*;
+use crate::error::Error;
+use crate::material::{Background, Material};
 use crate::motion::Motion;
+use crate::sampler::SamplerKind;
+use crate::scene::{MAX_SIDE, RenderSettings, Scene};
+use crate::shutter::Shot;
 use crate::shutter::ShutterPosition;
 
 fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
@@ -766,14 +772,14 @@ fn numbers_are_shown_short_and_as_written() {
         e,
         "s.toml: shot: the last frame's time (9.925e39 s) is out of range; check shot.fps and shot.frames"
     );
-    assert_eq!(validate::show_approx(1.0 / 48.0), "0.02083");
-    assert_eq!(validate::show_approx(4.9999999999999995e299), "5e299");
-    assert_eq!(validate::show_approx(123456.0), "123500");
-    assert_eq!(validate::show(2.0), "2");
-    assert_eq!(validate::show(-0.0), "-0");
-    assert_eq!(validate::show(0.1), "0.1");
-    assert_eq!(validate::show(1e300), "1e300");
-    assert_eq!(validate::show(f64::NEG_INFINITY), "-inf");
+    assert_eq!(super::show::show_approx(1.0 / 48.0), "0.02083");
+    assert_eq!(super::show::show_approx(4.9999999999999995e299), "5e299");
+    assert_eq!(super::show::show_approx(123456.0), "123500");
+    assert_eq!(super::show::show(2.0), "2");
+    assert_eq!(super::show::show(-0.0), "-0");
+    assert_eq!(super::show::show(0.1), "0.1");
+    assert_eq!(super::show::show(1e300), "1e300");
+    assert_eq!(super::show::show(f64::NEG_INFINITY), "-inf");
 }
 
 #[test]
@@ -1059,7 +1065,7 @@ fn colours_are_bounded_so_no_pixel_can_overflow() {
 
 #[test]
 fn passes_and_a_transparent_background_parse_and_are_checked() {
-    use crate::passes::{Pass, PassSet};
+    use crate::pass::{Pass, PassSet};
     let s = ok(
         "[output]\npath = \"o.exr\"\npasses = [\"motion\", \"alpha\"]\n[background]\ntransparent = true\n",
     );
@@ -1081,7 +1087,7 @@ fn passes_and_a_transparent_background_parse_and_are_checked() {
     );
     assert_eq!(
         first_line(&err("[output]\npasses = [\"alpha\", \"beauty\"]\n")),
-        "s.toml:2:20: output.passes[1]: expected one of \"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\", found \"beauty\""
+        "s.toml:2:20: output.passes[1]: expected one of \"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\", \"samples\", \"noisy\", found \"beauty\""
     );
     assert_eq!(
         first_line(&err("[background]\ntransparent = 1\n")),

@@ -6,12 +6,13 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::overrides::Overrides;
 use super::report::{self, Located};
 use super::scan;
 use super::schema::{RawScene, RawSphere};
 use super::validate::{Check, Validated, add_spheres};
-use super::{Overrides, Scene};
 use crate::error::Error;
+use crate::scene::Scene;
 
 /// Files at least this large are parsed in pieces, in parallel (when their layout allows).
 pub(super) const PIECES_FROM_BYTES: usize = 1 << 20;

@@ -1,4 +1,4 @@
-//! Frame file names from a path pattern.
+//! Path patterns: frame file names (runs of `#` become the frame number) and `{scene}`.
 
 use std::path::{Path, PathBuf};
 

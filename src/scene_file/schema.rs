@@ -232,7 +232,7 @@ impl<'de> Deserialize<'de> for RawCurve {
                 if end != 1.0 {
                     return Err(de::Error::custom(format_args!(
                         "expected the last point's s to be 1, found {}",
-                        super::validate::show(end)
+                        super::show::show(end)
                     )));
                 }
                 if points.iter().all(|p| p.1 == 0.0) {
@@ -275,7 +275,7 @@ impl<'de> Visitor<'de> for CurvePoint {
             return Err(wrong(n));
         }
         // s: 0 for the first point; above the previous one, and below 1 unless it is the last.
-        let shown = self.previous.map(super::validate::show);
+        let shown = self.previous.map(super::show::show);
         let s_expected = match (&shown, self.last) {
             (None, _) => "0 (the first point's s)".to_string(),
             (Some(p), Some(true)) => format!("1 (the last point's s, after {p})"),
@@ -387,15 +387,16 @@ pub(super) struct RawOutput {
     pub(super) height: Option<Number>,
     pub(super) clip: Option<String>,
     pub(super) passes: Option<Vec<RawPass>>,
+    pub(super) denoise: Option<bool>,
 }
 
 /// A pass name of `[output] passes`.
 #[derive(Clone, Copy)]
-pub(super) struct RawPass(pub(super) crate::passes::Pass);
+pub(super) struct RawPass(pub(super) crate::pass::Pass);
 
 impl Keyword for RawPass {
     const NAMES: &'static [(&'static str, Self)] = {
-        use crate::passes::Pass;
+        use crate::pass::Pass;
         &[
             ("alpha", RawPass(Pass::Alpha)),
             ("depth", RawPass(Pass::Depth)),
@@ -403,6 +404,8 @@ impl Keyword for RawPass {
             ("albedo", RawPass(Pass::Albedo)),
             ("motion", RawPass(Pass::Motion)),
             ("variance", RawPass(Pass::Variance)),
+            ("samples", RawPass(Pass::Samples)),
+            ("noisy", RawPass(Pass::Noisy)),
         ]
     };
 }

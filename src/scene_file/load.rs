@@ -1,112 +1,16 @@
-//! The validated scene: everything a render needs, with defaults applied, names resolved and
-//! every value checked, command-line overrides included. Nothing downstream re-validates.
-//!
-//! A scene file goes through three steps, one file each:
-//! - [`schema`]: the TOML format as typed serde structs (unknown keys rejected);
-//! - [`validate`]: the one validator, from those raw values (with any [`Overrides`] applied to
-//!   them first) to a [`Scene`], naming the field of any bad value;
-//! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
-//!
-//! Before any document is parsed, [`scan`] checks it against limits that bound the parse's
-//! memory; [`report`] words the errors found in the text.
-//!
-//! [`generate`] writes large random test scenes as scene-file text.
-
-pub mod generate;
-mod pieces;
-mod report;
-mod scan;
-mod schema;
-mod validate;
-
-#[cfg(test)]
-mod tests;
+//! Reading a scene file: its bytes (regular files only, of bounded size), its text, and the
+//! parse and validation that make a [`Scene`] of it.
 
 use std::path::{Path, PathBuf};
 
-use crate::camera::CameraRig;
+use super::overrides::Overrides;
+use super::{pieces, report, scan, schema, validate};
 use crate::error::Error;
-use crate::material::{Background, Material};
-use crate::passes::{Pass, PassSet};
-use crate::sampler::SamplerKind;
-use crate::shutter::Shot;
-use crate::sphere::SphereDesc;
-
-/// Largest image side, in pixels, from a scene file or the command line.
-pub const MAX_SIDE: u32 = 65536;
+use crate::scene::Scene;
 
 /// Largest scene file read, in bytes (2 GiB). A million spheres as `raytrace generate` writes
 /// them take 101 MB.
 pub const MAX_FILE_BYTES: u64 = 2 << 30;
-
-/// Where and how big frames are written.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OutputSettings {
-    /// The output path pattern; runs of `#` become the zero-padded frame number. `{scene}`
-    /// has already been replaced by the scene file's name without extension.
-    pub path: String,
-    pub width: u32,
-    pub height: u32,
-    /// `[output] clip` (or `--clip`): a clip to assemble from the frames after rendering
-    /// (`.mp4`, `.gif`, `.apng` or `.png`), `{scene}` replaced as in `path`.
-    pub clip: Option<String>,
-    /// The passes written beside the colour (`[output] passes`, or `--passes`).
-    pub passes: PassSet,
-}
-
-/// Sampling settings.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderSettings {
-    /// Samples per pixel, >= 1.
-    pub samples: u32,
-    /// Longest path in bounces; a path that reaches it returns black.
-    pub max_depth: u32,
-    pub seed: u64,
-    /// How samples are placed (`[render] sampler`).
-    pub sampler: SamplerKind,
-}
-
-/// A validated scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Scene {
-    /// The file the scene was read from (used in messages and for the default output path).
-    pub source: PathBuf,
-    pub shot: Shot,
-    pub output: OutputSettings,
-    pub render: RenderSettings,
-    pub camera: CameraRig,
-    pub background: Background,
-    /// `[background] transparent`: camera rays that miss every sphere add black, so the
-    /// colour is premultiplied by the alpha pass.
-    pub transparent: bool,
-    /// Every material used by a sphere; spheres refer to them by index.
-    pub materials: Vec<Material>,
-    pub spheres: Vec<SphereDesc>,
-}
-
-/// Values given on the command line in place of the scene file's. They are written into the
-/// file's raw values before validation, so the one validator checks them with the same rules
-/// and messages (which name the flag: `--width must be in 1..=65536, got 0`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Overrides {
-    /// `--output`: replaces `[output] path`.
-    pub output: Option<String>,
-    /// `--width`: replaces `[output] width`.
-    pub width: Option<u32>,
-    /// `--height`: replaces `[output] height`.
-    pub height: Option<u32>,
-    /// `--samples`: replaces `[render] samples`.
-    pub samples: Option<u32>,
-    /// `--seed`: replaces `[render] seed`.
-    pub seed: Option<u64>,
-    /// `--sampler`: replaces `[render] sampler`.
-    pub sampler: Option<SamplerKind>,
-    /// `--clip`: replaces `[output] clip`.
-    pub clip: Option<String>,
-    /// `--passes`: replaces `[output] passes` (in the order given, duplicates included, so
-    /// the validator names them).
-    pub passes: Option<Vec<Pass>>,
-}
 
 impl Scene {
     /// Reads and validates a scene file.
@@ -165,16 +69,40 @@ impl Scene {
     }
 }
 
+/// A scene file's bytes, read once, from which scenes are made with any overrides, each
+/// through the one validator: a command that renders one file with several settings (`converge`
+/// with each sample count and sampler) never changes a validated scene.
+#[derive(Clone, Debug)]
+pub struct SceneSource {
+    path: PathBuf,
+    bytes: Vec<u8>,
+}
+
+impl SceneSource {
+    /// Reads the scene file at `path` (as [`Scene::load`] does).
+    pub fn read(path: &Path) -> Result<SceneSource, Error> {
+        Ok(SceneSource {
+            path: path.to_path_buf(),
+            bytes: read_scene(path, MAX_FILE_BYTES)?,
+        })
+    }
+
+    /// The scene with `overrides` applied, validated.
+    pub fn scene(&self, overrides: &Overrides) -> Result<Scene, Error> {
+        Scene::parse_bytes_with(&self.bytes, &self.path, overrides)
+    }
+}
+
 /// Reads a scene file of at most `max` bytes. Only a regular file is opened: a directory, a
 /// named pipe (whose opening would wait for a writer), a device (`/dev/zero` never ends) or a
 /// socket is refused from its metadata, as is a path that cannot be resolved (missing, a loop
 /// of links). At most `max + 1` bytes are read, whatever the file claims or becomes. Every
 /// refusal is bad input ([`Error::Scene`], exit status 2), except a file that exists but cannot
 /// be read ([`Error::Io`]).
-fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
+pub(super) fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
     use std::io::Read;
-    // A path of any length is named by its start and end (see `clip_path`).
-    let shown = crate::error::clip_path(path);
+    // A path of any length is named by its start and end (see `elide_path`).
+    let shown = crate::error::elide_path(path);
     let bad = |what: &dyn std::fmt::Display| Error::Scene(format!("{shown}: {what}"));
     let meta = std::fs::metadata(path).map_err(|e| bad(&e))?;
     let kind = file_kind(&meta.file_type());
@@ -253,7 +181,11 @@ fn bytes_text(n: u64) -> String {
 }
 
 /// Parses the whole document at once.
-fn parse_whole(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
+pub(super) fn parse_whole(
+    text: &str,
+    source: &Path,
+    overrides: &Overrides,
+) -> Result<Scene, Error> {
     let file = source.display().to_string();
     let located =
         |e: report::Located| Error::Scene(report::render(&file, text, e.span, &e.message));

@@ -11,55 +11,28 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::overrides::Overrides;
 use super::report;
 use super::schema::{
     MaterialRef, Number, RawCamera, RawCurve, RawMaterial, RawOutput, RawPass, RawReadoutDirection,
     RawSampler, RawScene, RawShot, RawShutterPosition, RawSphere, V3,
 };
-use super::{MAX_SIDE, OutputSettings, Overrides, RenderSettings, Scene};
+use super::show::{show, show_approx};
 use crate::camera::{
     CameraRig, DEGENERATE_UP, DEGENERATE_VIEW, TINY, most_parallel_on_segment, robust_length,
     shortest_on_segment,
 };
-use crate::io::{self, CLIP_FORMATS, FRAME_FORMATS, Format};
+use crate::format::{CLIP_FORMATS, FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
-use crate::passes::{Pass, PassSet};
+use crate::pass::{Pass, PassSet};
+use crate::path_pattern;
 use crate::sampler::SamplerKind;
+use crate::scene::{MAX_SIDE, OutputSettings, RenderSettings, Scene};
 use crate::shutter::{
     ReadoutDirection, RollingShutter, Shot, ShutterCurve, ShutterPosition, shutter_from_angle,
 };
 use crate::sphere::SphereDesc;
-
-/// Formats a number as the scene file would, shortest first: `2`, `0.25`, `-0`, and in
-/// scientific form when very large or small (`1e-300`, `1.8446744073709552e19`), never as
-/// hundreds of digits.
-pub(super) fn show(x: f64) -> String {
-    if x.is_nan() {
-        return "nan".into();
-    }
-    let debug = format!("{x:?}");
-    if debug.contains('e') || x.is_infinite() {
-        debug
-    } else {
-        format!("{x}")
-    }
-}
-
-/// Formats a computed number (not one written in the file) to 4 significant digits:
-/// `5e299`, `1.98e39`, `0.02083`.
-pub(super) fn show_approx(x: f64) -> String {
-    if !x.is_finite() || x == 0.0 {
-        return show(x);
-    }
-    let sci = format!("{x:.3e}");
-    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
-    let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
-    match exp.parse::<i32>() {
-        Ok(e) if (-4..16).contains(&e) => show(format!("{mantissa}e{e}").parse().unwrap_or(x)),
-        _ => format!("{mantissa}e{exp}"),
-    }
-}
 
 /// Largest integer a float field may stand for in an integer field: floats hold every
 /// integer exactly up to 2^53, and no larger one is likely to be meant exactly.
@@ -105,7 +78,7 @@ pub(super) struct Check<'a> {
 }
 
 /// The fields the command line can override, and the flag that does.
-const FLAGS: [(&str, &str); 8] = [
+const FLAGS: [(&str, &str); 9] = [
     ("output.path", "--output"),
     ("output.width", "--width"),
     ("output.height", "--height"),
@@ -114,6 +87,7 @@ const FLAGS: [(&str, &str); 8] = [
     ("render.sampler", "--sampler"),
     ("output.clip", "--clip"),
     ("output.passes", "--passes"),
+    ("output.denoise", "--denoise"),
 ];
 
 impl<'a> Check<'a> {
@@ -146,6 +120,9 @@ impl<'a> Check<'a> {
         if let Some(passes) = &o.passes {
             raw.output.passes = Some(passes.iter().map(|p| RawPass(*p)).collect());
         }
+        if let Some(d) = o.denoise {
+            raw.output.denoise = Some(d);
+        }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
                 SamplerKind::Independent => RawSampler::Independent,
@@ -166,6 +143,7 @@ impl<'a> Check<'a> {
             o.sampler.is_some(),
             o.clip.is_some(),
             o.passes.is_some(),
+            o.denoise.is_some(),
         ];
         match FLAGS
             .iter()
@@ -472,7 +450,7 @@ impl<'a> Check<'a> {
     }
 
     fn output(&self, o: &RawOutput, source: &Path) -> Result<OutputSettings, String> {
-        let path = match &o.path {
+        let (path, format) = match &o.path {
             Some(p) if p.trim().is_empty() => {
                 return self.err(format_args!(
                     "{} must not be empty",
@@ -480,16 +458,18 @@ impl<'a> Check<'a> {
                 ));
             }
             Some(p) => {
-                let known = Format::from_extension(Path::new(p), FRAME_FORMATS);
-                if known.is_none() {
+                let Some(format) = Format::from_extension(Path::new(p), FRAME_FORMATS) else {
                     return self.err(format_args!(
                         "{} \"{p}\": the file name must end in .exr or .png",
                         self.name("output.path")
                     ));
-                }
-                io::with_scene(p, source)
+                };
+                (path_pattern::with_scene(p, source), format)
             }
-            None => format!("{}_####.png", io::scene_name(source)),
+            None => (
+                format!("{}_####.png", path_pattern::scene_name(source)),
+                Format::Png,
+            ),
         };
         let clip = match &o.clip {
             None => None,
@@ -501,20 +481,24 @@ impl<'a> Check<'a> {
                         Format::names(CLIP_FORMATS)
                     ));
                 }
-                Some(io::with_scene(c, source))
+                Some(path_pattern::with_scene(c, source))
             }
         };
+        let denoise = o.denoise.unwrap_or(false);
         Ok(OutputSettings {
             clip,
-            passes: self.passes(o.passes.as_deref().unwrap_or(&[]), &path)?,
+            passes: self.passes(o.passes.as_deref().unwrap_or(&[]), format, denoise)?,
+            denoise,
             path,
+            format,
             width: self.int("output.width", o.width, 400, 1, MAX_SIDE.into())? as u32,
             height: self.int("output.height", o.height, 225, 1, MAX_SIDE.into())? as u32,
         })
     }
 
-    /// The passes listed, each once; a PNG output (`path`) takes only `alpha`.
-    fn passes(&self, list: &[RawPass], path: &str) -> Result<PassSet, String> {
+    /// The passes listed, each once, and each one the output's `format` can hold (a PNG output
+    /// takes only `alpha`: [`Format::takes_channel`]); `noisy` only with `denoise`.
+    fn passes(&self, list: &[RawPass], format: Format, denoise: bool) -> Result<PassSet, String> {
         let field = self.name("output.passes");
         let mut set = PassSet::EMPTY;
         for (i, RawPass(pass)) in list.iter().enumerate() {
@@ -524,12 +508,17 @@ impl<'a> Check<'a> {
                     pass.name()
                 ));
             }
-            let png = Format::from_extension(Path::new(path), FRAME_FORMATS) == Some(Format::Png);
-            if png && *pass != Pass::Alpha {
+            if !pass.channels().iter().all(|c| format.takes_channel(c)) {
                 return self.err(format_args!(
                     "{field}: pass \"{}\" cannot be written to a PNG output ({} ends in .png), which takes only the alpha pass; write .exr frames for the other passes",
                     pass.name(),
                     self.name("output.path")
+                ));
+            }
+            if *pass == Pass::Noisy && !denoise {
+                return self.err(format_args!(
+                    "{field}: pass \"noisy\" is the colour before denoising, and {} is off: turn it on, or leave \"noisy\" out (the colour is then the noisy image)",
+                    self.name("output.denoise")
                 ));
             }
             set = set.with(*pass);

@@ -1,0 +1,431 @@
+//! The command line's arguments, as clap parses them. Ranges of flags that do not come from
+//! the scene are checked by clap's value parsers here; flags that replace scene values become
+//! [`Overrides`] and are checked by the scene's validator, with the file's values. Every
+//! numeric flag takes a negative number as its value (`--width -16`), so that the value
+//! parser, not the option parser, says what is wrong.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::renderer::Budget;
+use crate::sampler::SamplerKind;
+use crate::scene_file::Overrides;
+
+/// The `raytrace` command line.
+#[derive(Parser, Debug)]
+#[command(
+    name = "raytrace",
+    version,
+    about = "Render animation sequences of moving spheres with motion and defocus blur",
+    after_help = "Examples:
+  raytrace render scenes/quick.toml                 # every frame of the shot
+  raytrace render shot.toml --frames 1-48:4 -o renders/shot_####.exr
+  raytrace render a.toml b.toml -o 'renders/{scene}_####.exr'   # two shots in one run
+  raytrace check shot.toml                          # validate and summarise a scene
+  raytrace clip shot.toml shot.mp4                  # the rendered frames as a clip
+  raytrace converge shot.toml --plot error.png      # error against time, per sampler
+  raytrace generate --spheres 100000 -o big.toml    # a large random test scene
+
+Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render frames of one or more scenes to EXR or PNG files.
+    #[command(after_help = "Examples:
+  raytrace render scenes/quick.toml
+  raytrace render scenes/quick.toml scenes/turntable.toml -o 'renders/{scene}_####.png'
+  raytrace render shot.toml --clip renders/shot.mp4  # the frames, then a clip of them
+  raytrace render shot.toml --frames 1-48:4 --output renders/shot_####.exr
+  raytrace render shot.toml --frames 12 --samples 256 --width 1920 --height 1080
+  raytrace render shot.toml --skip-existing          # resume an interrupted render
+  raytrace render shot.toml --chunk-size 5 --chunk 2 # frames 11-15 of a farm job array
+  raytrace render shot.toml --noise-threshold 0.01   # sample each frame to 1% estimated error
+  raytrace render shot.toml --time-limit 60          # at most a minute a frame
+
+Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any other failure,
+130 on SIGINT and 143 on SIGTERM (finished frames stay, the frame in progress is dropped).")]
+    Render(RenderArgs),
+    /// Measure how a frame's error falls with render time, for each sampler.
+    #[command(
+        after_help = "Renders a reference (or reads one), then the frame at 1, 2, 4, ... samples per
+pixel with each sampler, and prints RMSE, relative MSE, the error estimated from the
+samples alone, and efficiency 1/(MSE x seconds); fitted log-log slopes; and the MSE
+ratio at equal time.
+
+Examples:
+  raytrace converge scenes/defocus.toml --max-samples 256 --plot defocus.png --csv defocus.csv
+  raytrace converge shot.toml --frame 12 --reference ref.exr --budget 60
+  raytrace converge shot.toml --sampler independent --reference-samples 16384"
+    )]
+    Converge(ConvergeArgs),
+    /// Validate scenes and print a summary of each.
+    #[command(after_help = "Examples:
+  raytrace check scenes/turntable.toml
+  raytrace check shot.toml --chunk-size 5   # prints the chunk count for a job array
+  raytrace check a.toml b.toml --chunk-size 5   # the chunk count of the batch")]
+    Check(CheckArgs),
+    /// Assemble a shot's rendered frames into a clip: .mp4, .gif, .apng or a .png contact
+    /// sheet.
+    #[command(
+        after_help = "The frames are found through the scene's output path (or --input) and shown in
+frame order at the shot's exact frame rate. .mp4 clips (H.264, yuv420p) are made by the
+ffmpeg program; .gif, .apng and .png need no other program. EXR frames are shown as the
+PNG output shows them (sRGB), after --exposure stops.
+
+Examples:
+  raytrace clip scenes/turntable.toml turntable.mp4
+  raytrace clip shot.toml preview.gif --frames 1-48:2
+  raytrace clip shot.toml sheet.png --input renders/shot_####.exr --exposure 1
+
+Exit status: 0 success, 2 bad arguments, bad scene or a missing frame (nothing written),
+1 any other failure (ffmpeg missing or failing; nothing written)."
+    )]
+    Clip(ClipArgs),
+    /// Write a large test scene: random spheres in a cube, some of them moving.
+    #[command(after_help = "Examples:
+  raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
+  raytrace generate --spheres 10000 --moving 0 -o still.toml --frames 48")]
+    Generate(GenerateArgs),
+}
+
+/// Scene settings that `render` and `converge` can replace, and the thread count.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SceneArgs {
+    /// Image width in pixels.
+    #[arg(long, allow_negative_numbers = true)]
+    pub width: Option<u32>,
+    /// Image height in pixels.
+    #[arg(long, allow_negative_numbers = true)]
+    pub height: Option<u32>,
+    /// Random seed (for `converge`: of the measured renders).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole::<u64>)]
+    pub seed: Option<u64>,
+    /// Worker threads, 1 to 1024 (default: one per core).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64))]
+    pub threads: Option<u16>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Arguments of `raytrace render`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct RenderArgs {
+    /// The scene files (TOML), rendered one after another as one run.
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Frames to render (of each scene): `12`, `1-48`, `1-48:4` (every 4th) or a comma list of those.
+    /// Without a value, or absent: every frame of the shot. An empty value (`--frames ''`)
+    /// is an error.
+    #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
+    pub frames: Option<Option<String>>,
+    /// Output path pattern; runs of `#` become the zero-padded frame number, `{scene}` the
+    /// scene file's name without extension (required with several scenes); `.exr` or `.png`.
+    #[arg(long, short)]
+    pub output: Option<String>,
+    /// After rendering, assemble the frames into this clip (`.mp4`, `.gif`, `.apng` or a
+    /// `.png` contact sheet; `{scene}` as in --output). Not with --chunk.
+    #[arg(long, value_name = "CLIP", conflicts_with = "chunk")]
+    pub clip: Option<String>,
+    /// Do not make the clip a scene's `[output] clip` asks for: what a chunk of a farm job
+    /// array needs (a chunk cannot make the clip; a job after the array's does).
+    #[arg(long, conflicts_with = "clip")]
+    pub no_clip: bool,
+    /// Samples per pixel, exactly (not with --time-limit or --noise-threshold, which decide
+    /// the samples themselves: cap them with --max-samples).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "limit")]
+    pub samples: Option<u32>,
+    /// How samples are placed: `sobol` (default) or `independent`.
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+    /// Leave frames whose file already exists untouched (resume).
+    #[arg(long)]
+    pub skip_existing: bool,
+    /// Also print, per frame, the preparation and render times, rays traced, rays and
+    /// samples per second, and peak memory.
+    #[arg(long)]
+    pub stats: bool,
+    /// Split the selected frames (of every scene, in order) into chunks of this many
+    /// consecutive frames (with --chunk).
+    #[arg(long, requires = "chunk", allow_negative_numbers = true,
+          value_parser = whole_from_1)]
+    pub chunk_size: Option<u64>,
+    /// Render only this chunk (0-based) of the selected frames (with --chunk-size).
+    #[arg(long, requires = "chunk_size", allow_negative_numbers = true,
+          value_parser = whole::<u64>)]
+    pub chunk: Option<u64>,
+    #[command(flatten)]
+    pub budget: BudgetArgs,
+    /// Passes to write beside the colour, replacing the scene's `[output] passes`: a comma
+    /// list of alpha, depth, normal, albedo, motion, variance, samples, noisy (a PNG output
+    /// takes only alpha; noisy, the colour before denoising, needs --denoise); an empty value
+    /// writes colour only.
+    #[arg(long, value_name = "LIST", value_parser = pass_list)]
+    pub passes: Option<PassList>,
+    /// Denoise every frame with its albedo and normal (Intel Open Image Denoise), as `[output]
+    /// denoise = true`; the estimated error printed and recorded is the denoised frame's.
+    #[arg(long)]
+    pub denoise: bool,
+}
+
+/// The passes `--passes` names, in order (duplicates are the scene validator's to name).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PassList(pub Vec<crate::pass::Pass>);
+
+/// Clap's value parser of `--passes`: pass names separated by commas.
+fn pass_list(text: &str) -> Result<PassList, String> {
+    use crate::pass::Pass;
+    if text.trim().is_empty() {
+        return Ok(PassList(Vec::new()));
+    }
+    text.split(',')
+        .map(|name| {
+            Pass::from_name(name.trim()).ok_or_else(|| {
+                let known: Vec<&str> = Pass::ALL.iter().map(|p| p.name()).collect();
+                format!(
+                    "unknown pass \"{}\" (expected a comma list of {})",
+                    crate::error::elide(name.trim()),
+                    known.join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(PassList)
+}
+
+/// When to stop sampling a frame, instead of at exactly its samples.
+#[derive(Args, Clone, Debug, Default)]
+#[group(skip)]
+#[command(group(clap::ArgGroup::new("limit").args(["time_limit", "noise_threshold"]).multiple(true)))]
+pub struct BudgetArgs {
+    /// Seconds per frame: sample in passes and stop before this time is exceeded.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
+    pub time_limit: Option<f64>,
+    /// Sample in passes until the estimated relative error of the frame (as printed,
+    /// 0.01 = 1%) is at or below this, or until --max-samples (default 65536).
+    #[arg(long, value_name = "E", allow_negative_numbers = true, value_parser = positive)]
+    pub noise_threshold: Option<f64>,
+    /// With --time-limit or --noise-threshold: never more than this many samples per pixel
+    /// (default with --noise-threshold: 65536; with --time-limit alone: no cap).
+    #[arg(long, value_name = "N", requires = "limit", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_samples: Option<u32>,
+}
+
+/// Arguments of `raytrace converge`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ConvergeArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The frame to measure (default: the shot's first).
+    #[arg(long, allow_negative_numbers = true)]
+    pub frame: Option<u32>,
+    /// A reference image (EXR) of the frame, instead of rendering one.
+    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference_samples")]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of the reference rendered first (default 4096).
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub reference_samples: Option<u32>,
+    /// Where to write the rendered reference (default: beside --csv or --plot, named
+    /// after the scene).
+    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference")]
+    pub write_reference: Option<PathBuf>,
+    /// The largest samples per pixel measured (default: the scene's samples, or no limit
+    /// with --budget).
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_samples: Option<u32>,
+    /// Seconds of rendering per sampler, at most.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
+    pub budget: Option<f64>,
+    /// A sampler to measure; repeat for several (default: all).
+    #[arg(long)]
+    pub sampler: Vec<SamplerKind>,
+    /// Write the measurements as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Draw error against time on log-log axes, to a .png or .svg.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+}
+
+/// Arguments of `raytrace check`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct CheckArgs {
+    /// The scene files (TOML).
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Also print how many chunks of this many frames the shot (or the batch) makes.
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_from_1)]
+    pub chunk_size: Option<u64>,
+}
+
+/// Arguments of `raytrace clip`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ClipArgs {
+    /// The scene file (TOML) whose frames make the clip.
+    pub scene: PathBuf,
+    /// The clip to write: `.mp4`, `.gif`, `.apng` or `.png` (a contact sheet); `{scene}`
+    /// becomes the scene file's name without extension.
+    pub clip: PathBuf,
+    /// Frames to show: `12`, `1-48`, `1-48:4` or a comma list (default: every frame).
+    #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
+    pub frames: Option<Option<String>>,
+    /// Where the frames are, as a path pattern with `#` for the frame number and `{scene}`
+    /// for the scene file's name (default: the scene's output path).
+    #[arg(long, value_name = "PATTERN")]
+    pub input: Option<String>,
+    /// Brighten (or, negative, darken) EXR frames by this many stops before showing them.
+    #[arg(long, value_name = "STOPS", allow_negative_numbers = true, value_parser = finite)]
+    pub exposure: Option<f64>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Arguments of `raytrace generate`.
+#[derive(Args, Clone, Debug)]
+pub struct GenerateArgs {
+    /// Number of spheres.
+    #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u64).range(1..=crate::scene_file::generate::MAX_SPHERES))]
+    pub spheres: u64,
+    /// Fraction of the spheres that move, 0 to 1.
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = fraction)]
+    pub moving: f64,
+    /// Seed of the spheres' random numbers.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole::<u64>)]
+    pub seed: u64,
+    /// Frames in the shot.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: u32,
+    /// The scene file to write (.toml).
+    #[arg(long, short)]
+    pub output: PathBuf,
+}
+
+impl SceneArgs {
+    /// The scene values these arguments replace.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            ..Overrides::default()
+        }
+    }
+}
+
+impl RenderArgs {
+    /// The scene values these arguments replace.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            output: self.output.clone(),
+            samples: self.samples,
+            sampler: self.sampler,
+            clip: self.clip.clone(),
+            passes: self.passes.as_ref().map(|p| p.0.clone()),
+            denoise: self.denoise.then_some(true),
+            ..self.scene_args.overrides()
+        }
+    }
+}
+
+/// The samples per pixel a frame takes at most under `--noise-threshold` without
+/// `--max-samples`: a threshold the frame never reaches (`1e-300`) still ends.
+pub const DEFAULT_MAX_SAMPLES_FOR_THRESHOLD: u32 = 65536;
+
+/// The most worker threads `--threads` takes.
+pub const MAX_THREADS: u16 = 1024;
+
+impl BudgetArgs {
+    /// The budget these arguments give: a noise threshold without `--max-samples` stops at
+    /// [`DEFAULT_MAX_SAMPLES_FOR_THRESHOLD`].
+    pub fn budget(&self) -> Budget {
+        let default_cap = self
+            .noise_threshold
+            .map(|_| DEFAULT_MAX_SAMPLES_FOR_THRESHOLD);
+        Budget {
+            time_limit: self.time_limit,
+            noise_threshold: self.noise_threshold,
+            max_samples: self.max_samples.or(default_cap),
+        }
+    }
+}
+
+/// Clap's value parser of a whole number `T` (a negative or fractional one is refused with a
+/// message that says so).
+fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
+    let t = text.trim();
+    if let Ok(v) = t.parse::<T>() {
+        return Ok(v);
+    }
+    let shown = crate::error::elide(text);
+    if t.starts_with('-') && t[1..].bytes().all(|b| b.is_ascii_digit()) && t.len() > 1 {
+        Err(format!("must be a whole number >= 0, got {shown}"))
+    } else if !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()) {
+        Err(format!("{shown} is too large"))
+    } else {
+        Err(format!("must be a whole number, got \"{shown}\""))
+    }
+}
+
+/// Clap's value parser of a whole number from 1.
+fn whole_from_1(text: &str) -> Result<u64, String> {
+    match whole::<u64>(text)? {
+        0 => Err("must be at least 1, got 0".to_string()),
+        n => Ok(n),
+    }
+}
+
+/// Clap's value parser of a finite number above zero.
+fn positive(text: &str) -> Result<f64, String> {
+    number(
+        text,
+        |v| v.is_finite() && v > 0.0,
+        "a number > 0",
+        "a number > 0",
+    )
+}
+
+/// Clap's value parser of any finite number.
+fn finite(text: &str) -> Result<f64, String> {
+    number(text, f64::is_finite, "finite", "a finite number")
+}
+
+/// Clap's value parser of a number from 0 to 1.
+fn fraction(text: &str) -> Result<f64, String> {
+    number(
+        text,
+        |v| (0.0..=1.0).contains(&v),
+        "in [0, 1]",
+        "a number in [0, 1]",
+    )
+}
+
+/// A number that `ok` accepts; otherwise a message that it must be `bound` (a number out of
+/// range) or `what` (text that is no number).
+fn number(text: &str, ok: impl Fn(f64) -> bool, bound: &str, what: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if ok(v) => Ok(v),
+        Ok(v) => Err(format!("must be {bound}, got {v}")),
+        Err(_) => Err(format!(
+            "must be {what}, got \"{}\"",
+            crate::error::elide(text)
+        )),
+    }
+}

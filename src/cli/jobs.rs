@@ -1,0 +1,161 @@
+//! The jobs of a run: each scene given, validated, with the frames the run renders of it
+//! (`--frames`, then the chunk, counted over every scene) and their files, all checked before
+//! anything is rendered. `render` and `check` share them, and `clip` the frame selection.
+
+use std::path::PathBuf;
+
+use super::frames::{Selection, batch_chunk};
+use crate::error::{Error, elide_path};
+use crate::io;
+use crate::path_pattern;
+use crate::scene::Scene;
+use crate::scene_file::Overrides;
+
+/// The frames a run renders: the `--frames` selection (absent or bare: the whole shot), then
+/// the chunk. Ranges, never a list: any shot length costs the same.
+pub(crate) fn select_frames(
+    scene: &Scene,
+    frames: Option<&Option<String>>,
+    chunk: Option<(u64, u64)>,
+) -> Result<Selection, Error> {
+    let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
+    let all = match frames {
+        None | Some(None) => Selection::range(first, last),
+        Some(Some(spec)) => Selection::parse(spec, first, last)
+            .map_err(|e| Error::Usage(format!("--frames: {e}")))?,
+    };
+    match chunk {
+        None => Ok(all),
+        Some((size, index)) => all.chunk(size, index).map_err(Error::Usage),
+    }
+}
+
+/// The frames a run renders and the file of each.
+#[derive(Clone, Debug)]
+pub(crate) struct Targets {
+    pub(crate) frames: Selection,
+    pub(crate) pattern: String,
+}
+
+impl Targets {
+    /// Each frame with its file, in order, made as they are asked for.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (u32, PathBuf)> + '_ {
+        self.frames
+            .iter()
+            .map(|f| (f, path_pattern::frame_path(&self.pattern, f)))
+    }
+}
+
+/// The files of the frames `selected` of `scene`, checked before anything is rendered: one
+/// file per frame, and file names the system can take (the longest is the last frame's).
+/// `check` runs the same checks.
+pub(crate) fn targets_of(scene: &Scene, selected: Selection) -> Result<Targets, Error> {
+    let pattern = &scene.output.path;
+    if selected.len() > 1 && !path_pattern::pattern_has_frame_number(pattern) {
+        return Err(Error::Usage(format!(
+            "output path \"{}\" has no '#' for the frame number, so {} frames would overwrite one file",
+            crate::error::elide(pattern),
+            selected.len()
+        )));
+    }
+    for frame in [selected.first(), selected.last()].into_iter().flatten() {
+        io::check_target(&path_pattern::frame_path(pattern, frame))
+            .map_err(|e| Error::Usage(format!("output path: {e}")))?;
+    }
+    Ok(Targets {
+        frames: selected,
+        pattern: pattern.clone(),
+    })
+}
+
+/// One job of a run: a shot's scene and the frames the run renders of it.
+pub(crate) struct Job {
+    pub(crate) path: PathBuf,
+    pub(crate) scene: Scene,
+    pub(crate) targets: Targets,
+}
+
+/// Loads and validates every scene of a run, selects the frames of each (`--frames` applies
+/// to each scene; a chunk counts over the frames of all of them, in order), and checks their
+/// files, before anything is rendered: any bad scene or argument fails the whole run.
+/// Several scenes must not write the same files, so with several scenes an `--output` (or a
+/// `--clip`) must hold `{scene}`.
+pub(crate) fn load_shots(
+    paths: &[PathBuf],
+    overrides: &Overrides,
+    frames: Option<&Option<String>>,
+    chunk: Option<(u64, u64)>,
+) -> Result<Vec<Job>, Error> {
+    if paths.len() > 1 {
+        for (flag, value) in [("--output", &overrides.output), ("--clip", &overrides.clip)] {
+            if let Some(v) = value
+                && !path_pattern::pattern_has_scene(v)
+            {
+                return Err(Error::Usage(format!(
+                    "{flag} \"{}\" has no {{scene}}, so the {} scenes would write the same files: \
+                     put {{scene}} (the scene file's name) in it",
+                    crate::error::elide(v),
+                    paths.len()
+                )));
+            }
+        }
+    }
+    let mut scenes = Vec::with_capacity(paths.len());
+    let mut selections = Vec::with_capacity(paths.len());
+    for path in paths {
+        let scene = Scene::load_with(path, overrides)?;
+        selections.push(select_frames(&scene, frames, None)?);
+        scenes.push(scene);
+    }
+    if let Some((size, index)) = chunk {
+        selections = batch_chunk(&selections, size, index).map_err(Error::Usage)?;
+    }
+    let mut shots = Vec::with_capacity(paths.len());
+    for ((path, scene), selected) in paths.iter().zip(scenes).zip(selections) {
+        let targets = targets_of(&scene, selected)?;
+        shots.push(Job {
+            path: path.clone(),
+            scene,
+            targets,
+        });
+    }
+    check_distinct(&shots)?;
+    Ok(shots)
+}
+
+/// Refuses shots that would write the same frame files or the same clip: the same output
+/// pattern with overlapping frame ranges, or the same clip path.
+fn check_distinct(shots: &[Job]) -> Result<(), Error> {
+    for (i, a) in shots.iter().enumerate() {
+        for b in &shots[i + 1..] {
+            let (ta, tb) = (&a.targets, &b.targets);
+            let overlap = match (ta.frames.first(), ta.frames.last()) {
+                (Some(a0), Some(a1)) => tb
+                    .frames
+                    .first()
+                    .zip(tb.frames.last())
+                    .is_some_and(|(b0, b1)| a0 <= b1 && b0 <= a1),
+                _ => false,
+            };
+            let what = if ta.pattern == tb.pattern && overlap {
+                Some(format!("frames \"{}\"", crate::error::elide(&ta.pattern)))
+            } else {
+                match (&a.scene.output.clip, &b.scene.output.clip) {
+                    (Some(ca), Some(cb)) if ca == cb => {
+                        Some(format!("the clip \"{}\"", crate::error::elide(ca)))
+                    }
+                    _ => None,
+                }
+            };
+            if let Some(what) = what {
+                return Err(Error::Usage(format!(
+                    "{} and {} would both write {what}: give them different output paths \
+                     (with {{scene}}, the scene file's name)",
+                    elide_path(&a.path),
+                    elide_path(&b.path)
+                )));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,149 @@
+//! A rendered frame to its file: the one step every command takes from a finished
+//! [`FrameResult`] to an EXR or PNG file. The colour is encoded straight from the film's sums
+//! (no copy of the image), the passes' images are made from the film's pass sums, and the
+//! file's attributes come from the scene, the frame's own interval and its figures.
+
+use std::path::Path;
+
+use crate::error::Error;
+use crate::film::Film;
+use crate::format::Format;
+use crate::io::{self, FrameInfo, Image};
+use crate::passes::PassImages;
+use crate::renderer::{Budget, FrameResult};
+use crate::scene::Scene;
+use crate::shutter::ShutterCurve;
+
+/// Writes `result`, a frame of `scene` rendered under `budget`, to `path` in `format`
+/// atomically, with its passes and attributes: the frame's interval, samples, seed, sampler,
+/// shutter; its estimated relative error when known; the budget's threshold and limit; the
+/// fewest and mean samples when pixels took different counts. Returns the number of pixels
+/// written as black because they were not finite (recorded as `nonFinitePixels`).
+pub fn write_frame(
+    path: &Path,
+    format: Format,
+    scene: &Scene,
+    result: &FrameResult,
+    budget: &Budget,
+) -> Result<u64, Error> {
+    let st = &result.stats;
+    let mut info = frame_info(scene, result, st.samples_per_pixel);
+    if st.relative_error.is_finite() {
+        info.extra
+            .push(("estimatedRelativeError".to_string(), st.relative_error));
+    }
+    if let Some(t) = budget.noise_threshold {
+        info.extra.push(("noiseThreshold".to_string(), t));
+    }
+    if let Some(t) = budget.time_limit {
+        info.extra.push(("timeLimit".to_string(), t));
+    }
+    if st.min_samples_per_pixel != st.samples_per_pixel {
+        info.extra
+            .push(("minSamples".to_string(), st.min_samples_per_pixel as f64));
+        info.extra
+            .push(("meanSamples".to_string(), st.mean_samples_per_pixel));
+    }
+    let passes = result.pass_images();
+    write_film(
+        path,
+        format,
+        &result.film,
+        passes.as_ref(),
+        scene.transparent,
+        info,
+    )
+}
+
+/// The attributes of `result`, a frame of `scene`, rendered with `samples` per pixel.
+fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {
+    FrameInfo {
+        frame: result.frame,
+        fps: scene.shot.fps,
+        shutter_open: result.interval.open,
+        shutter_close: result.interval.close,
+        samples,
+        seed: scene.render.seed,
+        sampler: scene.render.sampler.name().to_string(),
+        rolling_shutter_readout: scene.shot.rolling.map(|r| r.readout),
+        shutter_curve: (scene.shot.curve != ShutterCurve::Box).then(|| scene.shot.curve.describe()),
+        extra: Vec::new(),
+    }
+}
+
+/// Writes `film` (with `passes`, the colour premultiplied by their alpha when
+/// `premultiplied`) to `path` with the attributes `info`. A pixel that is not finite as an
+/// `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written black; their number is
+/// returned and, when not 0, recorded in the file as `nonFinitePixels`.
+fn write_film(
+    path: &Path,
+    format: Format,
+    film: &Film,
+    passes: Option<&PassImages>,
+    premultiplied: bool,
+    mut info: FrameInfo,
+) -> Result<u64, Error> {
+    let non_finite = film.non_finite();
+    if non_finite > 0 {
+        info.extra
+            .push(("nonFinitePixels".to_string(), non_finite as f64));
+    }
+    let width = film.width as usize;
+    let rgb = |i: usize| film.rgb_f32((i % width) as u32, (i / width) as u32);
+    let image = Image {
+        width: film.width,
+        height: film.height,
+        rgb: &rgb,
+        channels: passes.map_or(&[][..], |p| &p.channels[..]),
+        premultiplied: passes.is_some() && premultiplied,
+    };
+    io::write_frame_from(path, format, &image, &info)?;
+    Ok(non_finite)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+    use crate::pass::PassSet;
+    use crate::renderer::FrameStats;
+
+    #[test]
+    fn pixels_beyond_f32_are_written_finite_and_counted() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        let scene = Scene::parse("", Path::new("empty.toml")).unwrap();
+        // Finite means in f64 that no f32 holds.
+        let film = Film::from_fn(3, 2, |x, y| match (x, y) {
+            (0, 0) => DVec3::splat(0.5),
+            (1, 0) => DVec3::new(1e39, 0.0, 0.0),
+            (2, 1) => DVec3::new(0.0, -1e300, 1.0),
+            _ => DVec3::ZERO,
+        });
+        let result = FrameResult {
+            frame: 1,
+            interval: scene.shot.interval(1),
+            film,
+            passes: PassSet::EMPTY,
+            stats: FrameStats::default(),
+        };
+        let written = write_frame(&path, Format::Exr, &scene, &result, &Budget::default());
+        assert_eq!(written.unwrap(), 2);
+        let (w, h, pixels) = io::read_exr_rgb(&path).unwrap();
+        assert_eq!((w, h), (3, 2));
+        assert!(pixels.iter().all(|p| p.is_finite()));
+        assert_eq!(pixels[0], DVec3::splat(0.5));
+        assert_eq!(pixels[1], DVec3::ZERO);
+        let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
+        let count = image.layer_data[0]
+            .attributes
+            .other
+            .get(&::exr::meta::attribute::Text::from("nonFinitePixels"))
+            .cloned();
+        assert_eq!(
+            count,
+            Some(::exr::meta::attribute::AttributeValue::F64(2.0))
+        );
+    }
+}

@@ -1,0 +1,262 @@
+//! One frame: its world and camera prepared for the frame's interval, then rounds of samples
+//! over the film's tiles until the requested samples are taken or the budget stops it.
+
+use std::time::Instant;
+
+use super::adaptive::{Plan, plan_adaptive};
+use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
+use super::tiles::{FrameRequest, FrameSetup};
+use crate::film::{Film, Pixel};
+use crate::pass::PassSet;
+use crate::passes::{PassContext, PassImages};
+use crate::scene::Scene;
+use crate::shutter::Interval;
+use crate::world::{StaticGeometry, World};
+
+/// Figures of one rendered frame.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    /// Seconds spent preparing the frame's world (motion bounds, hierarchy build).
+    pub prepare_seconds: f64,
+    /// Seconds spent tracing.
+    pub render_seconds: f64,
+    /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
+    /// count, how busy the cores were.
+    pub tile_seconds: f64,
+    /// Rays intersected with the scene.
+    pub rays: u64,
+    /// Camera samples taken, over the whole frame.
+    pub samples: u64,
+    /// The most samples a pixel took.
+    pub samples_per_pixel: u32,
+    /// The fewest samples a pixel took: below [`samples_per_pixel`](Self::samples_per_pixel)
+    /// when adaptive sampling gave some pixels more than others.
+    pub min_samples_per_pixel: u32,
+    /// The samples a pixel took on average.
+    pub mean_samples_per_pixel: f64,
+    /// Rounds the samples were taken in (one without a budget).
+    pub rounds: u32,
+    /// Why sampling stopped.
+    pub stop: StopReason,
+    /// Samples that were not finite (a NaN or infinite component), counted as black.
+    pub non_finite: u64,
+    /// Spheres moving during the frame's shutter.
+    pub moving_spheres: usize,
+    /// The relative error estimated from the pixels' replicates ([`relative_error`]): the
+    /// square root of the estimated relative mean squared error. Infinite with fewer than two
+    /// samples per pixel.
+    pub relative_error: f64,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    /// The frame number.
+    pub frame: u32,
+    /// The frame's interval: its whole exposure (see [`crate::shutter::Shot::interval`]), which the frame's
+    /// file records as its shutter's opening and closing.
+    pub interval: Interval,
+    /// The pixels' sums (their means, sample counts and estimated errors), and the sums of
+    /// the scene's `[output] passes`, if it asks for any.
+    pub film: Film,
+    /// The passes the film keeps sums of (empty: none).
+    pub passes: PassSet,
+    pub stats: FrameStats,
+}
+
+impl FrameResult {
+    /// The images of the frame's passes, made from the film's sums, if it has any.
+    pub fn pass_images(&self) -> Option<PassImages> {
+        (!self.passes.is_empty()).then(|| PassImages::from_film(self.passes, &self.film))
+    }
+}
+
+/// Renders frame `frame` of `scene` with the scene's settings (`[output]` size, `[render]`
+/// samples, depth, seed and sampler): exactly its samples in every pixel, in one round, when
+/// `budget` is not set; else in rounds until the budget stops it. `progress` is called with
+/// the number of samples of each finished tile, from worker threads. Runs on the current rayon
+/// pool.
+///
+/// Under a budget, every pixel first takes the same samples, in rounds that double them
+/// ([`next_round`]), up to [`MIN_SAMPLES_FOR_THRESHOLD`]; then rounds are adaptive: each pixel
+/// doubles its samples or stops by its own estimated error ([`Adaptive`]), until the frame's
+/// estimate meets the noise threshold, the time runs out or no pixel may take more.
+///
+/// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
+/// plain sum of its samples over their count: a pixel that stopped at N samples is
+/// bit-identical to the same pixel rendered with exactly N samples.
+pub fn render_frame(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    frame: u32,
+    budget: &Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> FrameResult {
+    let frame_start = Instant::now();
+    let req = &FrameRequest::from_scene(scene, frame);
+    let times = scene.shot.frame_times(req.frame);
+    let interval = times.interval;
+    let world = World::prepare(scene, statics, interval);
+    let camera_moves = scene.camera.moves_in(interval);
+    let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
+    let passes = (!scene.output.passes.is_empty()).then(|| {
+        PassContext::new(
+            scene.output.passes,
+            &scene.spheres,
+            scene.background,
+            &scene.camera,
+            scene.shot.fps,
+            req.width,
+            req.height,
+        )
+    });
+    let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
+    let setup = FrameSetup {
+        scene,
+        // Sample time only when something moves during the frame's whole exposure (so a still
+        // scene renders the same under any shutter); sample the lens only for a lens with an
+        // aperture (which does not change over time, so any instant's view answers).
+        sample_time: world.has_motion() || camera_moves,
+        has_lens: fixed_view.has_lens(),
+        world,
+        req,
+        interval,
+        times,
+        camera_moves,
+        fixed_view,
+        passes,
+        transparent: scene.transparent,
+    };
+    let prepare_seconds = frame_start.elapsed().as_secs_f64();
+
+    let render_start = Instant::now();
+    let mut film = Film::with_pass_sums(req.width, req.height, stride);
+    let pixels = req.width as f64 * req.height as f64;
+
+    let mut stats = FrameStats {
+        prepare_seconds,
+        moving_spheres: setup.world.moving,
+        ..FrameStats::default()
+    };
+    // Samples every pixel has taken in the uniform rounds.
+    let mut done = 0u32;
+    // Seconds a round took per sample of every pixel, and per sample of one pixel.
+    let mut seconds_per_sample = None;
+    let mut seconds_per_pixel_sample = f64::INFINITY;
+    let warm_up = MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX));
+    loop {
+        let plan = if !budget.is_set() {
+            if done >= req.samples {
+                break;
+            }
+            Plan::Uniform(req.samples)
+        } else if done < warm_up {
+            match next_round(
+                budget,
+                done,
+                frame_start.elapsed().as_secs_f64(),
+                seconds_per_sample,
+            ) {
+                Ok(size) => Plan::Uniform(done + size),
+                Err(reason) => {
+                    stats.stop = reason;
+                    break;
+                }
+            }
+        } else {
+            match plan_adaptive(
+                &film,
+                budget,
+                frame_start.elapsed().as_secs_f64(),
+                seconds_per_pixel_sample,
+            ) {
+                Ok(a) => Plan::Adaptive(a),
+                Err(reason) => {
+                    stats.stop = reason;
+                    break;
+                }
+            }
+        };
+        let round_start = Instant::now();
+        let counts = setup.round(&mut film, &plan, progress);
+        let seconds = round_start.elapsed().as_secs_f64();
+        if let Plan::Uniform(n) = plan {
+            seconds_per_sample = Some(seconds / (n - done) as f64);
+            done = n;
+        }
+        if counts.samples > 0 {
+            seconds_per_pixel_sample = seconds / counts.samples as f64;
+        }
+        stats.rays += counts.rays;
+        stats.samples += counts.samples;
+        stats.non_finite += counts.non_finite;
+        stats.tile_seconds += counts.seconds;
+        stats.rounds += 1;
+        if let Some(threshold) = budget.noise_threshold
+            && done >= warm_up
+            && relative_error(&film) <= threshold
+        {
+            stats.stop = StopReason::NoiseThreshold;
+            break;
+        }
+    }
+
+    stats.relative_error = relative_error(&film);
+    let taken = film.all_pixels().iter().map(Pixel::taken);
+    stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
+    stats.min_samples_per_pixel = taken.min().unwrap_or(0);
+    stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
+    stats.render_seconds = render_start.elapsed().as_secs_f64();
+    FrameResult {
+        frame,
+        interval,
+        film,
+        passes: scene.output.passes,
+        stats,
+    }
+}
+
+/// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):
+/// the square root of the mean of their
+/// [`film::relative_variances`](crate::film::relative_variances), summed in storage order.
+pub fn relative_error(film: &Film) -> f64 {
+    let sum: f64 = film
+        .tiles()
+        .iter()
+        .flat_map(|(rect, pixels)| crate::film::relative_variances(rect, pixels))
+        .sum();
+    (sum / film.all_pixels().len().max(1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_degenerate_camera_counts_every_sample_as_black() {
+        let text = r#"
+[output]
+width = 8
+height = 4
+[render]
+samples = 3
+[camera]
+look_from = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+velocity = [1.0, 0.0, 0.0]
+material = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
+"#;
+        let mut scene = Scene::parse(text, std::path::Path::new("degenerate.toml")).unwrap();
+        // Looking at where it stands: every camera ray's direction is NaN.
+        scene.camera.look_at = scene.camera.look_from.clone();
+        let statics = StaticGeometry::new(&scene);
+        let frame = scene.shot.first_frame;
+        let result = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
+        assert_eq!(result.stats.non_finite, 8 * 4 * 3);
+        assert_eq!(result.stats.rays, 0);
+        assert!(result.film.means().iter().all(|p| *p == glam::DVec3::ZERO));
+    }
+}

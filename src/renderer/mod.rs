@@ -1,0 +1,19 @@
+//! Rendering one frame on the CPU: the frame's world, its camera rays, in parallel over the
+//! film's tiles, in one round of the requested samples or, under a time or noise budget, in
+//! rounds until the budget is met.
+//!
+//! - [`frame`]: [`render_frame`], the frame's figures and result;
+//! - [`tiles`]: what is fixed before the first sample, and one round over every tile;
+//! - [`budget`]: when to stop, and the uniform rounds' sizes;
+//! - [`adaptive`]: which pixels take more samples in an adaptive round.
+//!
+//! This file only declares and re-exports: the children import each other directly.
+
+mod adaptive;
+mod budget;
+mod frame;
+mod tiles;
+
+pub use crate::film::TILE;
+pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
+pub use frame::{FrameResult, FrameStats, relative_error, render_frame};

@@ -1,0 +1,210 @@
+//! The tiles of a frame: everything fixed before the frame's first sample ([`FrameSetup`]),
+//! and one round of samples over every tile of the film, in parallel.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::adaptive::Plan;
+use crate::camera::View;
+use crate::film::{Film, FilmTile};
+use crate::passes::PassContext;
+use crate::ray::Ray;
+use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
+use crate::scene::Scene;
+use crate::shutter::{FrameTimes, Interval};
+use crate::tracer::{TraceStats, camera_radiance, radiance};
+use crate::world::World;
+
+/// The settings of one frame, copied from the scene's (`[output]` size, `[render]`) so the
+/// per-sample loop reads them from one small struct.
+#[derive(Clone, Debug)]
+pub(super) struct FrameRequest {
+    pub(super) frame: u32,
+    pub(super) width: u32,
+    pub(super) height: u32,
+    /// Samples per pixel (without a budget: exactly these).
+    pub(super) samples: u32,
+    pub(super) max_depth: u32,
+    pub(super) seed: u64,
+    pub(super) sampler: SamplerKind,
+}
+
+impl FrameRequest {
+    /// The frame `frame` with the scene's settings.
+    pub(super) fn from_scene(scene: &Scene, frame: u32) -> FrameRequest {
+        FrameRequest {
+            frame,
+            width: scene.output.width,
+            height: scene.output.height,
+            samples: scene.render.samples,
+            max_depth: scene.render.max_depth,
+            seed: scene.render.seed,
+            sampler: scene.render.sampler,
+        }
+    }
+}
+
+/// Everything about a frame that is fixed before its first sample.
+pub(super) struct FrameSetup<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) world: World<'a>,
+    pub(super) req: &'a FrameRequest,
+    pub(super) interval: Interval,
+    /// The sample times: the shutter curve and a rolling shutter's rows.
+    pub(super) times: FrameTimes,
+    pub(super) camera_moves: bool,
+    pub(super) fixed_view: View,
+    pub(super) sample_time: bool,
+    pub(super) has_lens: bool,
+    /// The passes' context when the scene asks for passes.
+    pub(super) passes: Option<PassContext<'a>>,
+    /// `[background] transparent`: camera rays that miss add black.
+    pub(super) transparent: bool,
+}
+
+impl FrameSetup<'_> {
+    /// Takes `tile`'s samples of this round (`plan`); returns the rays traced, the samples taken
+    /// and those that were not finite.
+    fn sample_tile<S: Sampler>(
+        &self,
+        sampler: &mut S,
+        tile: &mut FilmTile,
+        plan: &Plan,
+    ) -> TileCounts {
+        let req = self.req;
+        let interval = self.interval;
+        let uses = crate::sampler::CameraUse {
+            lens: self.has_lens,
+            time: self.sample_time,
+        };
+        // Frames with passes or a transparent background take each camera ray's first hit
+        // from the tracer, in a function of its own (`observed_sample`), so that this loop
+        // is compiled for frames without them as it would be without passes at all.
+        let observed = self.passes.is_some() || self.transparent;
+        let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
+        let mut targets = Vec::with_capacity(tile.pixels.len());
+        plan.targets(&tile.rect, tile.pixels, &mut targets);
+        let mut stats = TraceStats::default();
+        let mut counts = TileCounts::default();
+        let mut sums = tile.pass_sums.chunks_mut(stride.max(1));
+        for (i, (acc, &target)) in tile.pixels.iter_mut().zip(&targets).enumerate() {
+            let (x, y) = tile.rect.position(i);
+            counts.samples += target.saturating_sub(acc.taken()) as u64;
+            let sums = if stride > 0 { sums.next() } else { None };
+            let sums = sums.unwrap_or_default();
+            for s in acc.taken()..target {
+                sampler.start_sample(x, y, s);
+                // The pixel position, and the lens position and the time (one joint
+                // sample) where used; the bounces' numbers do not depend on which are.
+                let camera = sampler.camera(uses);
+                let time = if self.sample_time {
+                    // The row of a rolling shutter: the sample's continuous y over the
+                    // height (0 at the top edge), as the camera places it.
+                    let row = (y as f64 + camera.pixel.1) / req.height as f64;
+                    self.times.time(camera.time, row)
+                } else {
+                    interval.open
+                };
+                let view = if self.camera_moves {
+                    self.scene.camera.view_at(time, req.width, req.height)
+                } else {
+                    self.fixed_view
+                };
+                let ray = view.ray(x, y, camera.pixel, camera.lens, time);
+                let v = if observed {
+                    self.observed_sample(ray, &view, sampler, &mut stats, sums)
+                } else {
+                    radiance(&self.world, ray, req.max_depth, sampler, &mut stats)
+                };
+                if !acc.add(v) {
+                    counts.non_finite += 1;
+                }
+            }
+        }
+        counts.rays = stats.rays;
+        counts
+    }
+
+    /// One camera sample of a frame with passes or a transparent background: its radiance,
+    /// and its passes into the pixel's sums `sums`.
+    #[inline(never)]
+    fn observed_sample<S: Sampler>(
+        &self,
+        ray: Ray,
+        view: &View,
+        sampler: &mut S,
+        stats: &mut TraceStats,
+        sums: &mut [f64],
+    ) -> DVec3 {
+        let mut first = None;
+        let v = camera_radiance(
+            &self.world,
+            ray,
+            self.req.max_depth,
+            sampler,
+            stats,
+            self.transparent,
+            |hit| first = hit.copied(),
+        );
+        if let Some(passes) = &self.passes {
+            passes.record(sums, &ray, view, first.as_ref());
+        }
+        v
+    }
+
+    /// Takes the samples of one round (`plan`) in every tile of `film`, in parallel.
+    pub(super) fn round(
+        &self,
+        film: &mut Film,
+        plan: &Plan,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> TileCounts {
+        let req = self.req;
+        let mut tiles = film.tiles_mut();
+        tiles
+            .par_iter_mut()
+            // One tile at a time: rayon otherwise hands out runs of tiles, and a run of
+            // costly ones left a core idle for up to a tenth of a short frame.
+            .with_max_len(1)
+            .map(|tile| {
+                let start = Instant::now();
+                let mut counts = match req.sampler {
+                    SamplerKind::Independent => self.sample_tile(
+                        &mut IndependentSampler::new(req.seed, req.frame),
+                        tile,
+                        plan,
+                    ),
+                    SamplerKind::Sobol => {
+                        self.sample_tile(&mut SobolSampler::new(req.seed, req.frame), tile, plan)
+                    }
+                };
+                progress(counts.samples);
+                counts.seconds = start.elapsed().as_secs_f64();
+                counts
+            })
+            .reduce(TileCounts::default, TileCounts::plus)
+    }
+}
+
+/// What the tiles of a round did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TileCounts {
+    pub(super) rays: u64,
+    pub(super) samples: u64,
+    pub(super) non_finite: u64,
+    /// Seconds the tiles took, summed over threads.
+    pub(super) seconds: f64,
+}
+
+impl TileCounts {
+    fn plus(self, o: TileCounts) -> TileCounts {
+        TileCounts {
+            rays: self.rays + o.rays,
+            samples: self.samples + o.samples,
+            non_finite: self.non_finite + o.non_finite,
+            seconds: self.seconds + o.seconds,
+        }
+    }
+}

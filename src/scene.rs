@@ -1,0 +1,67 @@
+//! The validated description of a shot: everything a render needs, with defaults applied,
+//! names resolved and every value checked, command-line overrides included. It is made only by
+//! [`crate::scene_file`] (which reads and checks scene files) and read by the core
+//! ([`crate::world`], [`crate::render`], [`crate::tracer`]), which never sees the file or its
+//! reader.
+
+use std::path::PathBuf;
+
+use crate::camera::CameraRig;
+use crate::format::Format;
+use crate::material::{Background, Material};
+use crate::pass::PassSet;
+use crate::sampler::SamplerKind;
+use crate::shutter::Shot;
+use crate::sphere::SphereDesc;
+
+/// Largest image side, in pixels, from a scene file or the command line.
+pub const MAX_SIDE: u32 = 65536;
+
+/// Where and how big frames are written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputSettings {
+    /// The output path pattern; runs of `#` become the zero-padded frame number. `{scene}`
+    /// has already been replaced by the scene file's name without extension.
+    pub path: String,
+    /// The frames' format, from `path`'s extension: [`Format::Exr`] or [`Format::Png`].
+    pub format: Format,
+    pub width: u32,
+    pub height: u32,
+    /// `[output] clip` (or `--clip`): a clip to assemble from the frames after rendering
+    /// (`.mp4`, `.gif`, `.apng` or `.png`), `{scene}` replaced as in `path`.
+    pub clip: Option<String>,
+    /// The passes written beside the colour (`[output] passes`, or `--passes`).
+    pub passes: PassSet,
+    /// `[output] denoise` (or `--denoise`): the colour written is denoised.
+    pub denoise: bool,
+}
+
+/// Sampling settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Samples per pixel, >= 1.
+    pub samples: u32,
+    /// Longest path in bounces; a path that reaches it returns black.
+    pub max_depth: u32,
+    pub seed: u64,
+    /// How samples are placed (`[render] sampler`).
+    pub sampler: SamplerKind,
+}
+
+/// A validated scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The file the scene was read from (used in messages and for the default output path).
+    pub source: PathBuf,
+    pub shot: Shot,
+    pub output: OutputSettings,
+    pub render: RenderSettings,
+    pub camera: CameraRig,
+    pub background: Background,
+    /// `[background] transparent`: camera rays that miss every sphere add black, so the
+    /// colour is premultiplied by the alpha pass.
+    pub transparent: bool,
+    /// Every material used by a sphere; spheres refer to them by index.
+    pub materials: Vec<Material>,
+    pub spheres: Vec<SphereDesc>,
+}
