@@ -34,6 +34,8 @@ pub(super) fn f32_above(x: f64) -> f32 {
 /// empty slot's `+inf`, a NaN, or one beyond the `f32` range after the margin) is stored as
 /// the constant `min(open, close)` rounded down with `d = 0`, below the interpolation at every
 /// `s`: an empty slot stays `+inf`, never hit.
+// Inlined where it is used (the refit, six times a child slot), as it was when they shared a file.
+#[inline]
 pub(super) fn moving_lower(open: f64, close: f64) -> (f32, f32) {
     let constant = || (f32_below(open.min(close)), 0.0);
     if !(open.is_finite() && close.is_finite()) {

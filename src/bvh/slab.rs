@@ -140,6 +140,8 @@ pub(super) struct RayF64 {
 }
 
 impl RayF64 {
+    // Out of line, as `test` is: the rare path stays out of the traversal's code.
+    #[inline(never)]
     pub(super) fn new(origin: DVec3, dir: DVec3, s: f64) -> RayF64 {
         let inv = (DVec3::ONE / dir).to_array();
         // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
