@@ -41,9 +41,11 @@ impl Boxes4 {
     }
 }
 
-/// The boxes of the nodes of a [`Topology`](super::topology::Topology), which a refit recomputes: per node, its four
+/// The boxes of the nodes of a [`Topology`], which a refit recomputes: per node, its four
 /// children's boxes, and for a moving hierarchy their change over the shutter. Only one of
 /// `still` and `moving` has entries.
+///
+/// [`Topology`]: super::topology::Topology
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Boxes {
     /// For a still hierarchy, per node, its children's boxes.

@@ -74,8 +74,9 @@ impl NodeBoxes {
 }
 
 /// The topology and boxes of the hierarchy over primitives whose boxes are `open`, or, with
-/// `close`, over moving primitives (as [`Bvh::build_moving`](super::hierarchy::Bvh::build_moving)
-/// takes them).
+/// `close`, over moving primitives (as [`Bvh::build_moving`] takes them).
+///
+/// [`Bvh::build_moving`]: super::hierarchy::Bvh::build_moving
 pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, Boxes) {
     assert!(
         open.len() <= 1 << COUNT_SHIFT,

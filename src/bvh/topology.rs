@@ -43,10 +43,12 @@ pub struct Topology {
 
 impl Topology {
     /// Boxes for moving primitives on this topology (refitting): primitive `i` lies inside
-    /// the box interpolated from `open[i]` to `close[i]`, as for [`Bvh::build_moving`](super::hierarchy::Bvh::build_moving). Every
+    /// the box interpolated from `open[i]` to `close[i]`, as for [`Bvh::build_moving`]. Every
     /// node's boxes are the unions of its children's, bottom up, so the result is exact for
     /// any boxes; only its quality ([`Boxes::area`]) depends on how far they are from those
     /// the topology was built on. Boxes equal to those of the build give its boxes exactly.
+    ///
+    /// [`Bvh::build_moving`]: super::hierarchy::Bvh::build_moving
     pub fn refit_moving(&self, open: &[Aabb], close: &[Aabb]) -> Boxes {
         assert!(open.len() == self.order.len() && close.len() == self.order.len());
         let n = self.links.len();
@@ -96,7 +98,9 @@ impl Topology {
     }
 
     /// The primitives in leaf order: position `p` in the callbacks of
-    /// [`BvhView::closest_hit`](super::traverse::BvhView::closest_hit) is primitive `order()[p]`.
+    /// [`BvhView::closest_hit`] is primitive `order()[p]`.
+    ///
+    /// [`BvhView::closest_hit`]: super::traverse::BvhView::closest_hit
     pub fn order(&self) -> &[u32] {
         &self.order
     }
