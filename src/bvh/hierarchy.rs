@@ -1,0 +1,114 @@
+//! A hierarchy: its topology and its boxes, as built.
+
+use glam::DVec3;
+
+use crate::aabb::Aabb;
+
+use super::boxes::{Boxes, Boxes4};
+use super::build::build_parts;
+use super::topology::{Links, Topology};
+use super::traverse::{BvhView, TraversalStack};
+
+/// Bytes per primitive of a hierarchy, about: its place in the leaf order, and a 4-wide
+/// moving node's children and boxes per three primitives (leaves hold one to four).
+pub const BYTES_PER_PRIMITIVE: usize =
+    4 + (std::mem::size_of::<Links>() + std::mem::size_of::<[Boxes4; 2]>()) / 3;
+
+/// A hierarchy over primitives `0..n` given by their boxes: its topology and its boxes.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    topology: Topology,
+    boxes: Boxes,
+}
+
+impl Bvh {
+    /// Builds the hierarchy over `boxes`; primitive `i` has box `boxes[i]`. At most 2^28
+    /// primitives.
+    pub fn build(boxes: &[Aabb]) -> Bvh {
+        let (topology, boxes) = build_parts(boxes, None);
+        Bvh { topology, boxes }
+    }
+
+    /// Builds a hierarchy over moving primitives: primitive `i` lies at every shutter time
+    /// `s` in [0, 1] inside the box interpolated linearly from `open[i]` (at `s = 0`) to
+    /// `close[i]` (at `s = 1`). Pad the boxes for the rounding of that interpolation (see
+    /// [`Aabb::pad_for_rounding`]).
+    pub fn build_moving(open: &[Aabb], close: &[Aabb]) -> Bvh {
+        assert_eq!(open.len(), close.len());
+        let (topology, boxes) = build_parts(open, Some(close));
+        Bvh { topology, boxes }
+    }
+
+    /// The hierarchy as a traversal reads it.
+    #[inline]
+    pub fn view(&self) -> BvhView<'_> {
+        BvhView {
+            topology: &self.topology,
+            boxes: &self.boxes,
+        }
+    }
+
+    /// Its topology.
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    /// Its boxes.
+    pub fn boxes(&self) -> &Boxes {
+        &self.boxes
+    }
+
+    /// Its topology and boxes, apart.
+    pub fn into_parts(self) -> (Topology, Boxes) {
+        (self.topology, self.boxes)
+    }
+
+    /// [`Boxes::area`] of its boxes.
+    pub fn area(&self) -> f64 {
+        self.boxes.area()
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.topology.len()
+    }
+
+    /// Whether the hierarchy has no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.topology.is_empty()
+    }
+
+    /// The box of everything in the hierarchy (over the whole shutter, if moving).
+    pub fn bounds(&self) -> Aabb {
+        self.boxes.bounds
+    }
+
+    /// The primitives in leaf order (see [`Topology::order`]).
+    pub fn order(&self) -> &[u32] {
+        self.topology.order()
+    }
+
+    /// Number of 4-wide nodes.
+    pub fn node_count(&self) -> usize {
+        self.topology.node_count()
+    }
+
+    /// Bytes held by the hierarchy (topology and boxes).
+    pub fn memory_bytes(&self) -> usize {
+        self.topology.memory_bytes() + self.boxes.memory_bytes()
+    }
+
+    /// [`BvhView::closest_hit`] on this hierarchy.
+    #[inline]
+    pub fn closest_hit(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        s: f64,
+        t_max: f64,
+        stack: &mut TraversalStack,
+        hit: impl FnMut(u32, f64) -> Option<f64>,
+    ) -> Option<(f64, u32)> {
+        self.view().closest_hit(origin, dir, s, t_max, stack, hit)
+    }
+}

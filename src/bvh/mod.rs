@@ -1,0 +1,52 @@
+//! A bounding volume hierarchy over boxes: built as a binary tree with the surface-area
+//! heuristic (binned, as in Wald 2007, "On fast Construction of SAH-based Bounding Volume
+//! Hierarchies"), in parallel, then collapsed into a 4-wide tree (as Embree's BVH4) stored as
+//! flat arrays of nodes. A node holds its four children's boxes as structure-of-arrays, in
+//! `f32` rounded outward (half the memory of `f64`; a box only ever grows, so no hit is lost),
+//! so a ray is tested against all four at once with straight-line arithmetic the compiler
+//! vectorises, and the children a ray hits are visited nearest first.
+//!
+//! A hierarchy ([`Bvh`]) is kept in two parts: its [`Topology`] (every node's children and
+//! the primitives in leaf order) and its [`Boxes`] (every node's children's boxes). A
+//! topology can be refitted to new boxes of the same primitives ([`Topology::refit_moving`]),
+//! which gives new [`Boxes`] and leaves the topology as it is, so one topology can serve many
+//! sets of boxes at once; a traversal reads a topology with boxes computed for it
+//! ([`BvhView`]).
+//!
+//! Moving primitives get two boxes, one at the shutter's opening and one at its closing; a
+//! ray at time `s` (0 at opening, 1 at closing) is tested against their linear interpolation,
+//! as in Embree's motion-blur hierarchy (Woop et al. 2017, "STBVH: A Spatial-Temporal BVH for
+//! Efficient Multi-Segment Motion Blur", section 3). Since the interpolation of the unions is
+//! contained in the union of the interpolations' extremes, a node's two boxes are the unions
+//! of its children's.
+//!
+//! Primitives are identified by their position in [`Topology::order`]: callers store their
+//! primitives in that order, so the leaves of the hierarchy read memory front to back.
+//!
+//! The files, one concept each, in the order they build on one another:
+//! - `rounding`: `f64` sides rounded outward to `f32`, still and moving;
+//! - `boxes`: [`Boxes`], the nodes' `f32` boxes (four children a node, still or moving);
+//! - `topology`: [`Topology`], the nodes' children and the leaf order; the refit;
+//! - `build`: the binned SAH build of a binary tree and its collapse into 4-wide nodes;
+//! - `lanes`: four `f32` lanes (SSE on x86-64, plain arrays elsewhere);
+//! - `slab`: a ray against a node's four boxes at once, in `f32` lanes or in `f64`;
+//! - `traverse`: [`BvhView`] and [`TraversalStack`], the nearest-hit traversal;
+//! - `hierarchy`: [`Bvh`], a built topology with its boxes.
+
+mod boxes;
+mod build;
+mod hierarchy;
+mod lanes;
+mod rounding;
+mod slab;
+mod topology;
+mod traverse;
+
+#[cfg(test)]
+mod tests;
+
+pub use boxes::Boxes;
+pub use build::BUILD_BYTES_PER_PRIMITIVE;
+pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub use topology::Topology;
+pub use traverse::{BvhView, TraversalStack};

@@ -1,0 +1,302 @@
+//! The slab test of a ray against a node's four children at once: in `f32` lanes with every
+//! rounding bounded outward, and in `f64` for the rare rays the lanes cannot take.
+
+use glam::DVec3;
+
+use super::boxes::Boxes;
+use super::lanes;
+use super::rounding::f32_below;
+
+/// The relative error of an entry or exit distance computed in `f32` as
+/// `(side - origin) * inverse`, with the side and origin `f32` and the inverse the `f32`
+/// rounding of the `f64` reciprocal: at most three roundings to `f32` and one to `f64`, so
+/// within `(1 + u)^3 (1 + 2^-53) < 1 + 3.01 u` with `u = 2^-24` (pbrt-v4, section 6.8.2),
+/// unless the product is subnormal (then off by at most `2^-150`) or overflows (then
+/// infinite, beyond every finite `f32` limit).
+///
+/// An entry distance is scaled by `NEAR_SCALE = 1 - 8u` (rounded, below `1 - 4u` of it):
+/// below the exact one. An exit distance is scaled by `FAR_SCALE = 1 + 16u` and `TINY` added
+/// (the smallest normal `f32`, for the subnormal case): above the exact one. pbrt-v4's
+/// robust slab test widens the exit only (by `1 + 2 gamma(3)`); here both are bounded, since
+/// entry distances also prune the stack.
+const NEAR_SCALE: f32 = 1.0 - 1.0 / (1 << 21) as f32;
+const FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
+const TINY: f32 = f32::MIN_POSITIVE;
+
+/// An `f32` at or above `t * (1 + 16u)` (see [`NEAR_SCALE`]) past any nonnegative `f64`
+/// `t`: children entered beyond it are not visited. `+inf` for `t` beyond the `f32` range.
+#[inline]
+pub(super) fn widened_limit(t: f64) -> f32 {
+    // Rounded up past `t` without a branch: `t (1 + 2^-22)` exceeds `t` by more than its
+    // rounding to `f32` (2^-24 of it), and `TINY` covers a subnormal `t`.
+    (t * (1.0 + f64::from(2f32.powi(-22)))) as f32 * FAR_SCALE + TINY
+}
+
+/// A ray's test against the four children of a node.
+pub(super) trait SlabTest {
+    /// The children of `node` (with `boxes`) the ray may enter before the distance `t_max`,
+    /// or `limit` (an `f32` at or above it, [`widened_limit`]), as bits, and their entry
+    /// distances, at most the true ones.
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; 4]);
+}
+
+/// A ray as the `f32` slab test reads it: per axis, its reciprocal direction, and its origin
+/// rounded to `f32` both ways; whether its direction is negative; the shutter time.
+pub(super) struct RayLanes {
+    inv: [lanes::F4; 3],
+    /// The origin rounded up, subtracted from lower sides: `lower - origin` comes out at
+    /// most the exact difference, so a positive direction's entry distance is not
+    /// overestimated, nor a negative one's exit distance underestimated.
+    o_up: [lanes::F4; 3],
+    /// The origin rounded down, for upper sides (the mirror image).
+    o_down: [lanes::F4; 3],
+    /// Per axis, whether the direction is negative: the ray enters through the upper side.
+    negative: [bool; 3],
+    s: lanes::F4,
+}
+
+impl RayLanes {
+    /// `None` if some origin coordinate exceeds 1e30 in magnitude or some direction
+    /// component is below 1e-30 (its reciprocal would be beyond the `f32` range).
+    #[inline(always)]
+    pub(super) fn new(origin: DVec3, dir: DVec3, s: f64) -> Option<RayLanes> {
+        if !(origin.abs().max_element() <= 1e30 && dir.abs().min_element() >= 1e-30) {
+            return None;
+        }
+        let inv = (DVec3::ONE / dir).as_vec3();
+        // `origin -+ m` rounded to the nearest `f32` is below (above) `origin`: `m` exceeds
+        // the rounding to `f32` (at most 2^-24 of the magnitude, or 2^-150 below the normal
+        // range) and the two `f64` roundings before it. Without the branches of
+        // `f32_below`, whose outcome is a coin toss per ray; one `f32` ulp looser.
+        let m = origin.abs() * f64::from(2f32.powi(-23)) + f64::from(f32::MIN_POSITIVE);
+        let (up, down) = ((origin + m).as_vec3(), (origin - m).as_vec3());
+        Some(RayLanes {
+            inv: std::array::from_fn(|a| lanes::F4::splat(inv[a])),
+            o_up: std::array::from_fn(|a| lanes::F4::splat(up[a])),
+            o_down: std::array::from_fn(|a| lanes::F4::splat(down[a])),
+            negative: std::array::from_fn(|a| inv[a] < 0.0),
+            s: lanes::F4::splat(s as f32),
+        })
+    }
+
+    /// Along axis `a`, the distances to a box's lower and upper sides, with the rounded
+    /// origins they take, as (entry, exit).
+    #[inline(always)]
+    fn axis(&self, a: usize, lower: lanes::F4, upper: lanes::F4) -> (lanes::F4, lanes::F4) {
+        let lower = lower.sub(self.o_up[a]).mul(self.inv[a]);
+        let upper = upper.sub(self.o_down[a]).mul(self.inv[a]);
+        // A select of values, not of indices: no bounds checks in the loop.
+        if self.negative[a] {
+            (upper, lower)
+        } else {
+            (lower, upper)
+        }
+    }
+}
+
+impl SlabTest for RayLanes {
+    /// Entry distances at most the exact ones (computed in real arithmetic from the `f64`
+    /// origin and direction, against the box a traversal's `f32` evaluation gives).
+    #[inline(always)]
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, _: f64) -> (u32, [f32; 4]) {
+        use lanes::F4;
+        let mut near = F4::splat(0.0);
+        let mut far = F4::splat(f32::INFINITY);
+        // `max` and `min` keep the running value when the new one is NaN (0 * inf cannot
+        // arise with a finite reciprocal, but a NaN side can), which leaves that axis out.
+        for a in 0..3 {
+            let (lower, upper) = if boxes.moving.is_empty() {
+                let planes = &boxes.still[node].planes;
+                (F4::load(&planes[a]), F4::load(&planes[3 + a]))
+            } else {
+                let [planes, d] = &boxes.moving[node];
+                let (planes, d) = (&planes.planes, &d.planes);
+                // Evaluated in `f32`, as `moving_lower` allows for.
+                (
+                    F4::load(&planes[a]).add(self.s.mul(F4::load(&d[a]))),
+                    F4::load(&planes[3 + a]).add(self.s.mul(F4::load(&d[3 + a]))),
+                )
+            };
+            let (n, f) = self.axis(a, lower, upper);
+            near = n.max_keep(near);
+            far = f.min_keep(far);
+        }
+        let near = near.mul(F4::splat(NEAR_SCALE));
+        let far = far
+            .mul(F4::splat(FAR_SCALE))
+            .add(F4::splat(TINY))
+            .min_keep(F4::splat(limit));
+        (near.le_mask(far), near.to_array())
+    }
+}
+
+/// A ray as the `f64` slab test reads it, for rays [`RayLanes`] cannot take.
+pub(super) struct RayF64 {
+    inv: [f64; 3],
+    o: [f64; 3],
+    entry: [usize; 3],
+    exit: [usize; 3],
+    s: f32,
+}
+
+impl RayF64 {
+    // Out of line, as `test` is: the rare path stays out of the traversal's code.
+    #[inline(never)]
+    pub(super) fn new(origin: DVec3, dir: DVec3, s: f64) -> RayF64 {
+        let inv = (DVec3::ONE / dir).to_array();
+        // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
+        // and leaves boxes: the upper one first for a negative direction. Taken from the
+        // reciprocal so that a direction of -0 (reciprocal -inf) counts as negative.
+        RayF64 {
+            inv,
+            o: origin.to_array(),
+            entry: std::array::from_fn(|a| if inv[a] < 0.0 { 3 + a } else { a }),
+            exit: std::array::from_fn(|a| if inv[a] < 0.0 { a } else { 3 + a }),
+            s: s as f32,
+        }
+    }
+}
+
+impl SlabTest for RayF64 {
+    /// Tested against `t_max`, with the entry distances rounded down to `f32`.
+    #[inline(never)]
+    fn test(&self, boxes: &Boxes, node: usize, _: f32, t_max: f64) -> (u32, [f32; 4]) {
+        let (o, inv, s32) = (&self.o, &self.inv, self.s);
+        let mut near = [0.0f64; 4];
+        let mut far = [t_max; 4];
+        // `max` and `min` ignore a NaN (0 * inf: a ray in a box's face plane, parallel
+        // to it), which leaves that axis out of the interval.
+        if boxes.moving.is_empty() {
+            let planes = &boxes.still[node].planes;
+            for a in 0..3 {
+                let (e, x) = (self.entry[a], self.exit[a]);
+                for k in 0..4 {
+                    near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
+                    far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
+                }
+            }
+        } else {
+            let [planes, d] = &boxes.moving[node];
+            let (planes, d) = (&planes.planes, &d.planes);
+            for a in 0..3 {
+                let (e, x) = (self.entry[a], self.exit[a]);
+                for k in 0..4 {
+                    // In `f32`, which `moving_lower`'s margin allows for.
+                    let n = f64::from(planes[e][k] + s32 * d[e][k]);
+                    let f = f64::from(planes[x][k] + s32 * d[x][k]);
+                    near[k] = near[k].max((n - o[a]) * inv[a]);
+                    far[k] = far[k].min((f - o[a]) * inv[a]);
+                }
+            }
+        }
+        let mut mask = 0;
+        for k in 0..4 {
+            mask |= u32::from(near[k] <= far[k]) << k;
+        }
+        (mask, near.map(f32_below))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aabb::Aabb;
+    use crate::bvh::boxes::{Boxes4, set_moving};
+    use crate::rng::Pcg32;
+
+    /// The `f32` slab test never misses a child the `f64` one hits, and never puts a child's
+    /// entry beyond the `f64` one's: random boxes and rays at scales from 1e-6 to 1e6 and far
+    /// from the origin, rays starting on or a few ulps off a face, running along faces, and
+    /// nearly axis-parallel (reciprocals up to 1e29); still and moving nodes, any time and
+    /// limit.
+    #[test]
+    fn f32_slab_test_is_conservative() {
+        let mut r = Pcg32::new(41, 3);
+        let (mut checked, mut hits) = (0u32, 0u32);
+        for round in 0..40_000 {
+            let offset = [0.0, 1e6, -3e4, 2e-6][round % 4];
+            let scale = [1.0, 30.0, 1e-6, 1e-3][(round / 4) % 4];
+            let v = |r: &mut Pcg32| {
+                (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale
+            };
+            let boxes: Vec<Aabb> = (0..4)
+                .map(|_| {
+                    let c = DVec3::splat(offset) + v(&mut r);
+                    Aabb {
+                        min: c - v(&mut r).abs(),
+                        max: c + v(&mut r).abs(),
+                    }
+                })
+                .collect();
+            let moved: Vec<Aabb> = boxes
+                .iter()
+                .map(|b| Aabb {
+                    min: b.min + v(&mut r) * 0.3,
+                    max: b.max + v(&mut r) * 0.3,
+                })
+                .collect();
+            let mut still = Boxes4::EMPTY;
+            let mut moving = [Boxes4::EMPTY, Boxes4::ZERO];
+            // Slot 3 stays empty one time in four.
+            for k in 0..4 - usize::from(round % 4 == 1) {
+                still.set(k, &boxes[k]);
+                set_moving(&mut moving, k, &boxes[k], &moved[k]);
+            }
+            let nodes = [
+                Boxes {
+                    still: vec![still],
+                    ..Boxes::default()
+                },
+                Boxes {
+                    moving: vec![moving],
+                    ..Boxes::default()
+                },
+            ];
+            // A point on a face of a box (as stored), or a few ulps off it, or anywhere.
+            let k = (r.next_f64() * 4.0) as usize % 3;
+            let axis = (r.next_f64() * 3.0) as usize;
+            let mut origin = DVec3::splat(offset) + v(&mut r) * 1.5;
+            let side = if r.next_f64() < 0.5 { axis } else { 3 + axis };
+            match round % 3 {
+                0 => origin[axis] = f64::from(still.planes[side][k]),
+                1 => {
+                    let p = f64::from(still.planes[side][k]);
+                    origin[axis] = p + (r.next_f64() - 0.5) * 8.0 * f64::EPSILON * p.abs();
+                }
+                _ => {}
+            }
+            let mut dir = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5;
+            // Along a face, or nearly axis-parallel.
+            match (round / 3) % 4 {
+                0 => dir[axis] = 0.0,
+                1 => dir[axis] = 1e-29 * (r.next_f64() - 0.5),
+                _ => {}
+            }
+            let dir = dir.normalize();
+            let s = [0.0, 1.0, r.next_f64()][round % 3];
+            let t_max = [f64::INFINITY, r.next_f64() * 2.0 * scale][round % 2];
+            let Some(lanes) = RayLanes::new(origin, dir, s) else {
+                assert!(dir.abs().min_element() < 1e-30);
+                continue;
+            };
+            let exact = RayF64::new(origin, dir, s);
+            for boxes in &nodes {
+                let limit = widened_limit(t_max);
+                let (mask, near) = lanes.test(boxes, 0, limit, t_max);
+                let (want, want_near) = exact.test(boxes, 0, limit, t_max);
+                // The `f64` entry, as exact: `RayF64` rounds it down to `f32`.
+                assert_eq!(mask & want, want, "{origin:?} {dir:?} {s} {t_max}");
+                for k in 0..4 {
+                    if want & (1 << k) != 0 {
+                        assert!(near[k] <= want_near[k], "{origin:?} {dir:?} {k}");
+                        assert!(near[k] <= limit);
+                    }
+                }
+                checked += 1;
+                hits += want.count_ones();
+            }
+        }
+        // Most rays are taken by the `f32` test, and a fair share of children are hit.
+        assert!(checked > 50_000 && hits > 20_000, "{checked} {hits}");
+    }
+}

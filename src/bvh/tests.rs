@@ -1,0 +1,310 @@
+//! The whole hierarchy against testing every primitive: built still or moving, refitted,
+//! traversed.
+
+use glam::DVec3;
+
+use crate::aabb::Aabb;
+use crate::rng::Pcg32;
+
+use super::hierarchy::Bvh;
+use super::traverse::{BvhView, TraversalStack};
+
+fn brute(centers: &[(DVec3, f64)], ray: &crate::ray::Ray) -> Option<(f64, u32)> {
+    let mut best: Option<(f64, u32)> = None;
+    for (i, (c, r)) in centers.iter().enumerate() {
+        if let Some(t) = crate::sphere::intersect(*c, *r, ray, best.map_or(f64::INFINITY, |b| b.0))
+        {
+            best = Some((t, i as u32));
+        }
+    }
+    best
+}
+
+fn random_rays(r: &mut Pcg32, n: usize) -> Vec<crate::ray::Ray> {
+    (0..n)
+        .map(|_| {
+            let o = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 30.0 - 15.0;
+            let mut d = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5;
+            // Some axis-parallel rays, whose reciprocal direction has infinities.
+            if r.next_f64() < 0.1 {
+                d.x = 0.0;
+            }
+            if r.next_f64() < 0.1 {
+                d.y = 0.0;
+            }
+            crate::ray::Ray {
+                origin: o,
+                dir: d.normalize(),
+                time: r.next_f64(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn agrees_with_brute_force() {
+    let mut r = Pcg32::new(11, 1);
+    let mut stack = TraversalStack::default();
+    for &n in &[0usize, 1, 2, 5, 17, 300, 2000, 9000] {
+        let centers: Vec<(DVec3, f64)> = (0..n)
+            .map(|_| {
+                let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
+                (c, 0.05 + r.next_f64() * 0.5)
+            })
+            .collect();
+        let boxes: Vec<Aabb> = centers
+            .iter()
+            .map(|(c, rad)| Aabb::point(*c).grow(*rad))
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        assert_eq!(bvh.len(), n);
+        for ray in random_rays(&mut r, 500) {
+            let got = bvh.closest_hit(
+                ray.origin,
+                ray.dir,
+                0.0,
+                f64::INFINITY,
+                &mut stack,
+                |p, tmax| {
+                    let (c, rad) = centers[bvh.order()[p as usize] as usize];
+                    crate::sphere::intersect(c, rad, &ray, tmax)
+                },
+            );
+            let got = got.map(|(t, p)| (t, bvh.order()[p as usize]));
+            assert_eq!(got, brute(&centers, &ray));
+        }
+    }
+}
+
+/// Rays with NaN or infinite parts, and boxes with NaN sides, find nothing and never
+/// overflow the traversal stack, in still and moving hierarchies of any size.
+#[test]
+fn non_finite_rays_and_boxes_find_nothing() {
+    let mut r = Pcg32::new(13, 5);
+    let mut stack = TraversalStack::default();
+    let (nan, inf) = (f64::NAN, f64::INFINITY);
+    let rays = [
+        (DVec3::splat(nan), DVec3::X),
+        (DVec3::ZERO, DVec3::splat(nan)),
+        (DVec3::new(0.0, nan, 0.0), DVec3::new(0.0, 0.0, 1.0)),
+        (DVec3::splat(inf), DVec3::X),
+        (DVec3::ZERO, DVec3::splat(inf)),
+        (DVec3::ZERO, DVec3::new(-inf, 1.0, 0.0)),
+        (DVec3::splat(-inf), DVec3::splat(inf)),
+    ];
+    for &n in &[1usize, 5, 300, 9000] {
+        let boxes: Vec<Aabb> = (0..n)
+            .map(|_| {
+                let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
+                Aabb::point(c).grow(0.5)
+            })
+            .collect();
+        let still = Bvh::build(&boxes);
+        let moving = Bvh::build_moving(&boxes, &boxes);
+        for bvh in [&still, &moving] {
+            for s in [0.0, 0.5, nan] {
+                for &(origin, dir) in &rays {
+                    let got = bvh.closest_hit(origin, dir, s, inf, &mut stack, |_, _| {
+                        panic!("a non-finite ray reached a primitive")
+                    });
+                    assert_eq!(got, None);
+                }
+            }
+        }
+        // Boxes with NaN sides (refitted onto the topology) are entered by every ray, since
+        // the slab test ignores NaN: the traversal still visits each leaf once, no more.
+        let bad = vec![Aabb::point(DVec3::splat(nan)); n];
+        let boxes = moving.topology().refit_moving(&bad, &bad);
+        let view = BvhView::new(moving.topology(), &boxes);
+        for ray in random_rays(&mut r, 20) {
+            let mut visits = 0;
+            let got = view.closest_hit(ray.origin, ray.dir, 0.5, inf, &mut stack, |_, _| {
+                visits += 1;
+                None
+            });
+            assert_eq!(got, None);
+            assert!(visits <= n, "{visits} visits of {n} primitives");
+        }
+    }
+}
+
+/// Spheres moving on straight lines during the shutter: the hierarchy with interpolated
+/// boxes finds exactly what testing every sphere at the ray's time finds.
+#[test]
+fn moving_agrees_with_brute_force() {
+    let mut r = Pcg32::new(12, 3);
+    let mut stack = TraversalStack::default();
+    for &n in &[1usize, 3, 40, 700, 6000] {
+        // A third still, the others slow or fast.
+        let (spheres, open, close) = moving_spheres(&mut r, n);
+        let bvh = Bvh::build_moving(&open, &close);
+        for ray in random_rays(&mut r, 400) {
+            assert!(moving_hit_is_brute(bvh.view(), &spheres, &ray, &mut stack));
+        }
+    }
+}
+
+/// Whether `bvh` over the moving `spheres` finds what testing every sphere at the ray's
+/// time finds (the ray's time is its shutter time `s`).
+fn moving_hit_is_brute(
+    bvh: BvhView,
+    spheres: &[(DVec3, DVec3, f64)],
+    ray: &crate::ray::Ray,
+    stack: &mut TraversalStack,
+) -> bool {
+    let s = ray.time;
+    let order = bvh.topology.order();
+    let at = |i: usize| (spheres[i].0 + spheres[i].1 * s, spheres[i].2);
+    let got = bvh.closest_hit(ray.origin, ray.dir, s, f64::INFINITY, stack, |p, tmax| {
+        let (c, rad) = at(order[p as usize] as usize);
+        crate::sphere::intersect(c, rad, ray, tmax)
+    });
+    let got = got.map(|(t, p)| (t, order[p as usize]));
+    let now: Vec<(DVec3, f64)> = (0..spheres.len()).map(at).collect();
+    got == brute(&now, ray)
+}
+
+/// Spheres `(centre at s = 0, velocity, radius)`, and their boxes at s = 0 and at s = 1.
+type MovingSpheres = (Vec<(DVec3, DVec3, f64)>, Vec<Aabb>, Vec<Aabb>);
+
+fn moving_spheres(r: &mut Pcg32, n: usize) -> MovingSpheres {
+    let spheres: Vec<(DVec3, DVec3, f64)> = (0..n)
+        .map(|i| {
+            let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
+            let speed = [0.0, 0.5, 8.0][i % 3];
+            let v = (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * speed;
+            (c, v, 0.05 + r.next_f64() * 0.5)
+        })
+        .collect();
+    let open = spheres
+        .iter()
+        .map(|(c, _, rad)| Aabb::point(*c).grow(*rad).pad_for_rounding())
+        .collect();
+    let close = spheres
+        .iter()
+        .map(|(c, v, rad)| Aabb::point(*c + *v).grow(*rad).pad_for_rounding())
+        .collect();
+    (spheres, open, close)
+}
+
+#[test]
+fn refitted_hierarchies_agree_with_brute_force() {
+    let mut r = Pcg32::new(21, 5);
+    let mut stack = TraversalStack::default();
+    for &n in &[1usize, 3, 40, 700, 6000] {
+        // Built on one set of spheres, refitted to another: the tree is the first's.
+        let (_, open0, close0) = moving_spheres(&mut r, n);
+        let bvh = Bvh::build_moving(&open0, &close0);
+        let topology = bvh.topology();
+        // Refitting to the boxes it was built on gives the boxes of the build.
+        assert_eq!(topology.refit_moving(&open0, &close0), *bvh.boxes());
+        let (spheres, open, close) = moving_spheres(&mut r, n);
+        let boxes = topology.refit_moving(&open, &close);
+        // Unrelated positions: a much worse tree, but exact.
+        if n > 100 {
+            assert!(boxes.area() > 2.0 * bvh.area(), "{}", boxes.area());
+        }
+        // The topology with the new boxes finds every hit; with the boxes of the build
+        // (a refit skipped) it misses some.
+        let mut stale = 0;
+        for ray in random_rays(&mut r, 300) {
+            let view = BvhView::new(topology, &boxes);
+            assert!(moving_hit_is_brute(view, &spheres, &ray, &mut stack));
+            if !moving_hit_is_brute(bvh.view(), &spheres, &ray, &mut stack) {
+                stale += 1;
+            }
+        }
+        if n > 100 {
+            assert!(stale > 0, "n {n}");
+        }
+    }
+}
+
+/// Spheres far from the origin (around 1e6) and tiny ones near it (around 1e-6), with rays
+/// grazing them along the faces of their boxes, where rounding the boxes to `f32` the
+/// wrong way would cull hits: the hierarchy finds exactly what testing every sphere does.
+#[test]
+fn grazing_rays_at_far_and_tiny_scales_agree_with_brute_force() {
+    let mut r = Pcg32::new(33, 11);
+    let mut stack = TraversalStack::default();
+    for (offset, scale) in [(1e6, 30.0), (-3e6, 1.0), (0.0, 1e-6), (2e-6, 3e-8)] {
+        let n = 400;
+        let spheres: Vec<(DVec3, DVec3, f64)> = (0..n)
+            .map(|i| {
+                let c = DVec3::splat(offset)
+                    + (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale;
+                let v = if i % 2 == 0 {
+                    DVec3::ZERO
+                } else {
+                    (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale * 0.1
+                };
+                (c, v, scale * (0.002 + r.next_f64() * 0.02))
+            })
+            .collect();
+        let boxes_at = |s: f64| -> Vec<Aabb> {
+            spheres
+                .iter()
+                .map(|(c, v, rad)| Aabb::point(*c + *v * s).grow(*rad).pad_for_rounding())
+                .collect()
+        };
+        let still: Vec<(DVec3, f64)> = spheres.iter().map(|(c, _, rad)| (*c, *rad)).collect();
+        let still_bvh = Bvh::build(&boxes_at(0.0));
+        let moving_bvh = Bvh::build_moving(&boxes_at(0.0), &boxes_at(1.0));
+        let mut hits = 0;
+        for _ in 0..3000 {
+            let (c, v, rad) = spheres[(r.next_f64() * n as f64) as usize];
+            let time = if r.next_f64() < 0.5 {
+                0.0
+            } else {
+                r.next_f64()
+            };
+            let moving = r.next_f64() < 0.5;
+            let centre = if moving { c + v * time } else { c };
+            // The ray touches the sphere where its box's face does (an axis-aligned
+            // normal), or elsewhere; it runs along the tangent plane, shifted by a few
+            // ulps of the coordinates either way.
+            let axis = (r.next_f64() * 3.0) as usize;
+            let mut normal = DVec3::ZERO;
+            normal[axis] = if r.next_f64() < 0.5 { 1.0 } else { -1.0 };
+            if r.next_f64() < 0.3 {
+                normal = (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5).normalize();
+            }
+            let tangent = normal
+                .cross(DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5)
+                .normalize();
+            let shift = (r.next_f64() - 0.5) * 8.0 * f64::EPSILON * (offset.abs() + scale);
+            let touch = centre + normal * (rad + shift);
+            let ray = crate::ray::Ray {
+                origin: touch - tangent * (scale * (0.01 + r.next_f64())),
+                dir: tangent,
+                time,
+            };
+            if moving {
+                assert!(moving_hit_is_brute(
+                    moving_bvh.view(),
+                    &spheres,
+                    &ray,
+                    &mut stack
+                ));
+            } else {
+                let order = still_bvh.order();
+                let got = still_bvh.closest_hit(
+                    ray.origin,
+                    ray.dir,
+                    0.0,
+                    f64::INFINITY,
+                    &mut stack,
+                    |p, tmax| {
+                        let (c, rad) = still[order[p as usize] as usize];
+                        crate::sphere::intersect(c, rad, &ray, tmax)
+                    },
+                );
+                let want = brute(&still, &ray);
+                hits += want.is_some() as usize;
+                assert_eq!(got.map(|(t, p)| (t, order[p as usize])), want);
+            }
+        }
+        // Grazing rays hit about half the time: the test is not vacuous.
+        assert!(hits > 100, "{hits} hits at scale {scale}");
+    }
+}
