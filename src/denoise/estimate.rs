@@ -22,6 +22,10 @@
 //! estimated from `(a - b)^2`): one sample's variance is `v n`, so `var(a) = v n / n_a` and
 //! `var(b) = v n / n_b`.
 //!
+//! Cross-validation needs `D(a)` free of `b`'s samples: its guides must come from `a`'s own
+//! samples (or from samples of neither), not from the whole pixel; guides averaged over both
+//! replicates carry some of `b`'s noise into `D(a)` and make the estimate read low.
+//!
 //! A single pixel's estimate is very noisy and may be negative; it is unbiased, so means over
 //! regions ([`box_mean`], [`tile_means`]) or the frame ([`frame_relative_error`]) are what to
 //! act on. A denoiser's bias usually falls as its input's noise falls, so the half's bias
