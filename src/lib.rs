@@ -16,6 +16,7 @@ pub mod bvh;
 pub mod camera;
 pub mod cli;
 mod clip;
+pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod format;

@@ -1,0 +1,214 @@
+//! The estimated true error of a denoised frame, bias included, from the film's two
+//! independent replicates.
+//!
+//! Every pixel's samples alternate between two replicates (`film::Pixel`): `a`, the mean of
+//! its `n_a = n - n/2` even samples, and `b`, the mean of its `n_b = n/2` odd ones; the frame
+//! is `F = (n_a a + n_b b) / n`. Each is an unbiased, independent estimate of the true value
+//! `T`. With `D` the denoiser, per pixel and channel:
+//!
+//! - **Cross-validation.** `D(a)` depends on `a` only, so it is independent of `b`, and
+//!   `E[(D(a) - b)^2] = E[(D(a) - T)^2] + var(b)` (the cross term has mean zero). Hence
+//!   `err2(D(a)) ~ (D(a) - b)^2 - var(b)`, and likewise for `D(b)` against `a`. Their mean,
+//!   `cv`, estimates the squared error of a denoised half, bias and noise together.
+//! - **The denoiser's noise.** Model a denoised half as `T + beta + eta` with `beta` the
+//!   denoiser's bias (the same for both halves: same guides, same noise level) and `eta` its
+//!   left-over noise, of variance `g`, independent between the halves. The bias cancels in
+//!   their difference: `E[(D(a) - D(b))^2] = 2 g`.
+//! - **The full frame.** `F` has twice a half's samples; its denoised noise is taken as half a
+//!   half's (`g / 2`, as for a filter linear in its input) and its bias as a half's. So
+//!   `err2(D(F)) = beta^2 + g / 2 = cv - g / 2 ~ cv - (D(a) - D(b))^2 / 4`.
+//!
+//! The replicates' variances come from the film's variance of `F`'s mean `v` (itself
+//! estimated from `(a - b)^2`): one sample's variance is `v n`, so `var(a) = v n / n_a` and
+//! `var(b) = v n / n_b`.
+//!
+//! Cross-validation needs `D(a)` free of `b`'s samples: its guides must come from `a`'s own
+//! samples (or from samples of neither), not from the whole pixel; guides averaged over both
+//! replicates carry some of `b`'s noise into `D(a)` and make the estimate read low.
+//!
+//! A single pixel's estimate is very noisy and may be negative; it is unbiased, so means over
+//! regions ([`box_mean`], [`tile_means`]) or the frame ([`frame_relative_error`]) are what to
+//! act on. A denoiser's bias usually falls as its input's noise falls, so the half's bias
+//! taken for the full frame's errs high, never low.
+//!
+//! The relative error is the project's (`analysis::metrics`): the mean over pixels and
+//! channels of `err2 / (m + 0.01)^2` and its square root, with the denoised frame `D(F)`
+//! (clamped at 0) standing in for the true value `m` it divides by: after denoising it is
+//! close to it, and nearly free of the noise that made the film's own estimate divide by the
+//! smaller of a pixel's and its neighbours' means.
+
+use crate::analysis::metrics::estimated_rel_mse_term;
+use glam::DVec3;
+
+/// One pixel's inputs: the film's replicates and the denoised images, as read for the pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelInputs {
+    /// The mean of the even samples (replicate `a`).
+    pub a: DVec3,
+    /// The mean of the odd samples (replicate `b`).
+    pub b: DVec3,
+    /// The pixel's sample count `n` (`a` holds `n - n/2`, `b` holds `n/2`).
+    pub samples: u32,
+    /// The film's estimated variance of the full mean `F`.
+    pub variance_of_mean: DVec3,
+    /// `D(a)`, `D(b)`: the denoised replicates.
+    pub denoised_a: DVec3,
+    pub denoised_b: DVec3,
+}
+
+/// The estimated squared error of the denoised full frame `D(F)` at one pixel, per channel
+/// (see the module's derivation). Unbiased but noisy; may be negative. Infinite with fewer
+/// than two samples (a replicate is empty: nothing is known).
+pub fn pixel_squared_error(p: &PixelInputs) -> DVec3 {
+    if p.samples < 2 {
+        return DVec3::INFINITY;
+    }
+    let n = p.samples as f64;
+    let n_b = (p.samples / 2) as f64;
+    let n_a = n - n_b;
+    let var_a = p.variance_of_mean * (n / n_a);
+    let var_b = p.variance_of_mean * (n / n_b);
+    let sq = |v: DVec3| v * v;
+    let cross_validated = (sq(p.denoised_a - p.b) - var_b + sq(p.denoised_b - p.a) - var_a) * 0.5;
+    cross_validated - sq(p.denoised_a - p.denoised_b) * 0.25
+}
+
+/// Each pixel's estimated relative squared error of `D(F)`: [`pixel_squared_error`] over
+/// `(D(F) + 0.01)^2`, averaged over the channels (`metrics::estimated_rel_mse_term`).
+/// `pixels` and `denoised_full` are row-major, one entry a pixel.
+pub fn relative_squared_errors(pixels: &[PixelInputs], denoised_full: &[DVec3]) -> Vec<f64> {
+    assert_eq!(
+        pixels.len(),
+        denoised_full.len(),
+        "images of different sizes"
+    );
+    pixels
+        .iter()
+        .zip(denoised_full)
+        .map(|(p, d)| estimated_rel_mse_term(*d, pixel_squared_error(p)))
+        .collect()
+}
+
+/// The frame's estimated relative error of `D(F)`: the square root of the mean of
+/// [`relative_squared_errors`] (clamped at 0 before the root), as the film's
+/// `estimatedRelativeError` is of its own.
+pub fn frame_relative_error(pixels: &[PixelInputs], denoised_full: &[DVec3]) -> f64 {
+    let terms = relative_squared_errors(pixels, denoised_full);
+    let mean = terms.iter().sum::<f64>() / terms.len().max(1) as f64;
+    mean.max(0.0).sqrt()
+}
+
+/// The mean of `values` (row-major, `width` wide) over each pixel's square of side
+/// `2 radius + 1`, cut at the image's edges: a smoothed map of per-pixel estimates.
+pub fn box_mean(values: &[f64], width: usize, radius: usize) -> Vec<f64> {
+    let height = values.len() / width.max(1);
+    // A summed-area table: s[y][x] is the sum over rows < y and columns < x.
+    let mut sums = vec![0.0; (width + 1) * (height + 1)];
+    for y in 0..height {
+        let mut row = 0.0;
+        for x in 0..width {
+            row += values[y * width + x];
+            sums[(y + 1) * (width + 1) + x + 1] = sums[y * (width + 1) + x + 1] + row;
+        }
+    }
+    let at = |x: usize, y: usize| sums[y * (width + 1) + x];
+    let mut out = Vec::with_capacity(values.len());
+    for y in 0..height {
+        let (y0, y1) = (y.saturating_sub(radius), (y + radius + 1).min(height));
+        for x in 0..width {
+            let (x0, x1) = (x.saturating_sub(radius), (x + radius + 1).min(width));
+            let sum = at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0);
+            out.push(sum / ((x1 - x0) * (y1 - y0)) as f64);
+        }
+    }
+    out
+}
+
+/// The mean of `values` (row-major, `width` wide) over each `tile` x `tile` square, the
+/// tiles row-major (those at the right and bottom edges cut short).
+pub fn tile_means(values: &[f64], width: usize, tile: usize) -> Vec<f64> {
+    let height = values.len() / width.max(1);
+    let (tiles_x, tiles_y) = (width.div_ceil(tile), height.div_ceil(tile));
+    let mut sums = vec![(0.0, 0usize); tiles_x * tiles_y];
+    for (i, v) in values.iter().enumerate() {
+        let (x, y) = (i % width, i / width);
+        let s = &mut sums[(y / tile) * tiles_x + x / tile];
+        s.0 += v;
+        s.1 += 1;
+    }
+    sums.into_iter().map(|(s, n)| s / n as f64).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pixel(a: f64, b: f64, samples: u32, var: f64, da: f64, db: f64) -> PixelInputs {
+        PixelInputs {
+            a: DVec3::splat(a),
+            b: DVec3::splat(b),
+            samples,
+            variance_of_mean: DVec3::splat(var),
+            denoised_a: DVec3::splat(da),
+            denoised_b: DVec3::splat(db),
+        }
+    }
+
+    #[test]
+    fn a_pixel_s_estimate_follows_the_formula() {
+        // n = 4 (2 and 2): var(a) = var(b) = 2 v = 0.02. (D(a) - b)^2 = 0.09,
+        // (D(b) - a)^2 = 0.01, (D(a) - D(b))^2 = 0.04:
+        // (0.09 - 0.02 + 0.01 - 0.02) / 2 - 0.04 / 4 = 0.03 - 0.01 = 0.02.
+        let p = pixel(1.0, 1.2, 4, 0.01, 0.9, 1.1);
+        assert!(
+            (pixel_squared_error(&p) - DVec3::splat(0.02))
+                .abs()
+                .max_element()
+                < 1e-12
+        );
+        // n = 3 (a: 2 samples, b: 1): var(a) = 1.5 v, var(b) = 3 v.
+        let p = pixel(1.0, 1.0, 3, 0.02, 1.0, 1.0);
+        assert!(
+            (pixel_squared_error(&p) + DVec3::splat(0.045))
+                .abs()
+                .max_element()
+                < 1e-12
+        );
+        assert_eq!(
+            pixel_squared_error(&pixel(1.0, 1.0, 1, 0.0, 1.0, 1.0)),
+            DVec3::INFINITY
+        );
+    }
+
+    #[test]
+    fn the_relative_figure_uses_the_metrics_definition() {
+        // Squared error 0.02 everywhere; D(F) = 0.99: each term 0.02 / 1 = 0.02.
+        let p = pixel(1.0, 1.2, 4, 0.01, 0.9, 1.1);
+        let d = [DVec3::splat(0.99); 6];
+        assert!((frame_relative_error(&[p; 6], &d) - 0.02f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn box_and_tile_means_agree_with_direct_sums() {
+        let (w, h) = (7, 5);
+        let values: Vec<f64> = (0..w * h).map(|i| ((i * 37) % 11) as f64).collect();
+        let boxed = box_mean(&values, w, 1);
+        for y in 0..h {
+            for x in 0..w {
+                let (mut s, mut n) = (0.0, 0.0);
+                for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                    for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                        s += values[ny * w + nx];
+                        n += 1.0;
+                    }
+                }
+                assert!((boxed[y * w + x] - s / n).abs() < 1e-12);
+            }
+        }
+        let tiles = tile_means(&values, w, 4);
+        assert_eq!(tiles.len(), 4);
+        // The bottom-right tile: x 4..7, y 4..5.
+        let direct = (4..7).map(|x| values[4 * w + x]).sum::<f64>() / 3.0;
+        assert!((tiles[3] - direct).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,131 @@
+//! Test images with a known truth: a true image, two replicates with seeded Gaussian noise of
+//! known variance, and guides. For the denoiser's and the estimate's tests.
+
+use crate::rng::Pcg32;
+use glam::DVec3;
+
+/// A synthetic frame: the truth and what a film would hold for it.
+pub struct Frame {
+    pub width: usize,
+    pub height: usize,
+    pub truth: Vec<DVec3>,
+    /// The replicates' means (`a`: even samples, `b`: odd).
+    pub a: Vec<DVec3>,
+    pub b: Vec<DVec3>,
+    /// Samples per pixel (half in each replicate).
+    pub samples: u32,
+    pub albedo: Vec<f32>,
+    pub normal: Vec<f32>,
+}
+
+/// A smooth image: slow waves between about 0.1 and 0.7.
+pub fn smooth(x: usize, y: usize) -> DVec3 {
+    let (u, v) = (x as f64 / 64.0, y as f64 / 48.0);
+    let w = (std::f64::consts::TAU * u).sin() * (std::f64::consts::TAU * v).cos();
+    DVec3::new(0.4 + 0.3 * w, 0.35 + 0.2 * w, 0.3 - 0.15 * w)
+}
+
+/// An image with edges: a checkerboard of 16-pixel squares (0.1 and 0.8) and a bright disk
+/// (2.0, beyond 1 as HDR radiance is).
+pub fn edges(x: usize, y: usize) -> DVec3 {
+    let (dx, dy) = (x as f64 - 80.0, y as f64 - 48.0);
+    if dx * dx + dy * dy < 20.0 * 20.0 {
+        return DVec3::new(2.0, 1.8, 1.2);
+    }
+    if (x / 16 + y / 16).is_multiple_of(2) {
+        DVec3::new(0.8, 0.7, 0.6)
+    } else {
+        DVec3::new(0.1, 0.12, 0.15)
+    }
+}
+
+/// A standard normal number (Box-Muller).
+fn gaussian(rng: &mut Pcg32) -> f64 {
+    let u1 = 1.0 - rng.next_f64(); // in (0, 1]
+    let u2 = rng.next_f64();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A `width` x `height` frame of `truth` whose replicates each carry Gaussian noise of
+/// standard deviation `noise * truth` per channel (noise growing with brightness, as a path
+/// tracer's), from `seed`. The guides: the truth's shape as albedo (scaled into [0, 1]) when
+/// `albedo_shows_truth`, else a flat 0.5 that tells the denoiser nothing; the normal faces the
+/// camera everywhere.
+pub fn frame(
+    width: usize,
+    height: usize,
+    truth_at: fn(usize, usize) -> DVec3,
+    noise: f64,
+    albedo_shows_truth: bool,
+    seed: u64,
+) -> Frame {
+    let mut rng = Pcg32::new(seed, 7);
+    let truth: Vec<DVec3> = (0..width * height)
+        .map(|i| truth_at(i % width, i / width))
+        .collect();
+    let mut noisy = |t: DVec3| {
+        t + DVec3::new(gaussian(&mut rng), gaussian(&mut rng), gaussian(&mut rng)) * t * noise
+    };
+    let a: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
+    let b: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
+    let albedo = truth
+        .iter()
+        .flat_map(|t| {
+            let v = if albedo_shows_truth {
+                (*t / 2.0).min(DVec3::ONE)
+            } else {
+                DVec3::splat(0.5)
+            };
+            [v.x as f32, v.y as f32, v.z as f32]
+        })
+        .collect();
+    let normal = (0..width * height).flat_map(|_| [0.0, 0.0, 1.0]).collect();
+    Frame {
+        width,
+        height,
+        truth,
+        a,
+        b,
+        samples: 16,
+        albedo,
+        normal,
+    }
+}
+
+impl Frame {
+    /// The full frame's means: the replicates' mean (equal halves).
+    pub fn full(&self) -> Vec<DVec3> {
+        self.a
+            .iter()
+            .zip(&self.b)
+            .map(|(a, b)| (*a + *b) * 0.5)
+            .collect()
+    }
+
+    /// The film's estimated variance of the full mean, as `film::Pixel` forms it from the
+    /// replicates' difference: `(a - b)^2 / ((1/n_a + 1/n_b) n)`.
+    pub fn variances(&self) -> Vec<DVec3> {
+        let n = self.samples as f64;
+        let half = n / 2.0;
+        self.a
+            .iter()
+            .zip(&self.b)
+            .map(|(a, b)| (*a - *b) * (*a - *b) / ((2.0 / half) * n))
+            .collect()
+    }
+}
+
+/// Interleaved `f32` RGB.
+pub fn to_f32(image: &[DVec3]) -> Vec<f32> {
+    image
+        .iter()
+        .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
+        .collect()
+}
+
+/// Back from interleaved `f32` RGB.
+pub fn from_f32(rgb: &[f32]) -> Vec<DVec3> {
+    rgb.chunks_exact(3)
+        .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+        .collect()
+}
