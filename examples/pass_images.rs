@@ -60,6 +60,7 @@ fn main() -> ExitCode {
         sampler: scene.render.sampler.name().to_string(),
         rolling_shutter_readout: None,
         shutter_curve: None,
+        denoiser: None,
         extra: Vec::new(),
     };
     // The encoder applies the sRGB curve to linear values; these pictures are display values,

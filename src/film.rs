@@ -64,6 +64,16 @@ impl Pixel {
         }
     }
 
+    /// The means of the two replicates: `a` of the even samples, `b` of the odd ones (black
+    /// where a replicate has no sample).
+    pub fn replicate_means(&self) -> (DVec3, DVec3) {
+        let n_b = self.taken / 2;
+        let n_a = self.taken - n_b;
+        let odd = DVec3::new(self.odd[0] as f64, self.odd[1] as f64, self.odd[2] as f64);
+        let mean = |sum: DVec3, n: u32| if n == 0 { DVec3::ZERO } else { sum / n as f64 };
+        (mean(self.sum - odd, n_a), mean(odd, n_b))
+    }
+
     /// The mean as written: `f32` RGB, black if a component is not finite as an `f32` (NaN,
     /// infinite, or beyond `f32::MAX`, which the conversion rounds to infinity).
     pub fn rgb_f32(&self) -> [f32; 3] {

@@ -32,6 +32,13 @@ pub fn write_frame(
         info.extra
             .push(("estimatedRelativeError".to_string(), st.relative_error));
     }
+    if result.denoised.is_some() {
+        info.denoiser = Some(DENOISER.to_string());
+        if st.noisy_relative_error.is_finite() {
+            info.extra
+                .push(("noisyRelativeError".to_string(), st.noisy_relative_error));
+        }
+    }
     if let Some(t) = budget.noise_threshold {
         info.extra.push(("noiseThreshold".to_string(), t));
     }
@@ -45,15 +52,20 @@ pub fn write_frame(
             .push(("meanSamples".to_string(), st.mean_samples_per_pixel));
     }
     let passes = result.pass_images();
+    let colour = result.denoised.as_ref().map(|d| &d.rgb[..]);
     write_film(
         path,
         format,
         &result.film,
+        colour,
         passes.as_ref(),
         scene.transparent,
         info,
     )
 }
+
+/// How a denoised frame's file names its denoiser (the `denoiser` attribute).
+pub const DENOISER: &str = "Intel Open Image Denoise 2.5 RT filter, HDR, albedo and normal guides";
 
 /// The attributes of `result`, a frame of `scene`, rendered with `samples` per pixel.
 fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {
@@ -67,18 +79,22 @@ fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {
         sampler: scene.render.sampler.name().to_string(),
         rolling_shutter_readout: scene.shot.rolling.map(|r| r.readout),
         shutter_curve: (scene.shot.curve != ShutterCurve::Box).then(|| scene.shot.curve.describe()),
+        denoiser: None,
         extra: Vec::new(),
     }
 }
 
 /// Writes `film` (with `passes`, the colour premultiplied by their alpha when
-/// `premultiplied`) to `path` with the attributes `info`. A pixel that is not finite as an
-/// `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written black; their number is
-/// returned and, when not 0, recorded in the file as `nonFinitePixels`.
+/// `premultiplied`) to `path` with the attributes `info`; the colour is `colour` (interleaved
+/// RGB, row-major: the denoised frame) when given, else the film's means. A pixel of the film
+/// that is not finite as an `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written
+/// black; their number is returned and, when not 0, recorded in the file as
+/// `nonFinitePixels`.
 fn write_film(
     path: &Path,
     format: Format,
     film: &Film,
+    colour: Option<&[f32]>,
     passes: Option<&PassImages>,
     premultiplied: bool,
     mut info: FrameInfo,
@@ -89,7 +105,10 @@ fn write_film(
             .push(("nonFinitePixels".to_string(), non_finite as f64));
     }
     let width = film.width as usize;
-    let rgb = |i: usize| film.rgb_f32((i % width) as u32, (i / width) as u32);
+    let rgb = |i: usize| match colour {
+        Some(c) => [c[3 * i], c[3 * i + 1], c[3 * i + 2]],
+        None => film.rgb_f32((i % width) as u32, (i / width) as u32),
+    };
     let image = Image {
         width: film.width,
         height: film.height,
@@ -107,6 +126,7 @@ mod tests {
 
     use super::*;
     use crate::pass::PassSet;
+    use crate::passes::Layout;
     use crate::renderer::FrameStats;
 
     #[test]
@@ -125,7 +145,8 @@ mod tests {
             frame: 1,
             interval: scene.shot.interval(1),
             film,
-            passes: PassSet::EMPTY,
+            layout: Layout::new(PassSet::EMPTY),
+            denoised: None,
             stats: FrameStats::default(),
         };
         let written = write_frame(&path, Format::Exr, &scene, &result, &Budget::default());

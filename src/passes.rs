@@ -28,7 +28,8 @@ use crate::sphere::SphereDesc;
 /// Where each requested pass keeps its per-pixel sums in a pixel's run of `stride` numbers.
 /// Only the requested passes have sums: the hit count (alpha, depth, normal and motion divide
 /// by it), the depth, the normal (3), the albedo (3) and the motion (4). Variance comes from
-/// the colour's own accumulator and needs none.
+/// the colour's own accumulator and needs none. A denoised frame also keeps the denoiser's
+/// guides per replicate ([`Layout::with_guides`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     passes: PassSet,
@@ -39,13 +40,41 @@ pub struct Layout {
     normal: usize,
     albedo: usize,
     motion: usize,
+    /// Where the denoiser's guides start, if kept: for the even samples (replicate `a`), then
+    /// the odd ones (`b`), the sums of the albedo (3) and of the normal (3) over every sample
+    /// (a miss adds the background's radiance as albedo and no normal). Per replicate, so that
+    /// a denoised replicate's guides carry none of the other's samples (see
+    /// `denoise::estimate`).
+    guides: Option<usize>,
     /// Numbers per pixel.
     pub stride: usize,
 }
 
+/// Numbers of the guides' sums per pixel: albedo and normal, for each replicate.
+const GUIDE_SUMS: usize = 12;
+
 impl Layout {
     /// The sums `passes` need.
     pub fn new(passes: PassSet) -> Layout {
+        Layout::build(passes, false)
+    }
+
+    /// The sums `passes` need and the denoiser's guides.
+    pub fn with_guides(passes: PassSet) -> Layout {
+        Layout::build(passes, true)
+    }
+
+    /// The passes written.
+    pub fn passes(&self) -> PassSet {
+        self.passes
+    }
+
+    /// Where the guides' sums start, if they are kept.
+    pub fn guides(&self) -> Option<usize> {
+        self.guides
+    }
+
+    fn build(passes: PassSet, guides: bool) -> Layout {
         let mut stride = 0;
         let mut slot = |used: bool, n: usize| {
             let at = stride;
@@ -60,6 +89,7 @@ impl Layout {
         let normal = slot(passes.contains(Pass::Normal), 3);
         let albedo = slot(passes.contains(Pass::Albedo), 3);
         let motion = slot(passes.contains(Pass::Motion), 4);
+        let guides = guides.then(|| slot(true, GUIDE_SUMS));
         Layout {
             passes,
             counts_hits,
@@ -68,6 +98,7 @@ impl Layout {
             normal,
             albedo,
             motion,
+            guides,
             stride,
         }
     }
@@ -93,7 +124,7 @@ impl<'a> PassContext<'a> {
     /// The context of a frame of `width` x `height` pixels of a shot at `fps` frames per
     /// second, for `passes`.
     pub fn new(
-        passes: PassSet,
+        layout: Layout,
         spheres: &'a [SphereDesc],
         background: Background,
         camera: &'a CameraRig,
@@ -103,7 +134,7 @@ impl<'a> PassContext<'a> {
     ) -> PassContext<'a> {
         let animated = camera.look_from.is_animated() || camera.look_at.is_animated();
         PassContext {
-            layout: Layout::new(passes),
+            layout,
             spheres,
             background,
             camera,
@@ -124,11 +155,27 @@ impl<'a> PassContext<'a> {
 
     /// Adds one sample to a pixel's sums `slots` (its run of [`Layout::stride`] numbers): the
     /// camera `ray`, seen through `view` (the camera at the ray's time), and the ray's first
-    /// `hit` (`None`: it missed every sphere, or was not traced).
+    /// `hit` (`None`: it missed every sphere, or was not traced); `odd`: whether the sample's
+    /// index is odd (its replicate, for the guides).
     #[inline]
-    pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>) {
+    pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>, odd: bool) {
         let l = &self.layout;
         let passes = l.passes;
+        if let Some(at) = l.guides {
+            let g = &mut slots[at + if odd { 6 } else { 0 }..];
+            match hit {
+                Some(hit) => {
+                    add3(g, albedo(&hit.material));
+                    add3(&mut g[3..], hit.surface.normal);
+                }
+                None => {
+                    let b = self.background.radiance(ray.dir);
+                    if b.is_finite() {
+                        add3(g, b);
+                    }
+                }
+            }
+        }
         let Some(hit) = hit else {
             if passes.contains(Pass::Albedo) {
                 let b = self.background.radiance(ray.dir);
@@ -241,10 +288,10 @@ impl PassImages {
         }
     }
 
-    /// The images of `passes` from a finished film: its pass sums (laid out by
-    /// [`Layout::new`] of the same passes), its pixels' sample counts and their variances.
-    pub fn from_film(passes: PassSet, film: &Film) -> PassImages {
-        let layout = Layout::new(passes);
+    /// The images of the passes of `layout` from a finished film: its pass sums (laid out by
+    /// `layout`), its pixels' sample counts, means and variances.
+    pub fn from_film(layout: &Layout, film: &Film) -> PassImages {
+        let passes = layout.passes;
         let stride = layout.stride;
         assert_eq!(
             film.pass_stride(),
@@ -255,7 +302,7 @@ impl PassImages {
         for (rect, pixels, sums) in film.tiles_with_pass_sums() {
             for (i, pixel) in pixels.iter().enumerate() {
                 let (x, y) = rect.position(i);
-                images.set(&layout, x, y, &sums[i * stride..(i + 1) * stride], pixel);
+                images.set(layout, x, y, &sums[i * stride..(i + 1) * stride], pixel);
             }
         }
         images

@@ -10,11 +10,12 @@ use super::interrupt;
 use super::jobs::{Job, Targets, load_shots};
 use super::progress::Progress;
 use crate::clip;
+use crate::denoise::denoiser::Denoiser;
 use crate::error::{Error, elide_path};
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
-use crate::renderer::{FrameStats, render_frame};
+use crate::renderer::{FrameResult, FrameStats, render_frame, render_frame_denoised};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
@@ -74,9 +75,21 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let progress = Progress::new(total, args.scene_args.quiet);
     interrupt::frames_selected(total);
     let mut run = RunSummary::default();
+    // The denoiser is started once, before any frame is rendered: if it cannot start, nothing
+    // is written.
+    let denoiser = match shots.iter().any(|s| s.scene.output.denoise) {
+        true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
+        false => None,
+    };
     // A shot the run's chunk does not reach is not started (its static geometry not built).
     for shot in shots.iter().filter(|s| s.targets.frames.len() > 0) {
-        let summary = render_shot(&shot.scene, &shot.targets, args, &progress)?;
+        let summary = render_shot(
+            &shot.scene,
+            &shot.targets,
+            args,
+            denoiser.as_ref(),
+            &progress,
+        )?;
         if shots.len() > 1 {
             progress.line(&format!(
                 "{}: {}",
@@ -150,6 +163,7 @@ fn render_shot(
     scene: &Scene,
     targets: &Targets,
     args: &RenderArgs,
+    denoiser: Option<&Denoiser>,
     progress: &Progress,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
@@ -184,8 +198,14 @@ fn render_shot(
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
-        let result = render_frame(scene, &statics, frame, &budget, &|n| bar.inc(n));
+        let result = match denoiser.filter(|_| scene.output.denoise) {
+            Some(d) => render_frame_denoised(scene, &statics, frame, &budget, d, &|n| bar.inc(n)),
+            None => Ok(render_frame(scene, &statics, frame, &budget, &|n| {
+                bar.inc(n)
+            })),
+        };
         bar.finish_and_clear();
+        let result = result?;
         let st = &result.stats;
         let non_finite = output::write_frame(&path, scene.output.format, scene, &result, &budget)?;
         let seconds = st.prepare_seconds + st.render_seconds;
@@ -197,7 +217,7 @@ fn render_shot(
         progress.line(&format!(
             "frame {frame}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
             spp_note(st),
-            percent(st.relative_error),
+            error_note(&result),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
             st.non_finite,
             non_finite_note(non_finite),
@@ -233,6 +253,20 @@ fn spp_note(st: &FrameStats) -> String {
     }
 }
 
+/// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
+/// (3.456% before)`.
+fn error_note(result: &FrameResult) -> String {
+    let st = &result.stats;
+    match result.denoised {
+        Some(_) => format!(
+            "{} denoised ({} before)",
+            percent(st.relative_error),
+            percent(st.noisy_relative_error)
+        ),
+        None => percent(st.relative_error),
+    }
+}
+
 /// The frame line's note of pixels written as black because they were not finite, if any.
 fn non_finite_note(pixels: u64) -> String {
     if pixels == 0 {
@@ -255,11 +289,16 @@ fn percent(relative_error: f64) -> String {
 fn stats_line(frame: u32, st: &FrameStats) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
+    let denoise = if st.denoise_seconds > 0.0 {
+        format!(" (denoising {:.3} s)", st.denoise_seconds)
+    } else {
+        String::new()
+    };
     // The share of the render time the worker threads spent in tiles: what is missing is
     // time a core sat idle (waiting for the last tile) or spent scheduling.
     let busy = st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64);
     format!(
-        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,

@@ -30,6 +30,8 @@ pub struct FrameInfo {
     pub rolling_shutter_readout: Option<f64>,
     /// The shutter curve as the scene writes it, unless a box.
     pub shutter_curve: Option<String>,
+    /// The denoiser that made the colour, if it is denoised.
+    pub denoiser: Option<String>,
     /// Further numeric attributes, stored as doubles under their names. A name must be 1 to
     /// 255 printable Latin-1 characters, must be unique, and must not be one of the names
     /// above nor a standard OpenEXR attribute name.
@@ -54,6 +56,8 @@ pub mod attribute_names {
     pub const ROLLING_SHUTTER_READOUT: &str = "rollingShutterReadout";
     /// The shutter curve, as text (only when not a box).
     pub const SHUTTER_CURVE: &str = "shutterCurve";
+    /// The denoiser that made the colour, as text (only for a denoised frame).
+    pub const DENOISER: &str = "denoiser";
     /// All of the above.
     pub const ALL: &[&str] = &[
         FRAME,
@@ -64,6 +68,7 @@ pub mod attribute_names {
         SAMPLER,
         ROLLING_SHUTTER_READOUT,
         SHUTTER_CURVE,
+        DENOISER,
     ];
 }
 
@@ -191,6 +196,15 @@ pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAtt
             AttributeValue::Text(
                 Text::new_or_none(curve)
                     .ok_or_else(|| format!("shutter curve \"{curve}\" is not Latin-1"))?,
+            ),
+        );
+    }
+    if let Some(denoiser) = &info.denoiser {
+        other.insert(
+            Text::from(attribute_names::DENOISER),
+            AttributeValue::Text(
+                Text::new_or_none(denoiser)
+                    .ok_or_else(|| format!("denoiser \"{denoiser}\" is not Latin-1"))?,
             ),
         );
     }

@@ -23,6 +23,7 @@ fn info() -> FrameInfo {
         sampler: "sobol".to_string(),
         rolling_shutter_readout: None,
         shutter_curve: None,
+        denoiser: None,
         extra: vec![
             ("achievedSamples".to_string(), 211.5),
             ("error".to_string(), 0.0125),

@@ -9,21 +9,46 @@ use crate::film::{Film, Pixel, TileRect};
 
 /// What a round does: which samples each pixel takes.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum Plan {
+pub(super) enum Plan<'w> {
     /// Every pixel takes samples up to this count.
     Uniform(u32),
-    /// Pixels chosen by [`Adaptive::target`] double their samples.
-    Adaptive(Adaptive),
+    /// Pixels chosen by [`Adaptive::target`] double their samples, weighed by `Weights`.
+    Adaptive(Adaptive, Weights<'w>),
 }
 
-impl Plan {
+/// What weighs a pixel in an adaptive round: its estimated relative variance per sample.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Weights<'w> {
+    /// The raw frame's, from the film ([`smoothed_variances`]).
+    Raw,
+    /// The denoised frame's, row-major, `width` pixels a row (see
+    /// `Denoised::weights`): samples go where the denoised frame is still wrong.
+    Denoised { width: u32, values: &'w [f64] },
+}
+
+impl Weights<'_> {
+    /// The weights of the tile `pixels` at `rect`, in the tile's order.
+    fn of_tile(&self, rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
+        match *self {
+            Weights::Raw => smoothed_variances(rect, pixels),
+            Weights::Denoised { width, values } => (0..pixels.len())
+                .map(|i| {
+                    let (x, y) = rect.position(i);
+                    values[y as usize * width as usize + x as usize]
+                })
+                .collect(),
+        }
+    }
+}
+
+impl Plan<'_> {
     /// The sample count pixel `i` of the tile `pixels` (at `rect`) goes to in this round.
     pub(super) fn targets(&self, rect: &TileRect, pixels: &[Pixel], out: &mut Vec<u32>) {
         out.clear();
         match self {
             Plan::Uniform(n) => out.extend(pixels.iter().map(|p| p.taken().max(*n))),
-            Plan::Adaptive(a) => {
-                let weights = smoothed_variances(rect, pixels);
+            Plan::Adaptive(a, w) => {
+                let weights = w.of_tile(rect, pixels);
                 out.extend(
                     pixels
                         .iter()
@@ -118,12 +143,12 @@ struct FilmSums {
 
 /// [`FilmSums`] of `film`, tile by tile in parallel and summed in the tiles' order (so the
 /// same bits on any thread count).
-fn film_sums(film: &Film) -> FilmSums {
+fn film_sums(film: &Film, weights: &Weights) -> FilmSums {
     let per_tile: Vec<(f64, f64)> = film
         .tiles()
         .into_par_iter()
         .map(|(rect, pixels)| {
-            let v = smoothed_variances(&rect, pixels);
+            let v = weights.of_tile(&rect, pixels);
             let sqrt_v = v.iter().map(|v| v.sqrt()).sum::<f64>();
             let samples = pixels.iter().map(|p| p.taken() as f64).sum::<f64>();
             (sqrt_v, samples)
@@ -137,13 +162,13 @@ fn film_sums(film: &Film) -> FilmSums {
 }
 
 /// The samples an adaptive round `a` would take, by priority bucket (summed in tile order).
-fn round_cost_by_bucket(film: &Film, a: &Adaptive) -> Vec<f64> {
+fn round_cost_by_bucket(film: &Film, a: &Adaptive, weights: &Weights) -> Vec<f64> {
     let per_tile: Vec<Vec<f64>> = film
         .tiles()
         .into_par_iter()
         .map(|(rect, pixels)| {
             let mut cost = vec![0.0; PRIORITY_BUCKETS];
-            let v = smoothed_variances(&rect, pixels);
+            let v = weights.of_tile(&rect, pixels);
             for (p, v) in pixels.iter().zip(v) {
                 let gain = a.target(p.taken(), v) - p.taken();
                 if gain > 0 {
@@ -166,11 +191,12 @@ fn round_cost_by_bucket(film: &Film, a: &Adaptive) -> Vec<f64> {
 /// one pixel's sample took in the last round, `elapsed` the frame's time so far.
 pub(super) fn plan_adaptive(
     film: &Film,
+    weights: &Weights,
     budget: &Budget,
     elapsed: f64,
     seconds_per_sample: f64,
 ) -> Result<Adaptive, StopReason> {
-    let sums = film_sums(film);
+    let sums = film_sums(film, weights);
     let left = budget.time_limit.map(|t| t - elapsed);
     let scale = match (budget.noise_threshold, left) {
         (Some(t), _) => sums.sqrt_v / (sums.pixels * t * t),
@@ -183,12 +209,12 @@ pub(super) fn plan_adaptive(
         min_bucket: 0,
         max_samples,
     };
-    let mut cost = round_cost_by_bucket(film, &plan);
+    let mut cost = round_cost_by_bucket(film, &plan, weights);
     if cost.iter().all(|&c| c == 0.0) {
         // Every pixel is at its target, yet the frame's estimate is above the threshold (the
         // estimates moved with the last samples): every pixel takes the round.
         plan.scale = f64::INFINITY;
-        cost = round_cost_by_bucket(film, &plan);
+        cost = round_cost_by_bucket(film, &plan, weights);
         if cost.iter().all(|&c| c == 0.0) {
             return Err(StopReason::MaxSamples);
         }

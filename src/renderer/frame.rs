@@ -3,12 +3,14 @@
 
 use std::time::Instant;
 
-use super::adaptive::{Plan, plan_adaptive};
+use super::adaptive::{Plan, Weights, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
+use super::denoised::{self, Denoised};
 use super::tiles::{FrameRequest, FrameSetup};
+use crate::denoise::denoiser::{DenoiseError, Denoiser};
+use crate::error::Error;
 use crate::film::{Film, Pixel};
-use crate::pass::PassSet;
-use crate::passes::{PassContext, PassImages};
+use crate::passes::{Layout, PassContext, PassImages};
 use crate::scene::Scene;
 use crate::shutter::Interval;
 use crate::world::{StaticGeometry, World};
@@ -44,8 +46,14 @@ pub struct FrameStats {
     pub moving_spheres: usize,
     /// The relative error estimated from the pixels' replicates ([`relative_error`]): the
     /// square root of the estimated relative mean squared error. Infinite with fewer than two
-    /// samples per pixel.
+    /// samples per pixel. Of the denoised frame, bias included, when the frame is denoised.
     pub relative_error: f64,
+    /// The raw (noisy) frame's estimated relative error: [`relative_error`](Self::relative_error)
+    /// before denoising.
+    pub noisy_relative_error: f64,
+    /// Seconds spent denoising (every run of the denoiser, estimates included), within
+    /// [`render_seconds`](Self::render_seconds).
+    pub denoise_seconds: f64,
 }
 
 /// A rendered frame.
@@ -57,17 +65,19 @@ pub struct FrameResult {
     /// file records as its shutter's opening and closing.
     pub interval: Interval,
     /// The pixels' sums (their means, sample counts and estimated errors), and the sums of
-    /// the scene's `[output] passes`, if it asks for any.
+    /// the scene's `[output] passes`, if it asks for any, and of the denoiser's guides.
     pub film: Film,
-    /// The passes the film keeps sums of (empty: none).
-    pub passes: PassSet,
+    /// Where the film keeps which pass sums.
+    pub layout: Layout,
+    /// The denoised frame, when the scene asks for denoising.
+    pub denoised: Option<Denoised>,
     pub stats: FrameStats,
 }
 
 impl FrameResult {
     /// The images of the frame's passes, made from the film's sums, if it has any.
     pub fn pass_images(&self) -> Option<PassImages> {
-        (!self.passes.is_empty()).then(|| PassImages::from_film(self.passes, &self.film))
+        (!self.layout.passes().is_empty()).then(|| PassImages::from_film(&self.layout, &self.film))
     }
 }
 
@@ -85,6 +95,8 @@ impl FrameResult {
 /// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
 /// plain sum of its samples over their count: a pixel that stopped at N samples is
 /// bit-identical to the same pixel rendered with exactly N samples.
+///
+/// The frame is not denoised, whatever `[output] denoise` says: see [`render_frame_denoised`].
 pub fn render_frame(
     scene: &Scene,
     statics: &StaticGeometry,
@@ -92,6 +104,37 @@ pub fn render_frame(
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
+    match render(scene, statics, frame, budget, None, progress) {
+        Ok(result) => result,
+        Err(_) => unreachable!("a frame without a denoiser has no denoising error"),
+    }
+}
+
+/// [`render_frame`], and the frame denoised by `denoiser` ([`FrameResult::denoised`]) with its
+/// estimated error, bias included, as the frame's [`FrameStats::relative_error`]. Under a
+/// noise threshold, sampling stops when the *denoised* estimate meets it, and the adaptive
+/// rounds send samples where the denoised frame's estimated error is largest. The raw film
+/// and its passes are the same bits as [`render_frame`]'s at the same sample counts.
+pub fn render_frame_denoised(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    frame: u32,
+    budget: &Budget,
+    denoiser: &Denoiser,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<FrameResult, Error> {
+    render(scene, statics, frame, budget, Some(denoiser), progress)
+        .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
+}
+
+fn render(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    frame: u32,
+    budget: &Budget,
+    denoiser: Option<&Denoiser>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<FrameResult, DenoiseError> {
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
@@ -99,9 +142,13 @@ pub fn render_frame(
     let world = World::prepare(scene, statics, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
-    let passes = (!scene.output.passes.is_empty()).then(|| {
+    let layout = match denoiser {
+        Some(_) => Layout::with_guides(scene.output.passes),
+        None => Layout::new(scene.output.passes),
+    };
+    let passes = (layout.stride > 0).then(|| {
         PassContext::new(
-            scene.output.passes,
+            layout,
             &scene.spheres,
             scene.background,
             &scene.camera,
@@ -144,6 +191,9 @@ pub fn render_frame(
     let mut seconds_per_sample = None;
     let mut seconds_per_pixel_sample = f64::INFINITY;
     let warm_up = MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX));
+    // The denoised frame of the last round, when it was denoised to decide.
+    let mut denoised: Option<Denoised> = None;
+    let mut weights: Vec<f64>;
     loop {
         let plan = if !budget.is_set() {
             if done >= req.samples {
@@ -164,13 +214,24 @@ pub fn render_frame(
                 }
             }
         } else {
+            let w = match &denoised {
+                Some(d) => {
+                    weights = d.weights(&film);
+                    Weights::Denoised {
+                        width: film.width,
+                        values: &weights,
+                    }
+                }
+                None => Weights::Raw,
+            };
             match plan_adaptive(
                 &film,
+                &w,
                 budget,
                 frame_start.elapsed().as_secs_f64(),
                 seconds_per_pixel_sample,
             ) {
-                Ok(a) => Plan::Adaptive(a),
+                Ok(a) => Plan::Adaptive(a, w),
                 Err(reason) => {
                     stats.stop = reason;
                     break;
@@ -192,28 +253,57 @@ pub fn render_frame(
         stats.non_finite += counts.non_finite;
         stats.tile_seconds += counts.seconds;
         stats.rounds += 1;
+        denoised = None;
         if let Some(threshold) = budget.noise_threshold
             && done >= warm_up
-            && relative_error(&film) <= threshold
         {
-            stats.stop = StopReason::NoiseThreshold;
-            break;
+            let error = match denoiser {
+                Some(d) => {
+                    let start = Instant::now();
+                    let made = denoised::denoise(&film, &layout, d)?;
+                    stats.denoise_seconds += start.elapsed().as_secs_f64();
+                    let error = made.relative_error;
+                    denoised = Some(made);
+                    error
+                }
+                None => relative_error(&film),
+            };
+            if error <= threshold {
+                stats.stop = StopReason::NoiseThreshold;
+                break;
+            }
         }
     }
 
-    stats.relative_error = relative_error(&film);
+    stats.noisy_relative_error = relative_error(&film);
+    stats.relative_error = stats.noisy_relative_error;
+    if let Some(d) = denoiser {
+        let made = match denoised {
+            // The last round's film, denoised to decide to stop.
+            Some(made) if stats.stop == StopReason::NoiseThreshold => made,
+            _ => {
+                let start = Instant::now();
+                let made = denoised::denoise(&film, &layout, d)?;
+                stats.denoise_seconds += start.elapsed().as_secs_f64();
+                made
+            }
+        };
+        stats.relative_error = made.relative_error;
+        denoised = Some(made);
+    }
     let taken = film.all_pixels().iter().map(Pixel::taken);
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
     stats.min_samples_per_pixel = taken.min().unwrap_or(0);
     stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
     stats.render_seconds = render_start.elapsed().as_secs_f64();
-    FrameResult {
+    Ok(FrameResult {
         frame,
         interval,
         film,
-        passes: scene.output.passes,
+        layout,
+        denoised,
         stats,
-    }
+    })
 }
 
 /// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):

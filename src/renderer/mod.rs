@@ -5,15 +5,18 @@
 //! - [`frame`]: [`render_frame`], the frame's figures and result;
 //! - [`tiles`]: what is fixed before the first sample, and one round over every tile;
 //! - [`budget`]: when to stop, and the uniform rounds' sizes;
-//! - [`adaptive`]: which pixels take more samples in an adaptive round.
+//! - [`adaptive`]: which pixels take more samples in an adaptive round;
+//! - [`denoised`]: a film denoised, and the denoised frame's estimated error.
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
 mod adaptive;
 mod budget;
+mod denoised;
 mod frame;
 mod tiles;
 
 pub use crate::film::TILE;
 pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
-pub use frame::{FrameResult, FrameStats, relative_error, render_frame};
+pub use denoised::Denoised;
+pub use frame::{FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised};

@@ -114,7 +114,7 @@ impl FrameSetup<'_> {
                 };
                 let ray = view.ray(x, y, camera.pixel, camera.lens, time);
                 let v = if observed {
-                    self.observed_sample(ray, &view, sampler, &mut stats, sums)
+                    self.observed_sample(ray, &view, sampler, &mut stats, sums, s % 2 == 1)
                 } else {
                     radiance(&self.world, ray, req.max_depth, sampler, &mut stats)
                 };
@@ -128,7 +128,7 @@ impl FrameSetup<'_> {
     }
 
     /// One camera sample of a frame with passes or a transparent background: its radiance,
-    /// and its passes into the pixel's sums `sums`.
+    /// and its passes into the pixel's sums `sums` (`odd`: the sample's index is odd).
     #[inline(never)]
     fn observed_sample<S: Sampler>(
         &self,
@@ -137,6 +137,7 @@ impl FrameSetup<'_> {
         sampler: &mut S,
         stats: &mut TraceStats,
         sums: &mut [f64],
+        odd: bool,
     ) -> DVec3 {
         let mut first = None;
         let v = camera_radiance(
@@ -149,7 +150,7 @@ impl FrameSetup<'_> {
             |hit| first = hit.copied(),
         );
         if let Some(passes) = &self.passes {
-            passes.record(sums, &ray, view, first.as_ref());
+            passes.record(sums, &ray, view, first.as_ref(), odd);
         }
         v
     }
@@ -158,7 +159,7 @@ impl FrameSetup<'_> {
     pub(super) fn round(
         &self,
         film: &mut Film,
-        plan: &Plan,
+        plan: &Plan<'_>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> TileCounts {
         let req = self.req;

@@ -1,0 +1,186 @@
+//! A film denoised: the full frame and each of its two replicates through the denoiser, each
+//! with guides of its own samples, and from them the denoised frame's estimated error, bias
+//! included (`denoise::estimate`), per pixel and for the frame.
+
+use glam::DVec3;
+
+use crate::denoise::denoiser::{DenoiseError, Denoiser, Guides};
+use crate::denoise::estimate::{self, PixelInputs};
+use crate::film::Film;
+use crate::passes::Layout;
+
+/// Pixels around each pixel (a square of side `2 SMOOTHING + 1`) whose estimated errors are
+/// averaged to steer adaptive sampling: one pixel's estimate is unbiased but very noisy.
+const SMOOTHING: usize = 2;
+
+/// A denoised frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Denoised {
+    /// The denoised colour, interleaved RGB, row-major, top row first (every value finite).
+    pub rgb: Vec<f32>,
+    /// The denoised frame's estimated relative error, bias included (as
+    /// [`FrameStats::relative_error`](super::FrameStats::relative_error) is of a raw frame).
+    pub relative_error: f64,
+    /// Each pixel's estimated relative squared error, row-major: unbiased but noisy, possibly
+    /// negative.
+    pub pixel_errors: Vec<f64>,
+}
+
+impl Denoised {
+    /// Each pixel's estimated relative variance *per sample* of the denoised frame, as the
+    /// adaptive rounds weigh pixels: its error averaged over its neighbourhood (never below
+    /// 0), times its samples (a denoised error taken to fall as one over the samples, as a raw
+    /// one does). Row-major.
+    pub(super) fn weights(&self, film: &Film) -> Vec<f64> {
+        let width = film.width as usize;
+        let smoothed = estimate::box_mean(&self.pixel_errors, width, SMOOTHING);
+        smoothed
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let (x, y) = ((i % width) as u32, (i / width) as u32);
+                let v = e.max(0.0) * film.pixel(x, y).taken() as f64;
+                if v.is_finite() { v } else { f64::MAX }
+            })
+            .collect()
+    }
+}
+
+/// The film's images as the denoiser takes them, row-major: the full frame, the two
+/// replicates, and each one's guides.
+struct Images {
+    full: Vec<f32>,
+    a: Vec<f32>,
+    b: Vec<f32>,
+    albedo: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+    /// The estimate's inputs but for the denoised replicates, filled in later.
+    inputs: Vec<PixelInputs>,
+}
+
+/// `v` as `f32`, black where not finite as an `f32`.
+fn finite_f32(v: DVec3) -> [f32; 3] {
+    let c = [v.x as f32, v.y as f32, v.z as f32];
+    if c.iter().all(|c| c.is_finite()) {
+        c
+    } else {
+        [0.0; 3]
+    }
+}
+
+fn images(film: &Film, guides: usize) -> Images {
+    let n = film.width as usize * film.height as usize;
+    let zeros = || vec![0.0f32; 3 * n];
+    let mut im = Images {
+        full: zeros(),
+        a: zeros(),
+        b: zeros(),
+        albedo: [zeros(), zeros(), zeros()],
+        normal: [zeros(), zeros(), zeros()],
+        inputs: vec![
+            PixelInputs {
+                a: DVec3::ZERO,
+                b: DVec3::ZERO,
+                samples: 0,
+                variance_of_mean: DVec3::ZERO,
+                denoised_a: DVec3::ZERO,
+                denoised_b: DVec3::ZERO,
+            };
+            n
+        ],
+    };
+    let stride = film.pass_stride();
+    for (rect, pixels, sums) in film.tiles_with_pass_sums() {
+        for (k, pixel) in pixels.iter().enumerate() {
+            let (x, y) = rect.position(k);
+            let i = y as usize * film.width as usize + x as usize;
+            let g = &sums[k * stride + guides..k * stride + guides + 12];
+            let taken = pixel.taken();
+            let (n_b, n_a) = ((taken / 2) as f64, (taken - taken / 2) as f64);
+            let over = |s: &[f64], n: f64| {
+                if n > 0.0 {
+                    DVec3::new(s[0], s[1], s[2]) / n
+                } else {
+                    DVec3::ZERO
+                }
+            };
+            let (a, b) = pixel.replicate_means();
+            let at = 3 * i..3 * i + 3;
+            im.full[at.clone()].copy_from_slice(&pixel.rgb_f32());
+            im.a[at.clone()].copy_from_slice(&finite_f32(a));
+            im.b[at.clone()].copy_from_slice(&finite_f32(b));
+            let sum = |j: usize| {
+                let (e, o) = (&g[j..j + 3], &g[6 + j..9 + j]);
+                [e[0] + o[0], e[1] + o[1], e[2] + o[2]]
+            };
+            let all = n_a + n_b;
+            let guide = [
+                (over(&sum(0), all), over(&sum(3), all)),
+                (over(&g[0..3], n_a), over(&g[3..6], n_a)),
+                (over(&g[6..9], n_b), over(&g[9..12], n_b)),
+            ];
+            for (r, (albedo, normal)) in guide.into_iter().enumerate() {
+                im.albedo[r][at.clone()].copy_from_slice(&finite_f32(albedo));
+                im.normal[r][at.clone()].copy_from_slice(&finite_f32(normal));
+            }
+            im.inputs[i] = PixelInputs {
+                a,
+                b,
+                samples: taken,
+                variance_of_mean: pixel.variance_of_mean(),
+                denoised_a: DVec3::ZERO,
+                denoised_b: DVec3::ZERO,
+            };
+        }
+    }
+    im
+}
+
+/// Denoises `film` (whose pass sums are laid out by `layout`, with guides) and estimates the
+/// denoised frame's error.
+pub(super) fn denoise(
+    film: &Film,
+    layout: &Layout,
+    denoiser: &Denoiser,
+) -> Result<Denoised, DenoiseError> {
+    let guides = layout
+        .guides()
+        .expect("a denoised frame keeps the denoiser's guides");
+    let (w, h) = (film.width as usize, film.height as usize);
+    let mut im = images(film, guides);
+    let run = |colour: &[f32], r: usize| {
+        denoiser.denoise(
+            w,
+            h,
+            colour,
+            Guides {
+                albedo: &im.albedo[r],
+                normal: &im.normal[r],
+            },
+        )
+    };
+    let full = run(&im.full, 0)?;
+    let a = run(&im.a, 1)?;
+    let b = run(&im.b, 2)?;
+    let triple =
+        |v: &[f32], i: usize| DVec3::new(v[3 * i] as f64, v[3 * i + 1] as f64, v[3 * i + 2] as f64);
+    for (i, p) in im.inputs.iter_mut().enumerate() {
+        p.denoised_a = triple(&a, i);
+        p.denoised_b = triple(&b, i);
+    }
+    // The estimate divides by the denoised frame, clamped at 0 (a denoiser may undershoot).
+    let denoised_full: Vec<DVec3> = (0..w * h)
+        .map(|i| triple(&full, i).max(DVec3::ZERO))
+        .collect();
+    let pixel_errors = estimate::relative_squared_errors(&im.inputs, &denoised_full);
+    let relative_error = estimate::frame_relative_error(&im.inputs, &denoised_full);
+    let rgb = full
+        .into_iter()
+        .map(|c| if c.is_finite() { c } else { 0.0 })
+        .collect();
+    Ok(Denoised {
+        rgb,
+        relative_error,
+        pixel_errors,
+    })
+}
