@@ -46,9 +46,9 @@ fn gaussian(rng: &mut Pcg32) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-/// A `width` x `height` frame of `truth` whose replicates each carry Gaussian noise of
-/// standard deviation `noise * truth` per channel (noise growing with brightness, as a path
-/// tracer's), from `seed`. The guides: the truth's shape as albedo (scaled into [0, 1]) when
+/// A `width` x `height` frame of `truth` whose replicates each carry noise of standard
+/// deviation `noise * truth` per channel (noise growing with brightness, as a path tracer's):
+/// the truth times seeded log-normal factors. The guides: the truth's shape as albedo (scaled into [0, 1]) when
 /// `albedo_shows_truth`, else a flat 0.5 that tells the denoiser nothing; the normal faces the
 /// camera everywhere.
 pub fn frame(
@@ -63,9 +63,11 @@ pub fn frame(
     let truth: Vec<DVec3> = (0..width * height)
         .map(|i| truth_at(i % width, i / width))
         .collect();
-    let mut noisy = |t: DVec3| {
-        t + DVec3::new(gaussian(&mut rng), gaussian(&mut rng), gaussian(&mut rng)) * t * noise
-    };
+    // Log-normal factors of mean 1 and standard deviation `noise`: exp(s z - s^2 / 2) with
+    // s^2 = ln(1 + noise^2). Non-negative and skewed, as a path tracer's samples.
+    let s2 = (1.0 + noise * noise).ln();
+    let mut factor = || (s2.sqrt() * gaussian(&mut rng) - s2 / 2.0).exp();
+    let mut noisy = |t: DVec3| t * DVec3::new(factor(), factor(), factor());
     let a: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
     let b: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
     let albedo = truth
