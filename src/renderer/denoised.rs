@@ -172,8 +172,8 @@ pub(super) fn denoise(
     let denoised_full: Vec<DVec3> = (0..w * h)
         .map(|i| triple(&full, i).max(DVec3::ZERO))
         .collect();
-    let pixel_errors = estimate::relative_squared_errors(&im.inputs, &denoised_full);
-    let relative_error = estimate::frame_relative_error(&im.inputs, &denoised_full);
+    let pixel_errors = estimate::relative_squared_errors(&im.inputs, &denoised_full, w);
+    let relative_error = estimate::frame_relative_error(&im.inputs, &denoised_full, w);
     let rgb = full
         .into_iter()
         .map(|c| if c.is_finite() { c } else { 0.0 })
