@@ -258,6 +258,10 @@ pub struct ConvergeArgs {
     /// Draw error against time on log-log axes, to a .png or .svg.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// Also measure each render denoised: its true error, its estimated error (bias
+    /// included) and its time with the denoising.
+    #[arg(long)]
+    pub denoise: bool,
     #[command(flatten)]
     pub scene_args: SceneArgs,
 }

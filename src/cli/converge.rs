@@ -17,11 +17,12 @@ use super::args::ConvergeArgs;
 use super::progress::print_line;
 use crate::analysis::fit::log_log_slope;
 use crate::analysis::{metrics, plot};
+use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::format::{FRAME_FORMATS, Format};
 use crate::io;
 use crate::output;
-use crate::renderer::{Budget, FrameResult, render_frame};
+use crate::renderer::{Budget, FrameResult, render_frame, render_frame_denoised};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
@@ -47,6 +48,20 @@ pub(crate) struct Measurement {
     pub(crate) rel_mse: f64,
     /// The mean squared error estimated from the pixels' replicates.
     pub(crate) estimated_mse: f64,
+    pub(crate) estimated_rel_mse: f64,
+    /// With `--denoise`: the same render denoised.
+    pub(crate) denoised: Option<DenoisedMeasurement>,
+}
+
+/// A measured render, denoised.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct DenoisedMeasurement {
+    /// Median wall time of the render and its denoising (the raw measurement's `seconds`
+    /// leave the denoising out).
+    pub(crate) seconds: f64,
+    pub(crate) mse: f64,
+    pub(crate) rel_mse: f64,
+    /// The square of the denoised frame's estimated relative error (bias included).
     pub(crate) estimated_rel_mse: f64,
 }
 
@@ -176,6 +191,11 @@ fn measure(
         }
     };
     let statics = StaticGeometry::new(scene);
+    // Started before anything is measured: if it cannot start, nothing is written.
+    let denoiser = match args.denoise {
+        true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
+        false => None,
+    };
     let reference = reference(scene, variant, &statics, frame, args, &say)?;
 
     let samplers = if args.sampler.is_empty() {
@@ -193,13 +213,29 @@ fn measure(
     let mut runs = Vec::new();
     let mut spent = vec![0.0; samplers.len()];
     let mut active = vec![true; samplers.len()];
-    say(&header());
+    say(&header(args.denoise));
     for n in schedule(max_samples) {
         for (i, &kind) in samplers.iter().enumerate() {
             if !active[i] {
                 continue;
             }
-            let (result, seconds) = timed_render(&variant(n, None, kind)?, &statics, frame);
+            let (result, seconds) =
+                timed_render(&variant(n, None, kind)?, &statics, frame, denoiser.as_ref())?;
+            let denoised = result.denoised.as_ref().map(|d| {
+                let image: Vec<DVec3> = d
+                    .rgb
+                    .chunks_exact(3)
+                    .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+                    .collect();
+                DenoisedMeasurement {
+                    seconds,
+                    mse: metrics::mse(&image, &reference),
+                    rel_mse: metrics::rel_mse(&image, &reference),
+                    estimated_rel_mse: d.relative_error.powi(2),
+                }
+            });
+            // The raw render's time leaves its denoising out.
+            let seconds = seconds - result.stats.denoise_seconds;
             let m = Measurement {
                 sampler: kind,
                 samples: n,
@@ -207,12 +243,16 @@ fn measure(
                 mse: metrics::mse(&result.film.means(), &reference),
                 rel_mse: metrics::rel_mse(&result.film.means(), &reference),
                 estimated_mse: metrics::estimated_mse(&result.film.variances()),
-                // The square of the frame's estimated relative error.
-                estimated_rel_mse: result.stats.relative_error.powi(2),
+                // The square of the raw frame's estimated relative error.
+                estimated_rel_mse: result.stats.noisy_relative_error.powi(2),
+                denoised,
             };
             say(&row(&m));
             runs.push(m);
             spent[i] += seconds;
+            let seconds = runs.last().map_or(seconds, |m: &Measurement| {
+                m.denoised.as_ref().map_or(m.seconds, |d| d.seconds)
+            });
             // The next render takes about twice as long as this one.
             if args.budget.is_some_and(|b| spent[i] + 2.0 * seconds > b) {
                 active[i] = false;
@@ -229,18 +269,26 @@ fn measure(
         say(&format!("CSV written to {}", path.display()));
     }
     if let Some(path) = &args.plot {
-        let series: Vec<plot::Series> = report
-            .samplers()
-            .into_iter()
-            .map(|k| {
-                let runs = report.series(k);
-                plot::Series {
-                    name: k.name().to_string(),
-                    points: runs.iter().map(|m| (m.seconds, m.mse)).collect(),
-                    slope: slopes(&runs).1,
-                }
-            })
-            .collect();
+        let mut series: Vec<plot::Series> = Vec::new();
+        for k in report.samplers() {
+            let runs = report.series(k);
+            series.push(plot::Series {
+                name: k.name().to_string(),
+                points: runs.iter().map(|m| (m.seconds, m.mse)).collect(),
+                slope: slopes(&runs).1,
+            });
+            let denoised: Vec<(f64, f64)> = runs
+                .iter()
+                .filter_map(|m| m.denoised.as_ref().map(|d| (d.seconds, d.mse)))
+                .collect();
+            if !denoised.is_empty() {
+                series.push(plot::Series {
+                    name: format!("{} denoised", k.name()),
+                    slope: log_log_slope(&denoised),
+                    points: denoised,
+                });
+            }
+        }
         let title = format!(
             "{} frame {frame}: error against render time",
             scene
@@ -311,12 +359,21 @@ fn reference(
 /// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
 /// of several runs when one is short (the runs are bit-identical; the repeats only steady
 /// the clock).
-fn timed_render(scene: &Scene, statics: &StaticGeometry, frame: u32) -> (FrameResult, f64) {
+fn timed_render(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    frame: u32,
+    denoiser: Option<&Denoiser>,
+) -> Result<(FrameResult, f64), Error> {
     let mut times = Vec::new();
     let mut result = None;
     while times.len() < MAX_REPEATS {
         let start = Instant::now();
-        let r = render_frame(scene, statics, frame, &Budget::default(), &|_| {});
+        let budget = Budget::default();
+        let r = match denoiser {
+            Some(d) => render_frame_denoised(scene, statics, frame, &budget, d, &|_| {})?,
+            None => render_frame(scene, statics, frame, &budget, &|_| {}),
+        };
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);
         if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {
@@ -324,10 +381,10 @@ fn timed_render(scene: &Scene, statics: &StaticGeometry, frame: u32) -> (FrameRe
         }
     }
     times.sort_by(f64::total_cmp);
-    (
+    Ok((
         result.expect("rendered at least once"),
         times[times.len() / 2],
-    )
+    ))
 }
 
 fn default_reference_path(scene: &Scene, frame: u32, samples: u32, args: &ConvergeArgs) -> PathBuf {
@@ -363,9 +420,17 @@ pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec
     Ok(pixels)
 }
 
-fn header() -> String {
+fn header(denoise: bool) -> String {
+    let denoised = if denoise {
+        format!(
+            " {:>9} {:>10} {:>10} {:>8}",
+            "dn. secs", "dn. error", "dn. est.", "est/true"
+        )
+    } else {
+        String::new()
+    };
     format!(
-        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>8} {:>10} {:>10} {:>8} {:>11}",
+        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>8} {:>10} {:>10} {:>8} {:>11}{denoised}",
         "sampler",
         "samples",
         "seconds",
@@ -395,8 +460,18 @@ fn row(m: &Measurement) -> String {
         m.rel_mse.sqrt(),
         m.estimated_rel_mse.sqrt(),
     );
+    let denoised = m.denoised.as_ref().map_or(String::new(), |d| {
+        let (true_rel, est) = (d.rel_mse.sqrt(), d.estimated_rel_mse.sqrt());
+        format!(
+            " {:>9.4} {:>9.3}% {:>9.3}% {:>8}",
+            d.seconds,
+            100.0 * true_rel,
+            100.0 * est,
+            ratio(est, true_rel)
+        )
+    });
     format!(
-        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>8} {:>9.3}% {:>9.3}% {:>8} {:>11.4e}",
+        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>8} {:>9.3}% {:>9.3}% {:>8} {:>11.4e}{denoised}",
         m.sampler.name(),
         m.samples,
         m.seconds,
@@ -449,7 +524,7 @@ pub(crate) fn summary(report: &Report) -> String {
 /// The measurements as CSV, one row per render.
 pub(crate) fn csv(report: &Report) -> String {
     let mut s = String::from(
-        "sampler,samples,seconds,mse,rmse,rel_mse,estimated_mse,estimated_rmse,estimated_rel_mse,efficiency\n",
+        "sampler,samples,seconds,mse,rmse,rel_mse,estimated_mse,estimated_rmse,estimated_rel_mse,efficiency,denoised_seconds,denoised_mse,denoised_rel_mse,denoised_estimated_rel_mse\n",
     );
     let num = |v: f64| {
         if v.is_finite() {
@@ -459,9 +534,11 @@ pub(crate) fn csv(report: &Report) -> String {
         }
     };
     for m in &report.runs {
+        let d = m.denoised.as_ref();
+        let dn = |f: fn(&DenoisedMeasurement) -> f64| d.map_or(String::new(), |d| num(f(d)));
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             m.sampler,
             m.samples,
             num(m.seconds),
@@ -471,7 +548,11 @@ pub(crate) fn csv(report: &Report) -> String {
             num(m.estimated_mse),
             num(m.estimated_mse.sqrt()),
             num(m.estimated_rel_mse),
-            num(m.efficiency())
+            num(m.efficiency()),
+            dn(|d| d.seconds),
+            dn(|d| d.mse),
+            dn(|d| d.rel_mse),
+            dn(|d| d.estimated_rel_mse)
         );
     }
     s
@@ -490,6 +571,7 @@ mod tests {
             rel_mse: mse,
             estimated_mse: mse,
             estimated_rel_mse: mse,
+            denoised: None,
         }
     }
 
@@ -539,7 +621,23 @@ mod tests {
         let text = csv(&report);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 3);
-        assert_eq!(lines[1], "independent,1,5e-1,4e-2,2e-1,4e-2,,,4e-2,5e1");
+        // No denoised measurement: its four columns are empty.
+        assert_eq!(lines[1], "independent,1,5e-1,4e-2,2e-1,4e-2,,,4e-2,5e1,,,,");
         assert!(lines[2].starts_with("sobol,2,1e0,1e-2,1e-1,"));
+        assert!(lines[2].ends_with(",,,,"));
+    }
+
+    #[test]
+    fn csv_rows_carry_the_denoised_measurement() {
+        let mut r = m(SamplerKind::Sobol, 4, 0.5, 0.04);
+        r.denoised = Some(DenoisedMeasurement {
+            seconds: 0.75,
+            mse: 0.01,
+            rel_mse: 0.0025,
+            estimated_rel_mse: 0.0016,
+        });
+        let text = csv(&Report { runs: vec![r] });
+        let row = text.lines().nth(1).unwrap();
+        assert!(row.ends_with(",7.5e-1,1e-2,2.5e-3,1.6e-3"), "{row}");
     }
 }
