@@ -79,6 +79,17 @@ impl View {
         }
     }
 
+    /// The view's vectors, for a tracer that makes its rays elsewhere (the GPU's): the lens
+    /// centre, its unit axes right (`u`) and up (`v`), the centre of pixel (0, 0) on the
+    /// plane in focus, the steps from a pixel to the next one right and down; and the lens
+    /// radius.
+    pub fn vectors(&self) -> ([DVec3; 6], f64) {
+        (
+            [self.origin, self.u, self.v, self.pixel00, self.du, self.dv],
+            self.lens_radius,
+        )
+    }
+
     /// Whether the lens has an aperture (otherwise it is a pinhole and needs no lens sample).
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0

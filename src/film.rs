@@ -50,6 +50,18 @@ impl Pixel {
         finite
     }
 
+    /// Adds a run of `count` consecutive samples, from index [`taken`](Self::taken) on, summed
+    /// by a tracer elsewhere (the GPU's, in `f32`): `sum` over all of them, `odd` over those
+    /// of odd index (the second replicate). Non-finite samples must already be counted as
+    /// black in both.
+    pub fn add_run(&mut self, sum: [f32; 3], odd: [f32; 3], count: u32) {
+        self.sum += DVec3::new(sum[0] as f64, sum[1] as f64, sum[2] as f64);
+        for (o, v) in self.odd.iter_mut().zip(odd) {
+            *o += v;
+        }
+        self.taken += count;
+    }
+
     /// The samples taken.
     pub fn taken(&self) -> u32 {
         self.taken
@@ -323,6 +335,13 @@ impl Film {
                 }
             })
             .collect()
+    }
+
+    /// Every pixel and its pass sums, mutable, in storage order (tile by tile, as
+    /// [`tile_rects`](Self::tile_rects) lists the tiles): for a tracer that adds runs of
+    /// samples to pixels wherever they are (the GPU's).
+    pub fn storage_mut(&mut self) -> (&mut [Pixel], &mut [f64]) {
+        (&mut self.pixels, &mut self.pass_sums)
     }
 
     /// Each tile with its pixels and their pass sums, in storage order.

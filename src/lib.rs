@@ -20,6 +20,7 @@ pub mod denoise;
 pub mod error;
 pub mod film;
 pub mod format;
+pub mod gpu;
 pub mod hit;
 pub mod io;
 mod lerp;

@@ -50,6 +50,20 @@ pub struct Layout {
     pub stride: usize,
 }
 
+/// Where a [`Layout`] keeps each sum in a pixel's run of [`Layout::stride`] numbers, as
+/// [`PassContext::record`] adds them: the hit count (1), the depth (1), the normal (3), the
+/// albedo (3), the motion (forward u, v, backward u, v) and the guides (per replicate, even
+/// then odd: albedo 3, normal 3). `None` where the sum is not kept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slots {
+    pub hits: Option<usize>,
+    pub depth: Option<usize>,
+    pub normal: Option<usize>,
+    pub albedo: Option<usize>,
+    pub motion: Option<usize>,
+    pub guides: Option<usize>,
+}
+
 /// Numbers of the guides' sums per pixel: albedo and normal, for each replicate.
 const GUIDE_SUMS: usize = 12;
 
@@ -72,6 +86,20 @@ impl Layout {
     /// Where the guides' sums start, if they are kept.
     pub fn guides(&self) -> Option<usize> {
         self.guides
+    }
+
+    /// Where each requested pass's sums start in a pixel's run (`None`: not kept), for a
+    /// tracer that adds them elsewhere (the GPU's, `crate::gpu`).
+    pub fn slots(&self) -> Slots {
+        let passes = self.passes;
+        Slots {
+            hits: self.counts_hits.then_some(self.hits),
+            depth: passes.contains(Pass::Depth).then_some(self.depth),
+            normal: passes.contains(Pass::Normal).then_some(self.normal),
+            albedo: passes.contains(Pass::Albedo).then_some(self.albedo),
+            motion: passes.contains(Pass::Motion).then_some(self.motion),
+            guides: self.guides,
+        }
     }
 
     fn build(passes: PassSet, guides: bool) -> Layout {

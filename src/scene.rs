@@ -46,6 +46,52 @@ pub struct RenderSettings {
     pub seed: u64,
     /// How samples are placed (`[render] sampler`).
     pub sampler: SamplerKind,
+    /// Where the frames' paths are traced (`[render] device`, or `--device`).
+    pub device: Device,
+}
+
+/// Where a frame's paths are traced: the same integrand, time model and film either way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Device {
+    /// The CPU's worker threads, in `f64` (`crate::renderer`).
+    #[default]
+    Cpu,
+    /// A GPU through wgpu's compute shaders, in `f32` (`crate::gpu`).
+    Gpu,
+}
+
+impl Device {
+    /// Every device, in the order they are listed to users.
+    pub const ALL: [Device; 2] = [Device::Cpu, Device::Gpu];
+
+    /// The name used in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        }
+    }
+}
+
+impl std::fmt::Display for Device {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Device {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Device, String> {
+        Device::ALL
+            .into_iter()
+            .find(|d| d.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown device \"{}\" (expected one of: cpu, gpu)",
+                    crate::error::elide(s)
+                )
+            })
+    }
 }
 
 /// A validated scene.

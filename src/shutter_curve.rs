@@ -112,6 +112,12 @@ impl CurveTable {
         })
     }
 
+    /// The knots: position `s`, normalised weight `w` and cumulative area up to `s`, in
+    /// order; for a tracer that samples the curve elsewhere (the GPU's).
+    pub fn knots(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        (0..self.s.len()).map(|i| (self.s[i], self.w[i], self.cdf[i]))
+    }
+
     /// The normalised weight (probability density) at position `s` in [0, 1].
     pub fn density(&self, s: f64) -> f64 {
         let i = self.segment_at(s);

@@ -31,10 +31,13 @@
 //! - `lanes`: four `f32` lanes (SSE on x86-64, plain arrays elsewhere);
 //! - `slab`: a ray against a node's four boxes at once, in `f32` lanes or in `f64`;
 //! - `traverse`: [`BvhView`] and [`TraversalStack`], the nearest-hit traversal;
-//! - `hierarchy`: [`Bvh`], a built topology with its boxes.
+//! - `hierarchy`: [`Bvh`], a built topology with its boxes;
+//! - `export`: a node's children and their boxes read one by one ([`Child`]), for copies of a
+//!   hierarchy in other layouts.
 
 mod boxes;
 mod build;
+mod export;
 mod hierarchy;
 mod lanes;
 mod rounding;
@@ -47,6 +50,7 @@ mod tests;
 
 pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
+pub use export::{Child, ChildKind};
 pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
 pub use topology::Topology;
 pub use traverse::{BvhView, TraversalStack};

@@ -10,6 +10,7 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::renderer::Budget;
 use crate::sampler::SamplerKind;
+use crate::scene::Device;
 use crate::scene_file::Overrides;
 
 /// The `raytrace` command line.
@@ -146,6 +147,10 @@ pub struct RenderArgs {
     /// How samples are placed: `sobol` (default) or `independent`.
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
+    /// Where paths are traced: `cpu` (default) or `gpu` (through wgpu: Vulkan, Metal or
+    /// DirectX 12), replacing `[render] device`.
+    #[arg(long)]
+    pub device: Option<Device>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
     /// Leave frames whose file already exists untouched (resume).
@@ -275,6 +280,10 @@ pub struct CheckArgs {
     /// Also print how many chunks of this many frames the shot (or the batch) makes.
     #[arg(long, allow_negative_numbers = true, value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
+    /// Check the scenes for this device, `cpu` or `gpu`, replacing `[render] device` (the
+    /// GPU refuses scenes its 32-bit floats cannot carry); no GPU is needed to check.
+    #[arg(long)]
+    pub device: Option<Device>,
 }
 
 /// Arguments of `raytrace clip`.
@@ -341,6 +350,7 @@ impl RenderArgs {
             output: self.output.clone(),
             samples: self.samples,
             sampler: self.sampler,
+            device: self.device,
             clip: self.clip.clone(),
             passes: self.passes.as_ref().map(|p| p.0.clone()),
             denoise: self.denoise.then_some(true),

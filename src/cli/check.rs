@@ -16,7 +16,11 @@ use crate::shutter::ShutterCurve;
 /// rendering (their frames and files, with the same code), and describes each. With several
 /// scenes, `--chunk-size` counts the chunks of the whole batch, on one `chunks:` line.
 pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
-    let shots = load_shots(&args.scenes, &Overrides::default(), None, None)?;
+    let overrides = Overrides {
+        device: args.device,
+        ..Overrides::default()
+    };
+    let shots = load_shots(&args.scenes, &overrides, None, None)?;
     if let [shot] = &shots[..] {
         return describe(shot, args.chunk_size);
     }
@@ -104,6 +108,9 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         scene.render.seed,
         elide(&scene.output.path)
     );
+    if scene.render.device == crate::scene::Device::Gpu {
+        let _ = writeln!(s, "device: gpu (a GPU is needed to render; none to check)");
+    }
     if !scene.output.passes.is_empty() || scene.transparent {
         let mut passes = vec!["colour"];
         passes.extend(scene.output.passes.iter().map(|p| p.name()));

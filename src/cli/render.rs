@@ -12,12 +12,12 @@ use super::progress::Progress;
 use crate::clip;
 use crate::denoise::denoiser::Denoiser;
 use crate::error::{Error, elide_path};
+use crate::gpu::Gpu;
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
-use crate::renderer::{FrameResult, FrameStats, render_frame, render_frame_denoised};
-use crate::scene::Scene;
-use crate::world::StaticGeometry;
+use crate::renderer::{FrameResult, FrameStats, ShotGeometry, render_shot_frame};
+use crate::scene::{Device, Scene};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
 /// names record no machine) is removed when its writer is not running here.
@@ -71,6 +71,17 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
 /// several) and one for the run; then makes the clips asked for (unless --no-clip).
 fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let start = Instant::now();
+    // The GPU is opened once, before anything is written: without one, nothing is.
+    let gpu = match shots.iter().any(|s| s.scene.render.device == Device::Gpu) {
+        true => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+        false => None,
+    };
+    if let Some(g) = &gpu
+        && args.stats
+        && !args.scene_args.quiet
+    {
+        super::progress::print_line(&format!("gpu: {}", g.describe()));
+    }
     let total: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
     let progress = Progress::new(total, args.scene_args.quiet);
     interrupt::frames_selected(total);
@@ -87,7 +98,7 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
             &shot.scene,
             &shot.targets,
             args,
-            denoiser.as_ref(),
+            (denoiser.as_ref(), gpu.as_ref()),
             &progress,
         )?;
         if shots.len() > 1 {
@@ -158,17 +169,18 @@ fn summary_text(summary: &RunSummary) -> String {
     )
 }
 
-/// Renders the frames of one shot, with a line per frame.
+/// Renders the frames of one shot, with a line per frame, with the run's denoiser and GPU
+/// (when some shot needs them).
 fn render_shot(
     scene: &Scene,
     targets: &Targets,
     args: &RenderArgs,
-    denoiser: Option<&Denoiser>,
+    (denoiser, gpu): (Option<&Denoiser>, Option<&Gpu>),
     progress: &Progress,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let budget = args.budget.budget();
-    let statics = StaticGeometry::new(scene);
+    let geometry = ShotGeometry::new(scene, gpu)?;
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
     for (frame, path) in targets.iter() {
@@ -198,12 +210,8 @@ fn render_shot(
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
-        let result = match denoiser.filter(|_| scene.output.denoise) {
-            Some(d) => render_frame_denoised(scene, &statics, frame, &budget, d, &|n| bar.inc(n)),
-            None => Ok(render_frame(scene, &statics, frame, &budget, &|n| {
-                bar.inc(n)
-            })),
-        };
+        let denoiser = denoiser.filter(|_| scene.output.denoise);
+        let result = render_shot_frame(scene, &geometry, frame, &budget, denoiser, &|n| bar.inc(n));
         bar.finish_and_clear();
         let result = result?;
         let st = &result.stats;
@@ -224,7 +232,7 @@ fn render_shot(
             elide_path(&path)
         ));
         if args.stats {
-            progress.line(&stats_line(frame, st));
+            progress.line(&stats_line(frame, st, scene.render.device));
         }
         error_sum += st.relative_error;
         summary.error_max = summary.error_max.max(st.relative_error);
@@ -285,8 +293,8 @@ fn percent(relative_error: f64) -> String {
     }
 }
 
-/// The `--stats` line of a frame.
-fn stats_line(frame: u32, st: &FrameStats) -> String {
+/// The `--stats` line of a frame rendered on `device`.
+fn stats_line(frame: u32, st: &FrameStats, device: Device) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
     let denoise = if st.denoise_seconds > 0.0 {
@@ -295,10 +303,17 @@ fn stats_line(frame: u32, st: &FrameStats) -> String {
         String::new()
     };
     // The share of the render time the worker threads spent in tiles: what is missing is
-    // time a core sat idle (waiting for the last tile) or spent scheduling.
-    let busy = st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64);
+    // time a core sat idle (waiting for the last tile) or spent scheduling. On the GPU, the
+    // share spent waiting for the GPU's batches.
+    let (busy, what) = match device {
+        Device::Cpu => (
+            st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64),
+            "cores",
+        ),
+        Device::Gpu => (st.tile_seconds / st.render_seconds, "GPU"),
+    };
     format!(
-        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, {what} busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,

@@ -6,13 +6,14 @@ use std::time::Instant;
 use super::adaptive::{Plan, Weights, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::denoised::{self, Denoised};
+use super::device::{FrameError, On, Rounds, ShotGeometry};
 use super::tiles::{FrameRequest, FrameSetup};
-use crate::denoise::denoiser::{DenoiseError, Denoiser};
+use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
 use crate::passes::{Layout, PassContext, PassImages};
 use crate::scene::Scene;
-use crate::shutter::Interval;
+use crate::shutter::{FrameTimes, Interval};
 use crate::world::{StaticGeometry, World};
 
 /// Figures of one rendered frame.
@@ -104,9 +105,9 @@ pub fn render_frame(
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
-    match render(scene, statics, frame, budget, None, progress) {
+    match render(scene, On::Cpu(statics), frame, budget, None, progress) {
         Ok(result) => result,
-        Err(_) => unreachable!("a frame without a denoiser has no denoising error"),
+        Err(_) => unreachable!("a frame on the CPU without a denoiser cannot fail"),
     }
 }
 
@@ -123,68 +124,65 @@ pub fn render_frame_denoised(
     denoiser: &Denoiser,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, Error> {
-    render(scene, statics, frame, budget, Some(denoiser), progress)
+    render(
+        scene,
+        On::Cpu(statics),
+        frame,
+        budget,
+        Some(denoiser),
+        progress,
+    )
+    .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
+}
+
+/// [`render_frame`] or [`render_frame_denoised`] on the device `geometry` was made for (the
+/// scene's `[render] device`): the same rounds, budgets and film either way, the samples
+/// traced by the CPU's threads or by the GPU. A GPU that fails mid-frame (lost, out of
+/// memory) is an [`Error::Resource`] naming the frame, and nothing of the frame is kept.
+pub fn render_shot_frame(
+    scene: &Scene,
+    geometry: &ShotGeometry,
+    frame: u32,
+    budget: &Budget,
+    denoiser: Option<&Denoiser>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<FrameResult, Error> {
+    render(scene, geometry.on(), frame, budget, denoiser, progress)
         .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
 }
 
 fn render(
     scene: &Scene,
-    statics: &StaticGeometry,
+    on: On<'_>,
     frame: u32,
     budget: &Budget,
     denoiser: Option<&Denoiser>,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<FrameResult, DenoiseError> {
+) -> Result<FrameResult, FrameError> {
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
     let interval = times.interval;
-    let world = World::prepare(scene, statics, interval);
-    let camera_moves = scene.camera.moves_in(interval);
-    let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let layout = match denoiser {
         Some(_) => Layout::with_guides(scene.output.passes),
         None => Layout::new(scene.output.passes),
     };
-    let passes = (layout.stride > 0).then(|| {
-        PassContext::new(
-            layout,
-            &scene.spheres,
-            scene.background,
-            &scene.camera,
-            scene.shot.fps,
-            req.width,
-            req.height,
-        )
-    });
-    let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
-    let setup = FrameSetup {
-        scene,
-        // Sample time only when something moves during the frame's whole exposure (so a still
-        // scene renders the same under any shutter); sample the lens only for a lens with an
-        // aperture (which does not change over time, so any instant's view answers).
-        sample_time: world.has_motion() || camera_moves,
-        has_lens: fixed_view.has_lens(),
-        world,
-        req,
-        interval,
-        times,
-        camera_moves,
-        fixed_view,
-        passes,
-        transparent: scene.transparent,
+    let mut rounds = match on {
+        On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(scene, statics, req, times, layout))),
+        On::Gpu(shot) => Rounds::Gpu(Box::new(shot.frame(scene, frame, &layout)?)),
     };
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
     let render_start = Instant::now();
-    let mut film = Film::with_pass_sums(req.width, req.height, stride);
+    let mut film = Film::with_pass_sums(req.width, req.height, layout.stride);
     let pixels = req.width as f64 * req.height as f64;
 
     let mut stats = FrameStats {
         prepare_seconds,
-        moving_spheres: setup.world.moving,
+        moving_spheres: rounds.moving(),
         ..FrameStats::default()
     };
+
     // Samples every pixel has taken in the uniform rounds.
     let mut done = 0u32;
     // Seconds a round took per sample of every pixel, and per sample of one pixel.
@@ -239,7 +237,7 @@ fn render(
             }
         };
         let round_start = Instant::now();
-        let counts = setup.round(&mut film, &plan, progress);
+        let counts = rounds.round(&mut film, &plan, progress)?;
         let seconds = round_start.elapsed().as_secs_f64();
         if let Plan::Uniform(n) = plan {
             seconds_per_sample = Some(seconds / (n - done) as f64);
@@ -304,6 +302,48 @@ fn render(
         denoised,
         stats,
     })
+}
+
+/// Everything about a frame on the CPU that is fixed before its first sample: its world (the
+/// spheres prepared for its interval, their hierarchies), its camera and passes.
+fn cpu_setup<'a>(
+    scene: &'a Scene,
+    statics: &'a StaticGeometry,
+    req: &'a FrameRequest,
+    times: FrameTimes,
+    layout: Layout,
+) -> FrameSetup<'a> {
+    let interval = times.interval;
+    let world = World::prepare(scene, statics, interval);
+    let camera_moves = scene.camera.moves_in(interval);
+    let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
+    let passes = (layout.stride > 0).then(|| {
+        PassContext::new(
+            layout,
+            &scene.spheres,
+            scene.background,
+            &scene.camera,
+            scene.shot.fps,
+            req.width,
+            req.height,
+        )
+    });
+    FrameSetup {
+        scene,
+        // Sample time only when something moves during the frame's whole exposure (so a still
+        // scene renders the same under any shutter); sample the lens only for a lens with an
+        // aperture (which does not change over time, so any instant's view answers).
+        sample_time: world.has_motion() || camera_moves,
+        has_lens: fixed_view.has_lens(),
+        world,
+        req,
+        interval,
+        times,
+        camera_moves,
+        fixed_view,
+        passes,
+        transparent: scene.transparent,
+    }
 }
 
 /// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):

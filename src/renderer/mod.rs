@@ -1,4 +1,4 @@
-//! Rendering one frame on the CPU: the frame's world, its camera rays, in parallel over the
+//! Rendering one frame on the CPU (or on the GPU, [`crate::gpu`]): the frame's world, its camera rays, in parallel over the
 //! film's tiles, in one round of the requested samples or, under a time or noise budget, in
 //! rounds until the budget is met.
 //!
@@ -6,17 +6,23 @@
 //! - [`tiles`]: what is fixed before the first sample, and one round over every tile;
 //! - [`budget`]: when to stop, and the uniform rounds' sizes;
 //! - [`adaptive`]: which pixels take more samples in an adaptive round;
-//! - [`denoised`]: a film denoised, and the denoised frame's estimated error.
+//! - [`denoised`]: a film denoised, and the denoised frame's estimated error;
+//! - [`device`]: which device takes a frame's rounds (the CPU's tiles or the GPU), and what a
+//!   shot keeps on it ([`ShotGeometry`]).
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
 mod adaptive;
 mod budget;
 mod denoised;
+mod device;
 mod frame;
 mod tiles;
 
 pub use crate::film::TILE;
 pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 pub use denoised::Denoised;
-pub use frame::{FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised};
+pub use device::ShotGeometry;
+pub use frame::{
+    FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised, render_shot_frame,
+};

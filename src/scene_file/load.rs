@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::overrides::Overrides;
-use super::{pieces, report, scan, schema, validate};
+use super::{device, pieces, report, scan, schema, validate};
 use crate::error::Error;
 use crate::scene::Scene;
 
@@ -63,9 +63,9 @@ impl Scene {
             && let Some(result) =
                 pieces::parse_in_pieces(text, source, overrides, pieces::PIECE_SPHERES)
         {
-            return result;
+            return device::check(result?, overrides);
         }
-        parse_whole(text, source, overrides)
+        device::check(parse_whole(text, source, overrides)?, overrides)
     }
 }
 

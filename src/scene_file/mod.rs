@@ -7,13 +7,15 @@
 //! - [`schema`]: the TOML format as typed serde structs (unknown keys rejected);
 //! - [`validate`]: the one validator, from those raw values (with any [`Overrides`] applied to
 //!   them first) to a `Scene`, naming the field of any bad value;
-//! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
+//! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel;
+//! - [`device`]: `[render] device`, and the refusal of a scene the GPU path does not render.
 //!
 //! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
 //! [`generate`] writes large random test scenes as scene-file text.
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
+mod device;
 pub mod generate;
 mod load;
 mod overrides;

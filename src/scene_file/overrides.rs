@@ -2,6 +2,7 @@
 
 use crate::pass::Pass;
 use crate::sampler::SamplerKind;
+use crate::scene::Device;
 
 /// Values given on the command line in place of the scene file's. They are written into the
 /// file's raw values before validation, so the one validator checks them with the same rules
@@ -27,4 +28,6 @@ pub struct Overrides {
     pub passes: Option<Vec<Pass>>,
     /// `--denoise`: replaces `[output] denoise`.
     pub denoise: Option<bool>,
+    /// `--device`: replaces `[render] device`.
+    pub device: Option<Device>,
 }

@@ -418,6 +418,7 @@ pub(super) struct RawRender {
     pub(super) max_depth: Option<Number>,
     pub(super) seed: Option<Number>,
     pub(super) sampler: Option<RawSampler>,
+    pub(super) device: Option<crate::scene::Device>,
 }
 
 #[derive(Clone, Copy)]

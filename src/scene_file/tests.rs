@@ -44,6 +44,7 @@ fn empty_scene_has_every_default() {
             max_depth: 50,
             seed: 0,
             sampler: SamplerKind::Sobol,
+            device: crate::scene::Device::Cpu,
         }
     );
     assert_eq!(s.camera.look_from, Motion::Still(DVec3::ZERO));

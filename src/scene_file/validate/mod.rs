@@ -78,7 +78,7 @@ pub(super) struct Check<'a> {
 }
 
 /// The fields the command line can override, and the flag that does.
-const FLAGS: [(&str, &str); 9] = [
+const FLAGS: [(&str, &str); 10] = [
     ("output.path", "--output"),
     ("output.width", "--width"),
     ("output.height", "--height"),
@@ -88,6 +88,7 @@ const FLAGS: [(&str, &str); 9] = [
     ("output.clip", "--clip"),
     ("output.passes", "--passes"),
     ("output.denoise", "--denoise"),
+    ("render.device", "--device"),
 ];
 
 impl<'a> Check<'a> {
@@ -123,6 +124,9 @@ impl<'a> Check<'a> {
         if let Some(d) = o.denoise {
             raw.output.denoise = Some(d);
         }
+        if let Some(d) = o.device {
+            raw.render.device = Some(d);
+        }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
                 SamplerKind::Independent => RawSampler::Independent,
@@ -144,6 +148,7 @@ impl<'a> Check<'a> {
             o.clip.is_some(),
             o.passes.is_some(),
             o.denoise.is_some(),
+            o.device.is_some(),
         ];
         match FLAGS
             .iter()
@@ -293,6 +298,7 @@ impl<'a> Check<'a> {
                 Some(RawSampler::Independent) => SamplerKind::Independent,
                 Some(RawSampler::Sobol) => SamplerKind::Sobol,
             },
+            device: raw.render.device.unwrap_or_default(),
         };
         let camera = self.camera(&raw.camera)?;
         let background = match raw.background.as_ref().and_then(|b| b.color) {

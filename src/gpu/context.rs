@@ -1,0 +1,230 @@
+//! The GPU itself: finding an adapter through wgpu (Vulkan, Metal or DirectX 12), opening a
+//! device, compiling the tracer's compute shader once, and the errors a device can give.
+
+use std::fmt;
+use std::sync::{Arc, Mutex};
+
+use super::layout::{WORKGROUP, wgsl_constants};
+use super::quiet::without_stray_lines;
+
+/// The shaders' text, put after the layout's constants: the 64-bit words and samplers, the
+/// geometry (motions, spheres, hierarchies), the camera and time, the materials, the tracer.
+const SHADERS: &str = concat!(
+    include_str!("shaders/words.wgsl"),
+    include_str!("shaders/sampler.wgsl"),
+    include_str!("shaders/geometry.wgsl"),
+    include_str!("shaders/camera.wgsl"),
+    include_str!("shaders/material.wgsl"),
+    include_str!("shaders/trace.wgsl"),
+);
+
+/// The environment variable that makes the device lost after that many dispatches: a fault
+/// injected on purpose, for the tests of what a lost device leaves behind.
+pub const LOSE_AFTER_VARIABLE: &str = "RAYTRACE_GPU_LOSE_AFTER";
+
+/// What can go wrong with a GPU.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GpuError {
+    /// No adapter was found: the message says what was looked for and how to get one.
+    NoAdapter(String),
+    /// The device was lost (a driver reset, a GPU removed, a fault injected).
+    Lost(String),
+    /// The device ran out of memory.
+    OutOfMemory(String),
+    /// Anything else the device or the driver reported.
+    Failed(String),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter(m) => write!(f, "{m}"),
+            GpuError::Lost(m) => write!(f, "the GPU device was lost: {m}"),
+            GpuError::OutOfMemory(m) => write!(f, "the GPU ran out of memory: {m}"),
+            GpuError::Failed(m) => write!(f, "the GPU failed: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}
+
+/// An open GPU device with the tracer's pipeline. Cheap to clone (wgpu's handles are shared).
+#[derive(Clone, Debug)]
+pub struct Gpu {
+    pub(super) device: wgpu::Device,
+    pub(super) queue: wgpu::Queue,
+    pub(super) pipeline: wgpu::ComputePipeline,
+    pub(super) layout: wgpu::BindGroupLayout,
+    info: wgpu::AdapterInfo,
+    /// The first fault the device reported on its own (lost, an error outside any scope).
+    fault: Arc<Mutex<Option<GpuError>>>,
+    /// Dispatches so far, and after how many the device is lost on purpose.
+    dispatches: Arc<Mutex<(u64, Option<u64>)>>,
+}
+
+impl Gpu {
+    /// Finds an adapter (the best performing one wgpu offers on Vulkan, Metal or DirectX 12),
+    /// opens a device and compiles the tracer. Without an adapter: [`GpuError::NoAdapter`],
+    /// naming what was looked for and how to get it.
+    pub fn new() -> Result<Gpu, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::PRIMARY,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapter = without_stray_lines(|| {
+            pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            }))
+        })
+        .map_err(|e| GpuError::NoAdapter(no_adapter(&e.to_string())))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("raytrace"),
+            required_limits: wgpu::Limits::default(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
+        let fault = Arc::new(Mutex::new(None));
+        let lost = fault.clone();
+        device.set_device_lost_callback(move |_, message| {
+            record(&lost, GpuError::Lost(message));
+        });
+        let uncaptured = fault.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            record(&uncaptured, classify(&e));
+        }));
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tracer"),
+            source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_constants()).into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tracer"),
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, true),
+                storage(3, false),
+                storage(5, true),
+                storage(6, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tracer"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("tracer"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("trace"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
+        }
+        let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
+            .ok()
+            .and_then(|v| v.parse().ok());
+        Ok(Gpu {
+            device,
+            queue,
+            pipeline,
+            layout,
+            info,
+            fault,
+            dispatches: Arc::new(Mutex::new((0, lose_after))),
+        })
+    }
+
+    /// The adapter, as frame lines and docs name it: `llvmpipe (LLVM 15.0.6, 256 bits)
+    /// (Vulkan, Mesa 22.3.6 (LLVM 15.0.6))`.
+    pub fn describe(&self) -> String {
+        let driver = if self.info.driver_info.is_empty() {
+            self.info.driver.clone()
+        } else {
+            self.info.driver_info.clone()
+        };
+        format!("{} ({}, {driver})", self.info.name, self.info.backend)
+    }
+
+    /// Whether the adapter is a software one (a CPU device such as lavapipe).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// The fault the device reported on its own, if any.
+    pub(super) fn fault(&self) -> Option<GpuError> {
+        self.fault.lock().map(|f| f.clone()).unwrap_or(None)
+    }
+
+    /// Counts a dispatch; loses the device on purpose when [`LOSE_AFTER_VARIABLE`] says so.
+    pub(super) fn count_dispatch(&self) {
+        let Ok(mut d) = self.dispatches.lock() else {
+            return;
+        };
+        d.0 += 1;
+        if d.1.is_some_and(|n| d.0 > n) {
+            self.device.destroy();
+        }
+    }
+}
+
+/// Keeps the first fault.
+fn record(slot: &Mutex<Option<GpuError>>, e: GpuError) {
+    if let Ok(mut f) = slot.lock()
+        && f.is_none()
+    {
+        *f = Some(e);
+    }
+}
+
+/// A wgpu error as one of ours.
+pub(super) fn classify(e: &wgpu::Error) -> GpuError {
+    match e {
+        wgpu::Error::OutOfMemory { .. } => GpuError::OutOfMemory(e.to_string()),
+        _ => GpuError::Failed(e.to_string()),
+    }
+}
+
+/// The message for no adapter: what was looked for and how to get one.
+fn no_adapter(why: &str) -> String {
+    format!(
+        "no GPU found: wgpu looked for a Vulkan, Metal or DirectX 12 adapter and found none \
+         ({why}). Install your GPU's driver with Vulkan support; without a GPU, Mesa's \
+         software Vulkan device (lavapipe) serves, on Debian or Ubuntu: `apt-get install \
+         mesa-vulkan-drivers`. Or render on the CPU: --device cpu"
+    )
+}
+
+/// A storage buffer binding of the compute stage.
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Workgroups for `n` invocations.
+pub(super) fn workgroups(n: u32) -> u32 {
+    n.div_ceil(WORKGROUP)
+}

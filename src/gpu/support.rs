@@ -1,0 +1,230 @@
+//! What the GPU path renders, and what it refuses before anything is rendered.
+//!
+//! The GPU traces every feature of the format (the three motions, the camera's motion and
+//! lens, shutter positions, curves and rolling shutters, the three materials and both
+//! backgrounds, passes, budgets) with the CPU's integrand, in `f32`: WGSL has no `f64`. An
+//! `f32` carries 24 bits, so a coordinate `X` is resolved to about `2^-24 X` (6e-8 of it),
+//! where the CPU's `f64` resolves `1.1e-16 X`. Scenes whose numbers `f32` cannot carry
+//! faithfully are refused here, when the scene is validated (`check` and `render` exit 2),
+//! never rendered differently; docs/gpu.md lists the limits and the stability suite
+//! (tests/stability.rs) which of its extreme cases pass on the GPU and which are refused.
+
+use crate::motion::Motion;
+use crate::scene::Scene;
+use crate::shutter::Interval;
+
+/// A sphere's radius must be at least this fraction (2^-13) of its centre's largest
+/// coordinate over the shot: an `f32` then places its surface to `2^-24 / 2^-13 = 2^-11` of
+/// its radius (0.05%), and a ray leaving it is offset by well under a thousandth of it.
+pub const MIN_RADIUS_FRACTION: f64 = 1.0 / 8192.0;
+
+/// Largest coordinate (and radius) the GPU takes: squares and products of such numbers stay
+/// far inside the `f32` range (3.4e38), with room for the slab test's reciprocals.
+pub const MAX_COORDINATE: f64 = 1e15;
+
+/// Smallest radius the GPU takes: its square stays a normal `f32` (above 1.2e-38).
+pub const MIN_RADIUS: f64 = 1e-15;
+
+/// The camera's position, resolved to `2^-24` of its largest coordinate, must be resolved
+/// to at least 2^-6 of a pixel's footprint on the plane in focus: the footprint must be at
+/// least this fraction (2^-18) of that coordinate.
+pub const CAMERA_FRACTION: f64 = 1.0 / 262_144.0;
+
+/// Smallest angle a pixel may span, in radians (2^-17): 64 times the resolution of an `f32`
+/// unit direction (about 2^-23), so the directions of neighbouring pixels stay apart.
+pub const MIN_PIXEL_ANGLE: f64 = 1.0 / 131_072.0;
+
+/// Largest angle an orbit may sweep over a frame's exposure widened by a frame period on
+/// each side (where the motion pass looks), in degrees: ten turns. The GPU adds the angle in
+/// `f32`, resolved to `2^-24` of it (4e-6 radians at 3600 degrees).
+pub const MAX_SWEEP_DEGREES: f64 = 3600.0;
+
+/// Bytes one GPU buffer may hold: 128 MiB, what WebGPU guarantees a storage buffer binding
+/// on every device (wgpu's default `max_storage_buffer_binding_size`).
+pub const MAX_BUFFER_BYTES: u64 = 128 << 20;
+
+/// Why the GPU path does not render a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Unsupported {
+    /// A coordinate (of a sphere's path over the shot, or the camera's) or a radius beyond
+    /// [`MAX_COORDINATE`]; `what` names it (`sphere[3]`, `camera.look_from`).
+    Far { what: String, value: f64 },
+    /// A radius below [`MIN_RADIUS`].
+    Tiny { sphere: usize, radius: f64 },
+    /// A radius below [`MIN_RADIUS_FRACTION`] of the sphere's largest coordinate.
+    Small {
+        sphere: usize,
+        radius: f64,
+        coordinate: f64,
+    },
+    /// A pixel's footprint at the focus distance below [`CAMERA_FRACTION`] of the camera's
+    /// largest coordinate.
+    FarCamera { coordinate: f64, footprint: f64 },
+    /// A pixel spanning less than [`MIN_PIXEL_ANGLE`].
+    NarrowView { pixel_angle: f64 },
+    /// An orbit sweeping more than [`MAX_SWEEP_DEGREES`] over a frame's widened exposure.
+    FastOrbit { what: String, sweep: f64 },
+    /// The frame's (or the shot's) buffer could need more than [`MAX_BUFFER_BYTES`].
+    TooLarge { bytes: u64 },
+}
+
+/// Why the GPU path does not render `scene`, if it does not: the first limit it passes, in
+/// the order of [`Unsupported`]'s kinds (spheres in order, then the camera, then the size).
+pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
+    let shot = &scene.shot;
+    let period = 1.0 / shot.fps;
+    let whole = shot.whole_interval();
+    // Every time the GPU evaluates a path at: every frame's exposure, and a frame period
+    // beyond it for the motion pass.
+    let times = Interval {
+        open: whole.open - period,
+        close: whole.close + period,
+    };
+    let sweep_time = shot.exposure() + 2.0 * period;
+    for (i, s) in scene.spheres.iter().enumerate() {
+        let what = || format!("sphere[{i}]");
+        let coordinate = largest_coordinate(&s.motion, times);
+        if coordinate.is_nan() || coordinate > MAX_COORDINATE {
+            return Some(Unsupported::Far {
+                what: what(),
+                value: coordinate,
+            });
+        }
+        if s.radius > MAX_COORDINATE {
+            return Some(Unsupported::Far {
+                what: format!("sphere[{i}].radius"),
+                value: s.radius,
+            });
+        }
+        if s.radius < MIN_RADIUS {
+            return Some(Unsupported::Tiny {
+                sphere: i,
+                radius: s.radius,
+            });
+        }
+        if s.radius < MIN_RADIUS_FRACTION * coordinate {
+            return Some(Unsupported::Small {
+                sphere: i,
+                radius: s.radius,
+                coordinate,
+            });
+        }
+        if let Some(sweep) = sweep(&s.motion, sweep_time) {
+            return Some(Unsupported::FastOrbit {
+                what: format!("sphere[{i}].orbit"),
+                sweep,
+            });
+        }
+    }
+    camera(scene, times, sweep_time).or_else(|| {
+        let bytes = buffer_bytes(scene);
+        (bytes > MAX_BUFFER_BYTES).then_some(Unsupported::TooLarge { bytes })
+    })
+}
+
+/// The camera's limits.
+fn camera(scene: &Scene, times: Interval, sweep_time: f64) -> Option<Unsupported> {
+    let cam = &scene.camera;
+    let coordinate = largest_coordinate(&cam.look_from, times);
+    for (what, motion) in [
+        ("camera.look_from", &cam.look_from),
+        ("camera.look_at", &cam.look_at),
+    ] {
+        let value = largest_coordinate(motion, times);
+        if value.is_nan() || value > MAX_COORDINATE {
+            return Some(Unsupported::Far {
+                what: what.to_string(),
+                value,
+            });
+        }
+    }
+    let tan = (cam.vfov.to_radians() / 2.0).tan();
+    let pixel_angle = 2.0 * tan / scene.output.height as f64;
+    if pixel_angle < MIN_PIXEL_ANGLE {
+        return Some(Unsupported::NarrowView { pixel_angle });
+    }
+    let focus = cam
+        .focus_distance
+        .unwrap_or_else(|| shortest_view(&cam.look_from, &cam.look_at));
+    let footprint = pixel_angle * focus;
+    if footprint < CAMERA_FRACTION * coordinate {
+        return Some(Unsupported::FarCamera {
+            coordinate,
+            footprint,
+        });
+    }
+    sweep(&cam.look_from, sweep_time).map(|sweep| Unsupported::FastOrbit {
+        what: "camera.orbit".to_string(),
+        sweep,
+    })
+}
+
+/// The largest magnitude of a coordinate of `motion`'s positions over `times`.
+fn largest_coordinate(motion: &Motion, times: Interval) -> f64 {
+    let b = motion.prepare(times).bounds(times, 0.0);
+    b.min.abs().max(b.max.abs()).max_element()
+}
+
+/// The angle an orbit sweeps in `seconds`, if more than [`MAX_SWEEP_DEGREES`].
+fn sweep(motion: &Motion, seconds: f64) -> Option<f64> {
+    match motion {
+        Motion::Orbit { orbit, .. } => {
+            let sweep = orbit.degrees_per_second.abs() * seconds;
+            (sweep > MAX_SWEEP_DEGREES).then_some(sweep)
+        }
+        _ => None,
+    }
+}
+
+/// The shortest distance from `look_from` to `look_at` over the shot: at each key, and
+/// between keys where both move linearly (an orbit keeps the distance).
+fn shortest_view(from: &Motion, at: &Motion) -> f64 {
+    let mut times = vec![0.0];
+    for m in [from, at] {
+        if let Motion::Keyframes(keys) = m {
+            times.extend(keys.iter().map(|k| k.time));
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let view = |t: f64| at.at(t) - from.at(t);
+    let mut shortest = view(times[0]).length();
+    for w in times.windows(2) {
+        let (_, d) = crate::camera::shortest_on_segment(view(w[0]), view(w[1]));
+        shortest = shortest.min(d);
+    }
+    shortest
+}
+
+/// The most bytes the shot's or one frame's buffer holds (the larger), counted generously:
+/// every sphere's record, a hierarchy of at most two entries a sphere, a motion
+/// record for every animated sphere and another for the motion pass, every key twice.
+fn buffer_bytes(scene: &Scene) -> u64 {
+    use super::layout::{
+        ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
+        TABLE_WORDS,
+    };
+    let sphere = (SPHERE_WORDS + 2 * ENTRY_WORDS) as u64;
+    let mut shot = TABLE_WORDS as u64 + MATERIAL_WORDS as u64 * scene.materials.len() as u64;
+    let mut frame = HEADER_WORDS as u64 + 3 * scene.shot.curve.points().len() as u64;
+    for m in [&scene.camera.look_from, &scene.camera.look_at] {
+        frame += (MOTION_WORDS + KEY_WORDS * (keys(m) + 2)) as u64;
+    }
+    for s in &scene.spheres {
+        if s.motion.is_animated() {
+            let record = (MOTION_WORDS + 1 + KEY_WORDS * (keys(&s.motion) + 2)) as u64;
+            frame += sphere + 2 * record;
+        } else {
+            shot += sphere;
+            frame += 1;
+        }
+    }
+    4 * shot.max(frame)
+}
+
+/// A motion's keys (0 for other kinds).
+fn keys(m: &Motion) -> u32 {
+    match m {
+        Motion::Keyframes(k) => k.len() as u32,
+        _ => 0,
+    }
+}
