@@ -154,12 +154,26 @@ fn largest_block_difference(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// A frame rendered by one of the tracers: `render` (the CPU's) or the GPU's.
+type Render<'a> = &'a dyn Fn(&Scene, u32) -> Film;
+
 #[test]
 fn streaks_have_the_shape_of_the_shutter_curve() {
-    let samples = 1024;
+    streaks(&render, 1024);
+}
+
+#[test]
+fn streaks_have_the_shape_of_the_shutter_curve_on_the_gpu() {
+    let Some(gpu) = common::gpu() else { return };
+    streaks(&|s, f| common::render_gpu(gpu, s, f), 1024);
+}
+
+/// The streaks of the three curves, rendered with `samples` samples, against their profiles.
+fn streaks(render: Render, samples: u32) {
     // A pixel's value is the mean of `samples` values that are each 0 or 1: its deviation is
     // at most 0.5 / sqrt(samples); a column's sum of 12 such, averaged over 4 columns, at most
-    // sqrt(12 / 4) 0.5 / sqrt(samples) = 0.027. Five of those bound the difference.
+    // sqrt(12 / 4) 0.5 / sqrt(samples) = 0.027 at 1024 samples. Five of those bound the
+    // difference.
     let tolerance = 5.0 * (STREAK_H as f64 / 4.0).sqrt() * 0.5 / (samples as f64).sqrt();
     let trapezoid = |s: f64| (s / 0.2).min(1.0).min((1.0 - s) / 0.2);
     let curves: [(&str, &dyn Fn(f64) -> f64); 3] = [
@@ -250,6 +264,16 @@ fn slope(p: &[f64]) -> f64 {
 
 #[test]
 fn a_rolling_shutter_leans_a_moving_pole_by_speed_times_readout() {
+    leans(&render);
+}
+
+#[test]
+fn a_rolling_shutter_leans_a_moving_pole_by_speed_times_readout_on_the_gpu() {
+    let Some(gpu) = common::gpu() else { return };
+    leans(&|s, f| common::render_gpu(gpu, s, f));
+}
+
+fn leans(render: Render) {
     // Speed 100 units/s, readout 0.01 s: the bottom row sees the pole 1 unit (20 pixels)
     // farther right than the top row; the whole exposure is centred on time 0, where the pole
     // is at the image's centre.
@@ -287,6 +311,16 @@ fn bits(film: &Film) -> Vec<[u64; 3]> {
 
 #[test]
 fn a_still_scene_is_unchanged_by_any_shutter_bit_for_bit() {
+    unchanged_by_any_shutter(&render);
+}
+
+#[test]
+fn a_still_scene_is_unchanged_by_any_shutter_bit_for_bit_on_the_gpu() {
+    let Some(gpu) = common::gpu() else { return };
+    unchanged_by_any_shutter(&|s, f| common::render_gpu(gpu, s, f));
+}
+
+fn unchanged_by_any_shutter(render: Render) {
     for sampler in ["independent", "sobol"] {
         let plain = bits(&render(&pole_scene("shutter = 0.02", 0.0, sampler), 0));
         for keys in [
@@ -308,6 +342,16 @@ fn a_still_scene_is_unchanged_by_any_shutter_bit_for_bit() {
 
 #[test]
 fn a_box_curve_and_no_readout_render_as_without_them_bit_for_bit() {
+    box_curve_changes_nothing(&render);
+}
+
+#[test]
+fn a_box_curve_and_no_readout_render_as_without_them_bit_for_bit_on_the_gpu() {
+    let Some(gpu) = common::gpu() else { return };
+    box_curve_changes_nothing(&|s, f| common::render_gpu(gpu, s, f));
+}
+
+fn box_curve_changes_nothing(render: Render) {
     for sampler in ["independent", "sobol"] {
         let base = "shutter = 0.02";
         let plain = bits(&render(&pole_scene(base, 30.0, sampler), 0));

@@ -54,10 +54,42 @@ const GLASS_DEPTH: u32 = 128;
 // ------------------------------------------------------------------------------------------
 // Rendering and statistics helpers
 
+/// Which tracer renders: the CPU's (`f64`), or the GPU's (`f32`, `--device gpu`).
+#[derive(Clone, Copy)]
+enum Tracer {
+    Cpu,
+    Gpu(&'static raytrace::gpu::Gpu),
+}
+
+impl Tracer {
+    /// Tolerance of the zero-variance answers: the rounding of the sums of a few thousand
+    /// samples in `f64` on the CPU; on the GPU, of `f32` samples (an albedo of 0.7 is
+    /// 0.69999999 there) summed in `f32` runs of 16.
+    fn exact(self) -> f64 {
+        match self {
+            Tracer::Cpu => EXACT,
+            Tracer::Gpu(_) => EXACT_GPU,
+        }
+    }
+}
+
+/// [`EXACT`] on the GPU.
+const EXACT_GPU: f64 = 1e-6;
+
 /// Renders `frame` with the scene's own settings; asserts that no sample was dropped.
 fn render_checked(scene: &Scene, frame: u32, what: &str) -> FrameResult {
-    let statics = StaticGeometry::new(scene);
-    let result = render_frame(scene, &statics, frame, &Budget::default(), &|_| {});
+    render_checked_on(scene, frame, what, Tracer::Cpu)
+}
+
+/// [`render_checked`] by `tracer`.
+fn render_checked_on(scene: &Scene, frame: u32, what: &str, tracer: Tracer) -> FrameResult {
+    let result = match tracer {
+        Tracer::Cpu => {
+            let statics = StaticGeometry::new(scene);
+            render_frame(scene, &statics, frame, &Budget::default(), &|_| {})
+        }
+        Tracer::Gpu(gpu) => common::render_gpu_frame(gpu, scene, frame, &Budget::default()),
+    };
     assert_eq!(
         result.stats.non_finite, 0,
         "{what}: {} non-finite samples",
@@ -78,6 +110,18 @@ fn view_of(scene: &Scene, frame: u32) -> View {
 /// `hi` samples and how far the pixel is from the exact mean with that count. Panics if no
 /// count in 0..=n explains the pixel.
 fn two_valued(p: DVec3, lo: DVec3, hi: DVec3, n: u32, what: &str) -> (u32, f64) {
+    two_valued_within(p, lo, hi, n, what, EXACT)
+}
+
+/// [`two_valued`] to within `tolerance`.
+fn two_valued_within(
+    p: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+    n: u32,
+    what: &str,
+    tolerance: f64,
+) -> (u32, f64) {
     let d = hi - lo;
     let axis = if d.x.abs() >= d.y.abs() && d.x.abs() >= d.z.abs() {
         0
@@ -94,7 +138,7 @@ fn two_valued(p: DVec3, lo: DVec3, hi: DVec3, n: u32, what: &str) -> (u32, f64) 
     let exact = (k * hi + (n as f64 - k) * lo) / n as f64;
     let err = (p - exact).abs().max_element();
     assert!(
-        err <= EXACT,
+        err <= tolerance,
         "{what}: pixel {p} is {err:e} from the nearest possible mean {exact} ({k} of {n} samples {hi}): a path returned another value"
     );
     (k as u32, err)
@@ -404,10 +448,19 @@ impl Figures {
 
 /// Renders one furnace and checks every pixel against its exact value; returns the figures.
 fn check_furnace(c: &Furnace) -> Figures {
+    check_furnace_on(c, Tracer::Cpu)
+}
+
+/// [`check_furnace`] by `tracer`.
+fn check_furnace_on(c: &Furnace, tracer: Tracer) -> Figures {
     let (text, centre) = c.scene();
     let sc = scene(&text);
     let what = format!("{c:?}");
-    let result = render_checked(&sc, c.frame, &what);
+    let result = render_checked_on(&sc, c.frame, &what, tracer);
+    let exact = tracer.exact();
+    let two_valued = |p: DVec3, lo: DVec3, hi: DVec3, n: u32, what: &str| {
+        two_valued_within(p, lo, hi, n, what, exact)
+    };
     let film = &result.film;
     let n = c.samples;
     let mut fig = Figures::none();
@@ -457,7 +510,7 @@ fn check_furnace(c: &Furnace) -> Figures {
                     .map(|p| (*p - DVec3::ONE).abs().max_element()),
             );
             assert!(
-                fig.exact <= EXACT,
+                fig.exact <= exact,
                 "{what}: a glass pixel is {:e} from 1",
                 fig.exact
             );
@@ -472,7 +525,7 @@ fn check_furnace(c: &Furnace) -> Figures {
             if c.fully_covered() {
                 fig.exact = max_of(film.means().iter().map(|p| (*p - a).abs().max_element()));
                 assert!(
-                    fig.exact <= EXACT,
+                    fig.exact <= exact,
                     "{what}: a pixel is {:e} from the albedo",
                     fig.exact
                 );
@@ -816,6 +869,148 @@ fn furnace_limb_crossing_the_frame_is_two_valued() {
         &cases,
     );
     assert!(fig.partial > 0, "the limb must cross some pixels");
+}
+
+// ------------------------------------------------------------------------------------------
+// Furnaces on the GPU
+
+/// Renders on the GPU every furnace of `cases` it takes, checking each as on the CPU (to
+/// [`EXACT_GPU`] where the CPU's answer is exact to [`EXACT`]); checks that it refuses every
+/// other as `check` and `render` do (exit status 2, the way out named). Returns the worst
+/// figures and the counts rendered and refused, or `None` where there is no GPU.
+fn sweep_gpu(name: &str, cases: &[Furnace]) -> Option<(Figures, usize, usize)> {
+    let gpu = common::gpu()?;
+    let start = Instant::now();
+    let on_gpu = raytrace::scene_file::Overrides {
+        device: Some(raytrace::scene::Device::Gpu),
+        ..Default::default()
+    };
+    let (mut fig, mut rendered, mut refused) = (Figures::none(), 0, 0);
+    for c in cases {
+        let (text, _) = c.scene();
+        match Scene::parse_with(&text, Path::new("furnace.toml"), &on_gpu) {
+            Err(e) => {
+                let message = e.to_string();
+                assert_eq!(e.exit_code(), 2, "{c:?}: {message}");
+                assert!(message.contains("--device cpu"), "{c:?}: {message}");
+                refused += 1;
+            }
+            Ok(_) => {
+                fig = Figures::worst(fig, check_furnace_on(c, Tracer::Gpu(gpu)));
+                rendered += 1;
+            }
+        }
+    }
+    eprintln!(
+        "[stability] {name}, on the GPU: {rendered} rendered, {refused} refused; max |pixel - exact| {:.3e}, max two-valued residual {:.3e}, max |z| {:.2}, min binomial tail {:.3e}, partly covered pixels {}, glass samples cut at max_depth {}, {:.2} s",
+        fig.exact,
+        fig.two_valued,
+        fig.z,
+        fig.tail,
+        fig.partial,
+        fig.lost,
+        start.elapsed().as_secs_f64()
+    );
+    Some((fig, rendered, refused))
+}
+
+/// Whether the GPU takes the furnace `c` (not refused for its floats).
+fn gpu_takes(c: &Furnace) -> bool {
+    let mut sc = scene(&c.scene().0);
+    sc.render.device = raytrace::scene::Device::Gpu;
+    raytrace::gpu::unsupported(&sc).is_none()
+}
+
+#[test]
+fn furnaces_on_the_gpu_read_exactly_where_its_floats_suffice_and_are_refused_elsewhere() {
+    // The CPU's still sweep (every radius, centre and camera distance, frames 1 and
+    // 1,000,000) and its cameras from afar (1e8 and 1e10 radii).
+    let mut cases = Vec::new();
+    for base in grid(&OPAQUE_AND_GLASS, &RADII, &DISTANCES, &CAMERAS) {
+        for frame in [1, 1_000_000] {
+            cases.push(Furnace { frame, ..base });
+        }
+    }
+    cases.extend(grid(&OPAQUE_AND_GLASS, &[1e-4, 1e-2], &[1e6], &[1e8, 1e10]));
+    let Some((fig, rendered, refused)) = sweep_gpu("furnace, still", &cases) else {
+        return;
+    };
+    assert!(fig.exact <= EXACT_GPU && rendered > 0 && refused > 0);
+    // What decides: a radius below 2^-13 of the centre's distance is refused.
+    let lambertian = |r, d| Furnace::new(Surface::Lambertian, r, d, 2.0);
+    assert!(gpu_takes(&lambertian(1e-4, 0.0)) && gpu_takes(&lambertian(1e6, 1e6)));
+    assert!(gpu_takes(&lambertian(1.0, 1e3)) && !gpu_takes(&lambertian(1e-2, 1e3)));
+    assert!(!gpu_takes(&lambertian(1e-4, 1e6)) && !gpu_takes(&lambertian(1e2, 1e6)));
+}
+
+#[test]
+fn moving_furnaces_on_the_gpu_read_between_albedo_and_one() {
+    let mut cases = Vec::new();
+    for base in grid(
+        &OPAQUE_AND_GLASS,
+        &[1e-4, 1.0, 1e6],
+        &[0.0, 1e6],
+        &[2.0, 1e4],
+    ) {
+        for (speed, angle) in [(0.5, 180.0), (1000.0, 180.0), (1000.0, 0.0)] {
+            for frame in [1, 1_000_000] {
+                cases.push(Furnace {
+                    speed,
+                    shutter_angle: angle,
+                    frame,
+                    samples: 16,
+                    ..base
+                });
+            }
+        }
+    }
+    let Some((fig, rendered, _)) = sweep_gpu("furnace, moving and frozen", &cases) else {
+        return;
+    };
+    assert!(rendered > 0 && fig.partial > 0, "{fig:?}");
+}
+
+#[test]
+fn glass_fuzz_and_limbs_on_the_gpu_keep_their_exact_distributions() {
+    let glasses = [
+        Surface::Glass(1.0),
+        Surface::Glass(1.0001),
+        Surface::Glass(10.0),
+    ];
+    let mut cases = grid(&glasses, &[1e-4, 1.0, 1e6], &[0.0], &[2.0, 1e4]);
+    for c in cases.iter_mut() {
+        c.samples = 16;
+    }
+    for mut c in grid(
+        &[Surface::FuzzyMirror],
+        &[1e-4, 1.0, 1e6],
+        &[0.0, 1e6],
+        &[2.0],
+    ) {
+        c.samples = 64;
+        cases.push(c);
+    }
+    let surfaces = [
+        Surface::Lambertian,
+        Surface::Mirror,
+        Surface::Glass(1.0001),
+        Surface::Glass(1.5),
+    ];
+    for base in grid(&surfaces, &[1e-4, 1.0, 1e6], &[0.0], &[2.0, 1e4]) {
+        for zoom in [0.4, 1e-3] {
+            cases.push(Furnace {
+                aim: Aim::Limb { zoom },
+                samples: 16,
+                ..base
+            });
+        }
+    }
+    let Some((fig, rendered, refused)) =
+        sweep_gpu("furnace, glass ior 1 to 10, fuzz 1, limbs", &cases)
+    else {
+        return;
+    };
+    assert!(fig.tail >= TAIL && rendered > 0 && refused > 0, "{fig:?}");
 }
 
 // ------------------------------------------------------------------------------------------

@@ -54,6 +54,9 @@ pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
     pub(super) pipeline: wgpu::ComputePipeline,
+    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
+    #[cfg(test)]
+    pub(super) numbers: wgpu::ComputePipeline,
     pub(super) layout: wgpu::BindGroupLayout,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
@@ -133,6 +136,15 @@ impl Gpu {
             compilation_options: Default::default(),
             cache: None,
         });
+        #[cfg(test)]
+        let numbers = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("numbers"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("numbers"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
         }
@@ -143,6 +155,8 @@ impl Gpu {
             device,
             queue,
             pipeline,
+            #[cfg(test)]
+            numbers,
             layout,
             info,
             fault,

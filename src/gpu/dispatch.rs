@@ -81,6 +81,16 @@ impl Batches {
     /// Traces `runs` (at most [`capacity`](Self::capacity)) and returns their output records,
     /// `record` words each, in order.
     pub(super) fn run(&self, gpu: &Gpu, runs: &[Run]) -> Result<Vec<u32>, GpuError> {
+        self.run_with(gpu, &gpu.pipeline, runs)
+    }
+
+    /// [`run`](Self::run) with another entry point of the shaders, on the same bindings.
+    pub(super) fn run_with(
+        &self,
+        gpu: &Gpu,
+        pipeline: &wgpu::ComputePipeline,
+        runs: &[Run],
+    ) -> Result<Vec<u32>, GpuError> {
         let n = runs.len() as u32;
         assert!(n <= self.capacity, "a batch larger than its buffers");
         if n == 0 {
@@ -101,7 +111,7 @@ impl Batches {
                 label: Some("trace"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&gpu.pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.bind, &[]);
             pass.dispatch_workgroups(workgroups(n), 1, 1);
         }
@@ -116,15 +126,27 @@ impl Batches {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        let polled = gpu.device.poll(wgpu::PollType::wait_indefinitely());
         let fault = |why: String| gpu.fault().unwrap_or(GpuError::Lost(why));
-        if let Err(e) = polled {
-            return Err(fault(e.to_string()));
-        }
-        match rx.try_recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(fault(format!("reading the results back: {e}"))),
-            Err(_) => return Err(fault("the results never came back".to_string())),
+        // Waits for the copy, then for the mapping's callback, which another thread's poll
+        // of the same device may be the one to call.
+        let mapped = loop {
+            if let Err(e) = gpu.device.poll(wgpu::PollType::wait_indefinitely()) {
+                return Err(fault(e.to_string()));
+            }
+            match rx.recv_timeout(std::time::Duration::from_millis(20)) {
+                Ok(r) => break r,
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                    if let Some(e) = gpu.fault() {
+                        return Err(e);
+                    }
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(fault("the results never came back".to_string()));
+                }
+            }
+        };
+        if let Err(e) = mapped {
+            return Err(fault(format!("reading the results back: {e}")));
         }
         let out = {
             let view = slice

@@ -25,6 +25,9 @@ mod shot;
 mod support;
 mod upload;
 
+#[cfg(test)]
+mod tests;
+
 pub use context::{Gpu, GpuError, LOSE_AFTER_VARIABLE};
 pub use shot::{GpuFrame, GpuShot, RoundCounts};
 pub use support::{

@@ -265,6 +265,27 @@ impl GpuFrame<'_> {
     }
 }
 
+#[cfg(test)]
+impl GpuFrame<'_> {
+    /// The sampler's numbers of each sample `(x, y, index, uses)` (`uses`: 1 the lens, 2 the
+    /// time), as the tracer draws them: pixel, lens, time, then four bounces' (uc, u.0, u.1).
+    pub(super) fn numbers(&mut self, samples: &[Run]) -> Result<Vec<[f32; 17]>, GpuError> {
+        let shot = self.shot;
+        let batches = Batches::new(
+            &shot.gpu,
+            &shot.buffer,
+            &self.buffer,
+            samples.len() as u32,
+            17,
+        )?;
+        let out = batches.run_with(&shot.gpu, &shot.gpu.numbers, samples)?;
+        Ok(out
+            .chunks_exact(17)
+            .map(|c| std::array::from_fn(|i| f32::from_bits(c[i])))
+            .collect())
+    }
+}
+
 /// Adds a run of `count` samples, summed in the output record `rec`, to `pixel`.
 fn add(pixel: &mut Pixel, count: u32, rec: &[u32]) {
     let f = |i: u32| f32::from_bits(rec[i as usize]);

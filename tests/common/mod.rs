@@ -29,6 +29,44 @@ pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
     render(&scene, frame)
 }
 
+/// The GPU (wgpu's adapter: Mesa's lavapipe where CI runs), opened once per test binary.
+/// `None` where there is none, and the GPU test returns, except under `CI=true`, where a
+/// missing adapter fails the test instead (`.ci/run` installs lavapipe).
+pub fn gpu() -> Option<&'static raytrace::gpu::Gpu> {
+    static GPU: std::sync::OnceLock<Option<raytrace::gpu::Gpu>> = std::sync::OnceLock::new();
+    GPU.get_or_init(|| match raytrace::gpu::Gpu::new() {
+        Ok(g) => Some(g),
+        Err(e) => {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "CI=true and no GPU: {e}"
+            );
+            eprintln!("skipped: no GPU ({e})");
+            None
+        }
+    })
+    .as_ref()
+}
+
+/// Renders frame `frame` of `scene` (whatever its `[render] device`) on `gpu`.
+pub fn render_gpu_frame(
+    gpu: &raytrace::gpu::Gpu,
+    scene: &Scene,
+    frame: u32,
+    budget: &Budget,
+) -> raytrace::renderer::FrameResult {
+    let mut scene = scene.clone();
+    scene.render.device = raytrace::scene::Device::Gpu;
+    let geometry = raytrace::renderer::ShotGeometry::new(&scene, Some(gpu)).unwrap();
+    raytrace::renderer::render_shot_frame(&scene, &geometry, frame, budget, None, &|_| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Renders frame `frame` of `scene` on `gpu`, its film.
+pub fn render_gpu(gpu: &raytrace::gpu::Gpu, scene: &Scene, frame: u32) -> Film {
+    render_gpu_frame(gpu, scene, frame, &Budget::default()).film
+}
+
 /// Means over square blocks of `block` x `block` pixels (partial blocks dropped).
 pub fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
     let mut out = Vec::new();

@@ -207,3 +207,31 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>) {
         records[at + O_PASSES + k] = bitcast<u32>(pass_sums[k]);
     }
 }
+
+// The sampler's numbers, for the tests that hold them to the CPU's: per run (x, y, sample
+// index, what the camera uses: 1 the lens, 2 the time), the pixel position, the lens
+// position, the time number and four bounces' (uc, u.0, u.1): 17 words.
+@compute @workgroup_size(WORKGROUP)
+fn numbers(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= params.x {
+        return;
+    }
+    let run = run_list[i];
+    load_header();
+    s_block = NONE;
+    start_sample(run.x, run.y, run.z);
+    let c = camera_numbers((run.w & 1u) != 0u, (run.w & 2u) != 0u);
+    let at = i * params.y;
+    records[at] = bitcast<u32>(c.pixel.x);
+    records[at + 1u] = bitcast<u32>(c.pixel.y);
+    records[at + 2u] = bitcast<u32>(c.lens.x);
+    records[at + 3u] = bitcast<u32>(c.lens.y);
+    records[at + 4u] = bitcast<u32>(c.time);
+    for (var k = 0u; k < 4u; k++) {
+        let b = next_bounce();
+        for (var j = 0u; j < 3u; j++) {
+            records[at + 5u + 3u * k + j] = bitcast<u32>(b[j]);
+        }
+    }
+}

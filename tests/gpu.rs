@@ -1,0 +1,570 @@
+//! The GPU tracer (`--device gpu`) against the CPU's, on the GPU (Mesa's lavapipe where CI
+//! runs; under `CI=true` a missing adapter fails these tests instead of skipping them).
+//!
+//! Two renders of a frame made independently (different seeds) differ by their noise alone
+//! when both render the same image: their difference, pixel by pixel, has mean zero and the
+//! variance the films estimate from their two replicates. Every shipped scene is held to
+//! that, and the books' scene through the binary as a user renders it. With the same seed the
+//! GPU draws the CPU's sampler numbers (src/gpu/tests.rs), so its camera rays and first hits
+//! are the CPU's up to `f32` rounding: the passes are compared pixel by pixel.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::{exr_bits_and_attributes, exr_channels, exr_number, gpu, render, render_gpu, text};
+use raytrace::film::Film;
+use raytrace::renderer::{Budget, FrameResult, render_frame};
+use raytrace::scene::Scene;
+use raytrace::world::StaticGeometry;
+
+/// How two independent renders of a frame agree.
+#[derive(Debug)]
+struct Agreement {
+    /// Per channel, the mean difference over the frame in its standard errors.
+    z: [f64; 3],
+    /// The squared differences over their expectation (the sum of the two films' estimated
+    /// variances), over every pixel and channel: 1 within noise.
+    ratio: f64,
+    /// Over blocks of 8 x 8 pixels and each channel: the largest |z| of a block's mean
+    /// difference, and the mean of z^2 (1 within noise).
+    block_z: f64,
+    block_chi: f64,
+}
+
+impl Agreement {
+    /// Within noise: each channel's frame mean within 5 standard errors, the error variance
+    /// within [0.7, 1.5] of its expectation, no 8 x 8 block beyond 6 standard errors and the
+    /// blocks' mean z^2 below 2. The bounds leave room for Monte Carlo's heavy tails (rare
+    /// bright paths): two CPU renders of `propeller.toml` with different seeds reach a block
+    /// at 5.6 and a mean z^2 of 1.8, and the frame ratios of every shipped scene lie within
+    /// 0.94 to 1.27.
+    fn within_noise(&self) -> bool {
+        self.z.iter().all(|z| z.abs() <= 5.0)
+            && (0.7..=1.5).contains(&self.ratio)
+            && self.block_z <= 6.0
+            && self.block_chi <= 2.0
+    }
+}
+
+/// The agreement of `a` and `b`, the means and estimated variances of the means of the same
+/// frame's pixels, row-major, `width` a row, rendered independently. A pixel's expected
+/// squared difference is the sum of its two variances plus `(2^-20 m)^2` for `m` its mean,
+/// for the `f32` rounding of a sample on the GPU (a pixel that never varies, under a uniform
+/// background, has no noise to hide it).
+fn agreement(
+    a: (&[[f64; 3]], &[[f64; 3]]),
+    b: (&[[f64; 3]], &[[f64; 3]]),
+    width: usize,
+) -> Agreement {
+    let ((ma, va), (mb, vb)) = (a, b);
+    assert_eq!(ma.len(), mb.len());
+    let expect = |i: usize, c: usize| {
+        let m = (ma[i][c] + mb[i][c]).abs() * 0.5 / 1_048_576.0;
+        va[i][c] + vb[i][c] + m * m
+    };
+    let mut z = [0.0; 3];
+    let (mut d2, mut e2) = (0.0, 0.0);
+    for (c, zc) in z.iter_mut().enumerate() {
+        let (mut d, mut e) = (0.0, 0.0);
+        for i in 0..ma.len() {
+            let diff = ma[i][c] - mb[i][c];
+            d += diff;
+            e += expect(i, c);
+            d2 += diff * diff;
+        }
+        e2 += e;
+        *zc = if e > 0.0 { d / e.sqrt() } else { 0.0 };
+    }
+    let height = ma.len() / width;
+    let (mut block_z, mut chi, mut blocks) = (0.0f64, 0.0, 0);
+    for by in 0..height / 8 {
+        for bx in 0..width / 8 {
+            for c in 0..3 {
+                let (mut d, mut e) = (0.0, 0.0);
+                for y in by * 8..by * 8 + 8 {
+                    for x in bx * 8..bx * 8 + 8 {
+                        let i = y * width + x;
+                        d += ma[i][c] - mb[i][c];
+                        e += expect(i, c);
+                    }
+                }
+                // A block that never varies (a channel that is 0 everywhere) must agree.
+                let zb = if e > 0.0 {
+                    d / e.sqrt()
+                } else {
+                    d.abs() * f64::INFINITY
+                };
+                let zb = if zb.is_nan() { 0.0 } else { zb };
+                block_z = block_z.max(zb.abs());
+                chi += zb * zb;
+                blocks += 1;
+            }
+        }
+    }
+    Agreement {
+        z,
+        ratio: d2 / e2,
+        block_z,
+        block_chi: chi / blocks as f64,
+    }
+}
+
+/// A film's means and estimated variances of the means, row-major.
+fn moments(f: &Film) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    (
+        f.means().iter().map(|m| m.to_array()).collect(),
+        f.variances().iter().map(|v| v.to_array()).collect(),
+    )
+}
+
+fn films_agree(a: &Film, b: &Film) -> Agreement {
+    let (ma, va) = moments(a);
+    let (mb, vb) = moments(b);
+    agreement((&ma, &va), (&mb, &vb), a.width as usize)
+}
+
+/// The shipped scene `name` at `width` x `height` pixels and `samples` samples, seed `seed`.
+fn shipped(name: &str, width: u32, height: u32, samples: u32, seed: u64) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    let mut s = Scene::load(&path).unwrap();
+    s.output.width = width;
+    s.output.height = height;
+    s.render.samples = samples;
+    s.render.seed = seed;
+    s
+}
+
+#[test]
+fn every_shipped_scene_agrees_with_the_cpu_within_noise() {
+    let Some(gpu) = gpu() else { return };
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 6, "{names:?}");
+    for name in &names {
+        // A frame in the middle of the shot, where things move; independent seeds.
+        let cpu = shipped(name, 48, 32, 64, 1);
+        let frame = cpu.shot.first_frame + cpu.shot.frames / 2;
+        let a = render(&cpu, frame);
+        let b = render_gpu(gpu, &shipped(name, 48, 32, 64, 2), frame);
+        let agreement = films_agree(&b, &a);
+        println!("[gpu] {name} frame {frame}: {agreement:?}");
+        assert!(agreement.within_noise(), "{name}: {agreement:?}");
+    }
+}
+
+/// Runs the `raytrace` binary in `dir` with `args`, the environment changed by `env` (a
+/// variable set, or removed with `None`).
+fn raytrace(dir: &Path, args: &[&str], env: &[(&str, Option<&str>)]) -> std::process::Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_raytrace"));
+    c.args(args).current_dir(dir);
+    for (k, v) in env {
+        match v {
+            Some(v) => c.env(k, v),
+            None => c.env_remove(k),
+        };
+    }
+    c.output().expect("run raytrace")
+}
+
+/// A frame's colour and estimated variance from an EXR with the variance pass, row-major.
+fn exr_moments(path: &Path) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let ch = exr_channels(path);
+    let pick = |names: [&str; 3]| -> Vec<[f64; 3]> {
+        (0..ch[names[0]].len())
+            .map(|i| names.map(|n| ch[n][i] as f64))
+            .collect()
+    };
+    (
+        pick(["R", "G", "B"]),
+        pick(["variance.R", "variance.G", "variance.B"]),
+    )
+}
+
+#[test]
+fn the_books_scene_renders_through_the_binary_and_agrees_with_the_cpu() {
+    // `raytrace render scenes/bouncing_spheres.toml --device gpu`, smaller, with its
+    // variance pass, against the CPU with another seed; with XDG_RUNTIME_DIR unset, where
+    // Mesa's device selection prints a stray line that must not reach raytrace's output.
+    if gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bouncing_spheres.toml");
+    let scene = scene.to_str().unwrap();
+    let mut files = vec![];
+    for (device, seed) in [("cpu", "1"), ("gpu", "2")] {
+        let out = format!("{device}.exr");
+        let args = [
+            "render",
+            scene,
+            "--device",
+            device,
+            "--width",
+            "64",
+            "--height",
+            "40",
+            "--samples",
+            "48",
+            "--seed",
+            seed,
+            "--passes",
+            "variance",
+            "--output",
+            &out,
+        ];
+        let o = raytrace(dir.path(), &args, &[("XDG_RUNTIME_DIR", None)]);
+        let all = text(&o);
+        assert!(o.status.success(), "{all}");
+        assert!(!all.contains("XDG_RUNTIME_DIR"), "{all}");
+        // The frame line, as on the CPU.
+        assert!(
+            all.contains("frame 0: ") && all.contains("M samples/s"),
+            "{all}"
+        );
+        files.push(dir.path().join(&out));
+    }
+    let (mc, vc) = exr_moments(&files[0]);
+    let (mg, vg) = exr_moments(&files[1]);
+    let a = agreement((&mg, &vg), (&mc, &vc), 64);
+    println!("[gpu] bouncing_spheres.toml through the binary: {a:?}");
+    assert!(a.within_noise(), "{a:?}");
+    // The same attributes, but the seed.
+    let (_, ca) = exr_bits_and_attributes(&files[0]);
+    let (_, ga) = exr_bits_and_attributes(&files[1]);
+    for name in ["frame", "samples", "shutterOpen", "shutterClose"] {
+        assert_eq!(exr_number(&ca, name), exr_number(&ga, name), "{name}");
+    }
+}
+
+#[test]
+fn a_gpu_frame_is_the_same_bytes_on_rerun() {
+    // Each run is summed in a fixed order, and runs are added in sample order, so a frame
+    // is the same bytes however its batches were cut, on the same device and driver: with
+    // every pass and the adaptive rounds of a noise threshold.
+    if gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
+    let mut bytes = vec![];
+    for run in ["a", "b"] {
+        let out = format!("{run}_####.exr");
+        let args = [
+            "render",
+            scene.to_str().unwrap(),
+            "--device",
+            "gpu",
+            "--frames",
+            "2",
+            "--width",
+            "40",
+            "--height",
+            "24",
+            "--noise-threshold",
+            "0.015",
+            "--max-samples",
+            "128",
+            "--passes",
+            "alpha,depth,normal,albedo,motion,variance,samples",
+            "--output",
+            &out,
+        ];
+        let o = raytrace(dir.path(), &args, &[]);
+        assert!(o.status.success(), "{}", text(&o));
+        bytes.push(std::fs::read(dir.path().join(format!("{run}_0002.exr"))).unwrap());
+    }
+    assert!(bytes[0] == bytes[1], "two runs wrote different bytes");
+    // The rounds were adaptive: pixels took different counts.
+    let ch = exr_channels(&dir.path().join("a_0002.exr"));
+    let (lo, hi) = ch["samples"]
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(l, h), &s| (l.min(s), h.max(s)));
+    assert!(lo >= 16.0 && hi > lo, "{lo} {hi}");
+}
+
+/// A scene with everything that moves: a keyframed camera with a lens, and spheres moving
+/// with a velocity, along keys and on an orbit, over a ground, with every pass.
+const MOVING: &str = r#"
+[shot]
+fps = 24.0
+frames = 3
+shutter_angle = 270.0
+[output]
+path = "t.exr"
+width = 48
+height = 32
+passes = ["alpha", "depth", "normal", "albedo", "motion"]
+[render]
+samples = 16
+max_depth = 8
+seed = 7
+[camera]
+look_from = [0.0, 1.0, 6.0]
+look_at = [0.0, 0.5, 0.0]
+vfov = 40.0
+aperture = 0.1
+keyframes = [{ time = 0.0 }, { time = 1.0, look_from = [2.0, 1.5, 6.0] }]
+[materials]
+grey = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
+red = { type = "lambertian", albedo = [0.8, 0.2, 0.1] }
+steel = { type = "metal", albedo = [0.8, 0.8, 0.9], fuzz = 0.2 }
+glass = { type = "dielectric", ior = 1.5 }
+[[sphere]]
+center = [0.0, -100.0, 0.0]
+radius = 100.0
+material = "grey"
+[[sphere]]
+center = [-1.5, 0.5, 0.0]
+radius = 0.5
+material = "red"
+velocity = [3.0, 1.0, 0.0]
+[[sphere]]
+radius = 0.4
+material = "steel"
+keyframes = [{ time = 0.0, center = [0.5, 0.4, 1.0] }, { time = 0.05, center = [1.0, 0.9, 1.0] }, { time = 0.2, center = [1.5, 0.4, 0.5] }]
+[[sphere]]
+center = [0.0, 0.6, -1.0]
+radius = 0.6
+material = "glass"
+orbit = { pivot = [0.0, 0.6, -2.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 400.0 }
+"#;
+
+#[test]
+fn passes_are_the_cpus_with_the_same_seed() {
+    // With the same seed the GPU's camera rays are the CPU's to f32 rounding, at the same
+    // times, so every pass (alpha, depth, normal, albedo, motion) is the CPU's pixel for
+    // pixel, up to a sample whose first hit rounding decides (a ray grazing a silhouette).
+    let Some(gpu) = gpu() else { return };
+    let scene = common::scene(MOVING);
+    let statics = StaticGeometry::new(&scene);
+    for frame in [1, 2] {
+        let cpu: FrameResult = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
+        let g = common::render_gpu_frame(gpu, &scene, frame, &Budget::default());
+        let (cpu, g) = (cpu.pass_images().unwrap(), g.pass_images().unwrap());
+        for (c, d) in cpu.channels.iter().zip(&g.channels) {
+            assert_eq!(c.name, d.name);
+            // Motion vectors in pixels, depths relative to the depth, the rest absolute.
+            let close = |a: f32, b: f32| {
+                let tol = match c.name {
+                    "Z" => 1e-4 * a.abs(),
+                    n if n.starts_with("forward") || n.starts_with("backward") => 1e-3,
+                    _ => 1e-4,
+                };
+                (a - b).abs() <= tol
+            };
+            let differ = c
+                .values
+                .iter()
+                .zip(&d.values)
+                .filter(|(a, b)| !close(**a, **b))
+                .count();
+            let most = c
+                .values
+                .iter()
+                .zip(&d.values)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            println!(
+                "[gpu] frame {frame} {}: {differ} of {} pixels differ, largest difference {most:e}",
+                c.name,
+                c.values.len()
+            );
+            assert!(
+                differ * 100 <= c.values.len(),
+                "{}: {differ} pixels differ",
+                c.name
+            );
+        }
+    }
+}
+
+#[test]
+fn budgets_take_adaptive_rounds_and_each_pixel_is_its_plain_render() {
+    // Under a noise threshold the GPU's rounds are the CPU's code: every pixel to 16 samples,
+    // then each doubling by its own estimated error. A pixel that stopped at n samples is the
+    // same pixel rendered with exactly n, to the f32 rounding of its runs' sums (runs are cut
+    // where rounds end).
+    let Some(gpu) = gpu() else { return };
+    let mut scene = common::scene(MOVING);
+    scene.output.passes = Default::default();
+    let budget = Budget {
+        noise_threshold: Some(0.01),
+        max_samples: Some(256),
+        ..Budget::default()
+    };
+    let r = common::render_gpu_frame(gpu, &scene, 2, &budget);
+    let st = &r.stats;
+    println!("[gpu] budget: {st:?}");
+    assert!(
+        st.relative_error <= 0.01 || st.samples_per_pixel == 256,
+        "{st:?}"
+    );
+    assert!(st.min_samples_per_pixel >= 16 && st.samples_per_pixel > st.min_samples_per_pixel);
+    assert!(st.rounds > 5, "{st:?}");
+    let film = &r.film;
+    let mut counts: Vec<u32> = film.all_pixels().iter().map(|p| p.taken()).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    for n in counts {
+        let mut plain = scene.clone();
+        plain.render.samples = n;
+        let p = render_gpu(gpu, &plain, 2);
+        for y in 0..film.height {
+            for x in 0..film.width {
+                if film.pixel(x, y).taken() != n {
+                    continue;
+                }
+                let (a, b) = (film.get(x, y), p.get(x, y));
+                let d = (a - b).abs().max_element();
+                assert!(
+                    d <= 2e-6 * a.abs().max_element() + 1e-7,
+                    "({x}, {y}), {n} samples: {a} {b}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn without_an_adapter_the_gpu_is_refused_with_what_was_looked_for_and_nothing_written() {
+    // No Vulkan driver to be found: exit 1 before anything is written, naming what was
+    // looked for and how to get it. Needs no GPU.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("s.toml"),
+        "[output]\npath = \"f_####.png\"\nwidth = 8\nheight = 8\n",
+    )
+    .unwrap();
+    let none = Some("/nonexistent/icd.json");
+    let env = [("VK_ICD_FILENAMES", none), ("VK_DRIVER_FILES", none)];
+    let o = raytrace(dir.path(), &["render", "s.toml", "--device", "gpu"], &env);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    for words in [
+        "no GPU found",
+        "Vulkan",
+        "mesa-vulkan-drivers",
+        "--device cpu",
+    ] {
+        assert!(all.contains(words), "{words}: {all}");
+    }
+    let files: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    // The same scene on the CPU renders.
+    let o = raytrace(
+        dir.path(),
+        &["render", "s.toml", "--device", "cpu", "--quiet"],
+        &env,
+    );
+    assert!(o.status.success() && dir.path().join("f_0001.png").exists());
+}
+
+#[test]
+fn a_lost_device_ends_the_run_with_the_finished_frames_kept() {
+    // The device is lost (destroyed on purpose) at the first batch of frame 2: the run ends
+    // with exit 1 naming the frame, frame 1 stays whole, nothing else is written, no
+    // temporary file is left.
+    if gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[shot]\nframes = 3\n[output]\npath = \"f_####.png\"\nwidth = 24\nheight = 16\n[render]\nsamples = 8\n[[sphere]]\ncenter = [0.0, 0.0, -2.0]\nradius = 0.5\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\nvelocity = [1.0, 0.0, 0.0]\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let env = [(raytrace::gpu::LOSE_AFTER_VARIABLE, Some("1"))];
+    let o = raytrace(dir.path(), &["render", "s.toml", "--device", "gpu"], &env);
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("frame 2: the GPU device was lost"), "{all}");
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["f_0001.png", "s.toml"]);
+    let png = image::open(dir.path().join("f_0001.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+}
+
+#[test]
+fn scenes_beyond_the_gpus_floats_are_refused_by_check_and_render() {
+    // A sphere of radius 1e-4 a million units from the origin: f32 places its surface to
+    // 0.06, more than its radius. `check` and `render` refuse it for the GPU (exit 2, the
+    // field named, nothing written); the CPU renders it. Needs no GPU.
+    let dir = tempfile::tempdir().unwrap();
+    let far = "[output]\npath = \"f_####.png\"\nwidth = 8\nheight = 8\n[render]\ndevice = \"gpu\"\n[camera]\nlook_from = [1000000.0, 0.0, 0.001]\nlook_at = [1000000.0, 0.0, 0.0]\n[[sphere]]\ncenter = [1000000.0, 0.0, 0.0]\nradius = 0.0001\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+    std::fs::write(dir.path().join("far.toml"), far).unwrap();
+    for command in ["check", "render"] {
+        let o = raytrace(dir.path(), &[command, "far.toml"], &[]);
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{all}");
+        for words in [
+            "far.toml: render.device = \"gpu\"",
+            "sphere[0].radius",
+            "--device cpu",
+        ] {
+            assert!(all.contains(words), "{words}: {all}");
+        }
+    }
+    let o = raytrace(dir.path(), &["render", "far.toml", "--device", "gpu"], &[]);
+    assert!(text(&o).contains("--device gpu: "), "{}", text(&o));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    let o = raytrace(dir.path(), &["check", "far.toml", "--device", "cpu"], &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    // A scene the GPU takes: `check` says so, with no GPU needed.
+    let ok = "[render]\ndevice = \"gpu\"\n";
+    std::fs::write(dir.path().join("ok.toml"), ok).unwrap();
+    let o = raytrace(dir.path(), &["check", "ok.toml"], &[]);
+    assert!(
+        o.status.success() && text(&o).contains("device: gpu"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn chunks_clips_and_time_limits_work_on_the_gpu() {
+    if gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[shot]\nframes = 3\n[output]\npath = \"f_####.png\"\nwidth = 24\nheight = 16\n[render]\nsamples = 4\ndevice = \"gpu\"\n[[sphere]]\ncenter = [0.0, 0.0, -2.0]\nradius = 0.5\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\nvelocity = [1.0, 0.0, 0.0]\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    // A farm's chunk: the second of two-frame chunks is frame 3 alone.
+    let o = raytrace(
+        dir.path(),
+        &["render", "s.toml", "--chunk-size", "2", "--chunk", "1"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(dir.path().join("f_0003.png").exists() && !dir.path().join("f_0001.png").exists());
+    // The whole shot and its clip.
+    let o = raytrace(dir.path(), &["render", "s.toml", "--clip", "c.gif"], &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(dir.path().join("c.gif").exists());
+    // A time limit: rounds until the next would pass it.
+    let args = [
+        "render",
+        "s.toml",
+        "--frames",
+        "1",
+        "--time-limit",
+        "2",
+        "--output",
+        "t.exr",
+    ];
+    let o = raytrace(dir.path(), &args, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (_, a) = exr_bits_and_attributes(&dir.path().join("t.exr"));
+    assert_eq!(exr_number(&a, "timeLimit"), 2.0);
+    assert!(exr_number(&a, "samples") >= 16.0);
+}
