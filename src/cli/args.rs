@@ -115,6 +115,10 @@ pub struct SceneArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Where paths are traced: `cpu` (default) or `gpu` (through wgpu: Vulkan, Metal or
+    /// DirectX 12), replacing `[render] device`.
+    #[arg(long)]
+    pub device: Option<Device>,
 }
 
 /// Arguments of `raytrace render`.
@@ -147,10 +151,6 @@ pub struct RenderArgs {
     /// How samples are placed: `sobol` (default) or `independent`.
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
-    /// Where paths are traced: `cpu` (default) or `gpu` (through wgpu: Vulkan, Metal or
-    /// DirectX 12), replacing `[render] device`.
-    #[arg(long)]
-    pub device: Option<Device>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
     /// Leave frames whose file already exists untouched (resume).
@@ -307,6 +307,10 @@ pub struct ClipArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Where paths are traced: `cpu` (default) or `gpu` (through wgpu: Vulkan, Metal or
+    /// DirectX 12), replacing `[render] device`.
+    #[arg(long)]
+    pub device: Option<Device>,
 }
 
 /// Arguments of `raytrace generate`.
@@ -338,6 +342,7 @@ impl SceneArgs {
             width: self.width,
             height: self.height,
             seed: self.seed,
+            device: self.device,
             ..Overrides::default()
         }
     }
@@ -350,7 +355,6 @@ impl RenderArgs {
             output: self.output.clone(),
             samples: self.samples,
             sampler: self.sampler,
-            device: self.device,
             clip: self.clip.clone(),
             passes: self.passes.as_ref().map(|p| p.0.clone()),
             denoise: self.denoise.then_some(true),

@@ -20,14 +20,14 @@ use crate::analysis::{metrics, plot};
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::format::{FRAME_FORMATS, Format};
+use crate::gpu::Gpu;
 use crate::io;
 use crate::output;
-use crate::renderer::{Budget, FrameResult, render_frame, render_frame_denoised};
+use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
-use crate::scene::Scene;
+use crate::scene::{Device, Scene};
 use crate::scene_file::{Overrides, SceneSource};
-use crate::world::StaticGeometry;
 
 /// Default samples per pixel of the reference render.
 pub(crate) const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
@@ -190,13 +190,18 @@ fn measure(
             print_line(s);
         }
     };
-    let statics = StaticGeometry::new(scene);
-    // Started before anything is measured: if it cannot start, nothing is written.
+    // The scene's device: the GPU opened before anything is measured, as the denoiser is
+    // started: if either cannot start, nothing is written.
+    let gpu = match scene.render.device {
+        Device::Gpu => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+        Device::Cpu => None,
+    };
+    let geometry = ShotGeometry::new(scene, gpu.as_ref())?;
     let denoiser = match args.denoise {
         true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
         false => None,
     };
-    let reference = reference(scene, variant, &statics, frame, args, &say)?;
+    let reference = reference(scene, variant, &geometry, frame, args, &say)?;
 
     let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -219,8 +224,12 @@ fn measure(
             if !active[i] {
                 continue;
             }
-            let (result, seconds) =
-                timed_render(&variant(n, None, kind)?, &statics, frame, denoiser.as_ref())?;
+            let (result, seconds) = timed_render(
+                &variant(n, None, kind)?,
+                &geometry,
+                frame,
+                denoiser.as_ref(),
+            )?;
             let denoised = result.denoised.as_ref().map(|d| {
                 let image: Vec<DVec3> = d
                     .rgb
@@ -317,7 +326,7 @@ fn measure(
 fn reference(
     scene: &Scene,
     variant: &Variant,
-    statics: &StaticGeometry,
+    geometry: &ShotGeometry,
     frame: u32,
     args: &ConvergeArgs,
     say: &dyn Fn(&str),
@@ -340,7 +349,14 @@ fn reference(
         "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
         reference.render.sampler
     ));
-    let result = render_frame(&reference, statics, frame, &Budget::default(), &|_| {});
+    let result = render_shot_frame(
+        &reference,
+        geometry,
+        frame,
+        &Budget::default(),
+        None,
+        &|_| {},
+    )?;
     let non_finite = output::write_frame(&path, format, &reference, &result, &Budget::default())?;
     if non_finite > 0 {
         say(&format!(
@@ -361,7 +377,7 @@ fn reference(
 /// the clock).
 fn timed_render(
     scene: &Scene,
-    statics: &StaticGeometry,
+    geometry: &ShotGeometry,
     frame: u32,
     denoiser: Option<&Denoiser>,
 ) -> Result<(FrameResult, f64), Error> {
@@ -370,10 +386,7 @@ fn timed_render(
     while times.len() < MAX_REPEATS {
         let start = Instant::now();
         let budget = Budget::default();
-        let r = match denoiser {
-            Some(d) => render_frame_denoised(scene, statics, frame, &budget, d, &|_| {})?,
-            None => render_frame(scene, statics, frame, &budget, &|_| {}),
-        };
+        let r = render_shot_frame(scene, geometry, frame, &budget, denoiser, &|_| {})?;
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);
         if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {

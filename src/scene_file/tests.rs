@@ -723,6 +723,7 @@ fn messages_hold_no_internal_names() {
         ("shot", "shutter_position"),
         ("output", "path"),
         ("render", "sampler"),
+        ("render", "device"),
         ("camera", "look_from"),
         ("camera", "orbit"),
         ("camera", "keyframes"),
@@ -1120,4 +1121,42 @@ fn passes_and_a_transparent_background_parse_and_are_checked() {
         e.to_string(),
         "--passes: \"alpha\" is listed twice (entry 1); list each pass once"
     );
+}
+
+#[test]
+fn the_device_is_the_cpu_unless_the_file_or_the_flag_names_the_gpu() {
+    use crate::scene::Device;
+    assert_eq!(ok("").render.device, Device::Cpu);
+    assert_eq!(
+        ok("[render]\ndevice = \"gpu\"\n").render.device,
+        Device::Gpu
+    );
+    assert_eq!(
+        ok("[render]\ndevice = \"cpu\"\n").render.device,
+        Device::Cpu
+    );
+    assert_eq!(
+        first_line(&err("[render]\ndevice = \"tpu\"\n")),
+        "s.toml:2:10: render.device: expected one of \"cpu\", \"gpu\", found \"tpu\""
+    );
+    let gpu = Overrides {
+        device: Some(Device::Gpu),
+        ..Overrides::default()
+    };
+    let s = Scene::parse_with("[render]\ndevice = \"cpu\"\n", Path::new("s.toml"), &gpu).unwrap();
+    assert_eq!(s.render.device, Device::Gpu);
+    // A scene the GPU's floats cannot carry is refused for the GPU only, naming the file's
+    // field or the flag; the CPU takes it.
+    let far = "[[sphere]]\ncenter = [1e6, 0.0, 0.0]\nradius = 1e-4\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+    assert!(ok(far).render.device == Device::Cpu);
+    let e = err(&format!("[render]\ndevice = \"gpu\"\n{far}"));
+    assert!(
+        e.starts_with("s.toml: render.device = \"gpu\": the GPU computes in 32-bit floats")
+            && e.contains("sphere[0].radius 0.0001")
+            && e.ends_with("render it with --device cpu"),
+        "{e}"
+    );
+    let e = Scene::parse_with(far, Path::new("s.toml"), &gpu).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().starts_with("--device gpu: "), "{e}");
 }
