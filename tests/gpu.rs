@@ -568,3 +568,77 @@ fn chunks_clips_and_time_limits_work_on_the_gpu() {
     assert_eq!(exr_number(&a, "timeLimit"), 2.0);
     assert!(exr_number(&a, "samples") >= 16.0);
 }
+
+#[test]
+fn denoising_and_a_transparent_background_work_on_the_gpu() {
+    // A denoised frame on the GPU: the film keeps the denoiser's guides (albedo and normal per
+    // replicate), the CPU's to f32 rounding with the same seed, and the frame is denoised with
+    // its estimated error. With a transparent background, camera rays that miss add nothing.
+    let Some(gpu) = gpu() else { return };
+    let mut scene = common::scene(MOVING);
+    scene.transparent = true;
+    scene.output.passes = [raytrace::pass::Pass::Alpha].into_iter().collect();
+    let denoiser = raytrace::denoise::denoiser::Denoiser::new().unwrap();
+    let statics = raytrace::renderer::ShotGeometry::new(&scene, None).unwrap();
+    let cpu = raytrace::renderer::render_shot_frame(
+        &scene,
+        &statics,
+        2,
+        &Budget::default(),
+        Some(&denoiser),
+        &|_| {},
+    )
+    .unwrap();
+    let mut on_gpu = scene.clone();
+    on_gpu.render.device = raytrace::scene::Device::Gpu;
+    let shot = raytrace::renderer::ShotGeometry::new(&on_gpu, Some(gpu)).unwrap();
+    let g = raytrace::renderer::render_shot_frame(
+        &on_gpu,
+        &shot,
+        2,
+        &Budget::default(),
+        Some(&denoiser),
+        &|_| {},
+    )
+    .unwrap();
+    let guides = g
+        .layout
+        .guides()
+        .expect("a denoised frame keeps its guides");
+    let stride = g.layout.stride;
+    let (mut compared, mut differ) = (0, 0);
+    for ((_, _, a), (_, _, b)) in cpu
+        .film
+        .tiles_with_pass_sums()
+        .iter()
+        .zip(g.film.tiles_with_pass_sums())
+    {
+        for (pa, pb) in a.chunks(stride).zip(b.chunks(stride)) {
+            for k in guides..guides + 12 {
+                compared += 1;
+                differ += ((pa[k] - pb[k]).abs() > 1e-4 * (1.0 + pa[k].abs())) as usize;
+            }
+        }
+    }
+    assert!(
+        differ * 100 <= compared,
+        "{differ} of {compared} guide sums differ"
+    );
+    let d = g.denoised.as_ref().expect("denoised");
+    assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
+    // The same estimate as the CPU's frame, within its noise.
+    let ratio = g.stats.relative_error / cpu.stats.relative_error;
+    assert!(
+        (0.7..1.4).contains(&ratio),
+        "{:?}\n{:?}",
+        g.stats,
+        cpu.stats
+    );
+    // Transparent: a pixel no camera ray hit (alpha 0) is black.
+    let alpha = g.pass_images().unwrap();
+    let alpha = alpha.channel("A").unwrap();
+    let means = g.film.means();
+    let empty: Vec<usize> = (0..alpha.len()).filter(|&i| alpha[i] == 0.0).collect();
+    assert!(!empty.is_empty());
+    assert!(empty.iter().all(|&i| means[i] == glam::DVec3::ZERO));
+}

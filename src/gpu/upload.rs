@@ -33,9 +33,15 @@ pub(super) struct ShotWords {
     tables: u32,
     spheres: u32,
     hierarchy: Flat,
-    /// The scene's animated spheres (every other one is in this buffer).
+    /// The spheres prepared per frame: the animated ones, or every one (see
+    /// [`MERGE_LIMIT`]); the others are in this buffer.
     animated: Vec<u32>,
 }
+
+/// Scenes with animated spheres and at most this many spheres in all trace one hierarchy per
+/// frame over every sphere, as `world.rs` does for scenes this small (its shared topology for
+/// larger, mostly animated scenes has no counterpart here).
+const MERGE_LIMIT: u32 = 16384;
 
 /// One frame's words, and what the renderer reports of it.
 #[derive(Clone, Debug)]
@@ -75,8 +81,16 @@ impl ShotWords {
                 entry.iter().for_each(|&x| w.u(x));
             }
         }
-        let (still, animated): (Vec<u32>, Vec<u32>) = (0..scene.spheres.len() as u32)
-            .partition(|&i| !scene.spheres[i as usize].motion.is_animated());
+        // As the CPU's world: a scene with animated spheres and at most MERGE_LIMIT spheres
+        // in all is one hierarchy per frame (one walk per ray, one nearest distance pruning
+        // it); a larger one keeps its still spheres apart, built once.
+        let n = scene.spheres.len() as u32;
+        let any_animated = scene.spheres.iter().any(|s| s.motion.is_animated());
+        let (still, animated): (Vec<u32>, Vec<u32>) = if any_animated && n <= MERGE_LIMIT {
+            (Vec::new(), (0..n).collect())
+        } else {
+            (0..n).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
+        };
         let boxes: Vec<Aabb> = still
             .iter()
             .map(|&i| {
@@ -102,7 +116,8 @@ impl ShotWords {
                 NONE,
             );
         }
-        let hierarchy = flatten(bvh.view(), &mut w);
+        let eye = scene.camera.look_from.at(0.0).as_vec3().to_array();
+        let hierarchy = flatten(bvh.view(), eye, &mut w);
         Ok(ShotWords {
             words: w,
             materials,
@@ -323,7 +338,8 @@ impl FrameWords {
             }
             sphere(&mut w, c, v, p.radius, material, id, NONE);
         }
-        let hierarchy = flatten(bvh.view(), &mut w);
+        let eye = cam.look_from.at(open).as_vec3().to_array();
+        let hierarchy = flatten(bvh.view(), eye, &mut w);
         for (slot, k) in curved {
             let record = motion(&mut w, &prepared[k as usize].motion, open, open);
             w.set(slot, record);
@@ -343,6 +359,9 @@ impl FrameWords {
             }
             for &id in &shot.animated {
                 let path: &Motion = &scene.spheres[id as usize].motion;
+                if !path.is_animated() {
+                    continue;
+                }
                 let record = motion(&mut w, &path.prepare(widened), widened.open, open);
                 w.set(index + id, record);
             }
