@@ -65,7 +65,8 @@ pub fn write_frame(
 }
 
 /// How a denoised frame's file names its denoiser (the `denoiser` attribute).
-pub const DENOISER: &str = "Intel Open Image Denoise 2.5 RT filter, HDR, albedo and normal guides";
+pub const DENOISER: &str =
+    "Intel Open Image Denoise 2.5 RT filter, HDR, prefiltered albedo and normal guides";
 
 /// The attributes of `result`, a frame of `scene`, rendered with `samples` per pixel.
 fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {

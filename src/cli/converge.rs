@@ -197,6 +197,11 @@ fn measure(
         false => None,
     };
     let reference = reference(scene, variant, &statics, frame, args, &say)?;
+    say(&format!(
+        "errors against the reference, less its own estimated error ({:.3}% relative; \
+         the noise of the two is independent, so their squares add)",
+        100.0 * reference.rel_mse.sqrt()
+    ));
 
     let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -229,8 +234,8 @@ fn measure(
                     .collect();
                 DenoisedMeasurement {
                     seconds,
-                    mse: metrics::mse(&image, &reference),
-                    rel_mse: metrics::rel_mse(&image, &reference),
+                    mse: reference.mse(&image),
+                    rel_mse: reference.rel_mse(&image),
                     estimated_rel_mse: d.relative_error.powi(2),
                 }
             });
@@ -240,8 +245,8 @@ fn measure(
                 sampler: kind,
                 samples: n,
                 seconds,
-                mse: metrics::mse(&result.film.means(), &reference),
-                rel_mse: metrics::rel_mse(&result.film.means(), &reference),
+                mse: reference.mse(&result.film.means()),
+                rel_mse: reference.rel_mse(&result.film.means()),
                 estimated_mse: metrics::estimated_mse(&result.film.variances()),
                 // The square of the raw frame's estimated relative error.
                 estimated_rel_mse: result.stats.noisy_relative_error.powi(2),
@@ -312,8 +317,33 @@ fn measure(
     Ok(report)
 }
 
-/// The reference image of `frame`: read from `--reference`, or rendered with many samples
-/// and a seed of its own, written to EXR, and read back.
+/// The reference image and its own estimated error, which every measured error, taken
+/// against it, holds too: the reference's noise is independent of a measured render's, so
+/// their squared errors add, and the reference's is subtracted from each measured one.
+struct Reference {
+    pixels: Vec<DVec3>,
+    /// The reference's estimated mean squared error (0 when unknown).
+    mse: f64,
+    /// The square of its estimated relative error (0 when unknown).
+    rel_mse: f64,
+}
+
+impl Reference {
+    /// The mean squared error of `image` against the truth: against the reference, less the
+    /// reference's own.
+    fn mse(&self, image: &[DVec3]) -> f64 {
+        (metrics::mse(image, &self.pixels) - self.mse).max(0.0)
+    }
+
+    /// The relative mean squared error of `image` against the truth, likewise.
+    fn rel_mse(&self, image: &[DVec3]) -> f64 {
+        (metrics::rel_mse(image, &self.pixels) - self.rel_mse).max(0.0)
+    }
+}
+
+/// The reference image of `frame`: read from `--reference` (with its own error when its
+/// `estimatedRelativeError` attribute records it), or rendered with many samples and a seed
+/// of its own, written to EXR, and read back.
 fn reference(
     scene: &Scene,
     variant: &Variant,
@@ -321,10 +351,15 @@ fn reference(
     frame: u32,
     args: &ConvergeArgs,
     say: &dyn Fn(&str),
-) -> Result<Vec<DVec3>, Error> {
+) -> Result<Reference, Error> {
     let (width, height) = (scene.output.width, scene.output.height);
     if let Some(path) = &args.reference {
-        return read_reference(path, width, height);
+        let rel_mse = io::read_exr_number(path, "estimatedRelativeError").map_or(0.0, |e| e * e);
+        return Ok(Reference {
+            pixels: read_reference(path, width, height)?,
+            mse: 0.0,
+            rel_mse,
+        });
     }
     let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     let path = args
@@ -353,7 +388,11 @@ fn reference(
         path.display()
     ));
     // Compare against what was written (f32), as a reused reference would be.
-    read_reference(&path, width, height)
+    Ok(Reference {
+        pixels: read_reference(&path, width, height)?,
+        mse: metrics::estimated_mse(&result.film.variances()),
+        rel_mse: result.stats.relative_error.powi(2),
+    })
 }
 
 /// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
