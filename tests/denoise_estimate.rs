@@ -2,10 +2,11 @@
 //! a denoised frame prints (and records as `estimatedRelativeError`) is within 25 percent of
 //! its true relative error at 16 to 1024 samples a pixel.
 //!
-//! The truth is measured against a reference of 4096 samples with a seed of its own, less the
+//! The truth is measured against a reference of 2048 samples with a seed of its own, less the
 //! reference's own estimated error: the two renders' noise is independent, so the squared
 //! error against the reference is the frame's plus the reference's (as `converge` measures).
-//! Frames are 128x72, so the whole file takes a minute or two on two cores.
+//! Frames are rendered at half their width and height, so the whole file takes a few minutes
+//! of two cores; docs/convergence.md has the same table at full size.
 
 use std::path::Path;
 
@@ -17,18 +18,19 @@ use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
 use raytrace::world::StaticGeometry;
 
-const WIDTH: u32 = 128;
-const HEIGHT: u32 = 72;
-const REFERENCE_SAMPLES: u32 = 4096;
+const REFERENCE_SAMPLES: u32 = 2048;
 const SAMPLES: [u32; 4] = [16, 64, 256, 1024];
 
+/// The shipped scene `name` at half its width and height, with `samples` and `seed` (`None`:
+/// the scene's).
 fn scene(name: &str, samples: u32, seed: Option<u64>) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
         .join(format!("{name}.toml"));
+    let full = Scene::load(&path).unwrap();
     let overrides = Overrides {
-        width: Some(WIDTH),
-        height: Some(HEIGHT),
+        width: Some(full.output.width / 2),
+        height: Some(full.output.height / 2),
         samples: Some(samples),
         seed,
         ..Overrides::default()
