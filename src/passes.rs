@@ -32,8 +32,12 @@ use crate::sphere::SphereDesc;
 /// guides per replicate ([`Layout::with_guides`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
+    /// The passes written.
     passes: PassSet,
-    /// Whether the hits are counted (alpha, depth, normal or motion requested).
+    /// The passes whose sums are kept: those written, and those a denoiser over several
+    /// frames reads (depth, normal, motion: [`Layout::for_denoising`]).
+    kept: PassSet,
+    /// Whether the hits are counted (alpha, depth, normal or motion kept).
     counts_hits: bool,
     hits: usize,
     depth: usize,
@@ -56,12 +60,18 @@ const GUIDE_SUMS: usize = 12;
 impl Layout {
     /// The sums `passes` need.
     pub fn new(passes: PassSet) -> Layout {
-        Layout::build(passes, false)
+        Layout::build(passes, passes, false)
     }
 
-    /// The sums `passes` need and the denoiser's guides.
-    pub fn with_guides(passes: PassSet) -> Layout {
-        Layout::build(passes, true)
+    /// The sums `passes` need and the denoiser's guides; with `temporal`, also those that
+    /// carry a pixel to the frames before it and tell whether it shows the same surface
+    /// there (depth, normal and motion), written or not.
+    pub fn for_denoising(passes: PassSet, temporal: bool) -> Layout {
+        let kept = match temporal {
+            true => passes.with(Pass::Depth).with(Pass::Normal).with(Pass::Motion),
+            false => passes,
+        };
+        Layout::build(passes, kept, true)
     }
 
     /// The passes written.
@@ -69,12 +79,17 @@ impl Layout {
         self.passes
     }
 
+    /// The passes whose sums are kept (those written among them).
+    pub fn kept(&self) -> PassSet {
+        self.kept
+    }
+
     /// Where the guides' sums start, if they are kept.
     pub fn guides(&self) -> Option<usize> {
         self.guides
     }
 
-    fn build(passes: PassSet, guides: bool) -> Layout {
+    fn build(passes: PassSet, kept: PassSet, guides: bool) -> Layout {
         let mut stride = 0;
         let mut slot = |used: bool, n: usize| {
             let at = stride;
@@ -83,15 +98,16 @@ impl Layout {
             }
             at
         };
-        let counts_hits = passes.iter().any(uses_hits);
+        let counts_hits = kept.iter().any(uses_hits);
         let hits = slot(counts_hits, 1);
-        let depth = slot(passes.contains(Pass::Depth), 1);
-        let normal = slot(passes.contains(Pass::Normal), 3);
-        let albedo = slot(passes.contains(Pass::Albedo), 3);
-        let motion = slot(passes.contains(Pass::Motion), 4);
+        let depth = slot(kept.contains(Pass::Depth), 1);
+        let normal = slot(kept.contains(Pass::Normal), 3);
+        let albedo = slot(kept.contains(Pass::Albedo), 3);
+        let motion = slot(kept.contains(Pass::Motion), 4);
         let guides = guides.then(|| slot(true, GUIDE_SUMS));
         Layout {
             passes,
+            kept,
             counts_hits,
             hits,
             depth,
@@ -160,7 +176,7 @@ impl<'a> PassContext<'a> {
     #[inline]
     pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>, odd: bool) {
         let l = &self.layout;
-        let passes = l.passes;
+        let passes = l.kept;
         if let Some(at) = l.guides {
             let g = &mut slots[at + if odd { 6 } else { 0 }..];
             match hit {
@@ -291,7 +307,12 @@ impl PassImages {
     /// The images of the passes of `layout` from a finished film: its pass sums (laid out by
     /// `layout`), its pixels' sample counts, means and variances.
     pub fn from_film(layout: &Layout, film: &Film) -> PassImages {
-        let passes = layout.passes;
+        PassImages::of(layout.passes, layout, film)
+    }
+
+    /// The images of `passes` (whose sums `layout` keeps, or which need none) from a finished
+    /// film laid out by `layout`.
+    pub fn of(passes: PassSet, layout: &Layout, film: &Film) -> PassImages {
         let stride = layout.stride;
         assert_eq!(
             film.pass_stride(),

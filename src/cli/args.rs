@@ -176,6 +176,12 @@ pub struct RenderArgs {
     /// denoise = true`; the estimated error printed and recorded is the denoised frame's.
     #[arg(long)]
     pub denoise: bool,
+    /// With denoising: average each frame's noisy colour with the two frames before it,
+    /// followed along the motion vectors where they show the same surface, before denoising,
+    /// so that a denoised sequence does not flicker. A frame then depends on the two before
+    /// it, which are rendered first (not written) when the run does not render them.
+    #[arg(long)]
+    pub temporal: bool,
 }
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
@@ -262,6 +268,12 @@ pub struct ConvergeArgs {
     /// included) and its time with the denoising.
     #[arg(long)]
     pub denoise: bool,
+    /// Measure a sequence instead of one frame: these frames (`1-12`, as render's --frames)
+    /// rendered at --max-samples (default: the scene's), raw, denoised frame by frame and
+    /// denoised with --temporal; prints each one's true error and its flicker (its
+    /// frame-to-frame change beyond the true change) against references of every frame.
+    #[arg(long, value_name = "FRAMES", conflicts_with_all = ["frame", "reference", "budget", "csv", "plot"])]
+    pub flicker: Option<String>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
 }

@@ -15,7 +15,9 @@ use crate::error::{Error, elide_path};
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
-use crate::renderer::{FrameResult, FrameStats, render_frame, render_frame_denoised};
+use crate::renderer::{
+    FrameResult, FrameStats, TemporalDenoiser, render_frame, render_frame_denoised,
+};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
@@ -47,6 +49,12 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let shots = load_shots(&args.scenes, &args.overrides(), args.frames.as_ref(), chunk)?;
     let mut estimate = 0;
     for shot in &shots {
+        if args.temporal && !shot.scene.output.denoise {
+            return Err(Error::Usage(format!(
+                "{}: --temporal denoises each frame with the frames before it, and this shot is not denoised: add --denoise (or [output] denoise = true)",
+                elide_path(&shot.path)
+            )));
+        }
         estimate = estimate.max(check_memory(&shot.scene)?);
         if let Some(c) = &shot.scene.output.clip
             && !args.no_clip
@@ -169,6 +177,9 @@ fn render_shot(
     let start = Instant::now();
     let budget = args.budget.budget();
     let statics = StaticGeometry::new(scene);
+    let mut temporal = denoiser
+        .filter(|_| args.temporal && scene.output.denoise)
+        .map(TemporalDenoiser::new);
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
     for (frame, path) in targets.iter() {
@@ -198,9 +209,12 @@ fn render_shot(
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
-        let result = match denoiser.filter(|_| scene.output.denoise) {
-            Some(d) => render_frame_denoised(scene, &statics, frame, &budget, d, &|n| bar.inc(n)),
-            None => Ok(render_frame(scene, &statics, frame, &budget, &|n| {
+        let result = match (&mut temporal, denoiser.filter(|_| scene.output.denoise)) {
+            (Some(t), _) => t.render(scene, &statics, frame, &budget, &|n| bar.inc(n)),
+            (None, Some(d)) => {
+                render_frame_denoised(scene, &statics, frame, &budget, d, &|n| bar.inc(n))
+            }
+            (None, None) => Ok(render_frame(scene, &statics, frame, &budget, &|n| {
                 bar.inc(n)
             })),
         };
@@ -254,13 +268,15 @@ fn spp_note(st: &FrameStats) -> String {
 }
 
 /// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
-/// (3.456% before)`.
+/// (3.456% before)`, `1.234% denoised over 2.9 frames (3.456% before)` with --temporal.
 fn error_note(result: &FrameResult) -> String {
     let st = &result.stats;
-    match result.denoised {
-        Some(_) => format!(
-            "{} denoised ({} before)",
+    match &result.denoised {
+        Some(d) => format!(
+            "{} denoised{} ({} before)",
             percent(st.relative_error),
+            d.frames_averaged
+                .map_or(String::new(), |f| format!(" over {f:.1} frames")),
             percent(st.noisy_relative_error)
         ),
         None => percent(st.relative_error),

@@ -11,6 +11,7 @@ use glam::DVec3;
 
 use crate::denoise::denoiser::{DenoiseError, Denoiser, Guides};
 use crate::denoise::estimate::{self, PixelInputs};
+use crate::denoise::reproject::Accumulated;
 use crate::film::Film;
 use crate::passes::Layout;
 
@@ -29,6 +30,9 @@ pub struct Denoised {
     /// Each pixel's estimated relative squared error, row-major: unbiased but noisy, possibly
     /// negative.
     pub pixel_errors: Vec<f64>,
+    /// With temporal denoising: how many frames a pixel's colour averaged, on average over
+    /// the frame (`denoise::reproject`).
+    pub frames_averaged: Option<f64>,
 }
 
 impl Denoised {
@@ -149,11 +153,33 @@ pub(super) fn denoise(
     layout: &Layout,
     denoiser: &Denoiser,
 ) -> Result<Denoised, DenoiseError> {
+    denoise_with(film, layout, denoiser, None)
+}
+
+/// [`denoise`], with the replicates' colours `accumulated` over the frames before the film's
+/// in place of its own (`denoise::reproject`). The error is still estimated against the
+/// film's own replicates: `D(a)`, made from `a` accumulated, is checked against this frame's
+/// own `b` (independent of it, and unbiased for this frame), so the estimate sees what
+/// borrowing from earlier frames costs as well as what it gains.
+pub(super) fn denoise_with(
+    film: &Film,
+    layout: &Layout,
+    denoiser: &Denoiser,
+    accumulated: Option<&Accumulated>,
+) -> Result<Denoised, DenoiseError> {
     let guides = layout
         .guides()
         .expect("a denoised frame keeps the denoiser's guides");
     let (w, h) = (film.width as usize, film.height as usize);
-    let im = images(film, guides);
+    let mut im = images(film, guides);
+    if let Some(acc) = accumulated {
+        im.a.clone_from(&acc.a);
+        im.b.clone_from(&acc.b);
+        for (k, full) in im.full.iter_mut().enumerate() {
+            let s = im.share_a[k / 3];
+            *full = s * acc.a[k] + (1.0 - s) * acc.b[k];
+        }
+    }
     let replicate = |colour: &[f32], r: usize| -> Result<(Vec<f32>, [Vec<f32>; 2]), DenoiseError> {
         let raw = Guides {
             albedo: &im.albedo[r],
@@ -212,5 +238,6 @@ pub(super) fn denoise(
         rgb,
         relative_error,
         pixel_errors,
+        frames_averaged: None,
     })
 }

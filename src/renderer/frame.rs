@@ -104,7 +104,7 @@ pub fn render_frame(
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
-    match render(scene, statics, frame, budget, None, progress) {
+    match render(scene, statics, frame, budget, Denoising::Off, progress) {
         Ok(result) => result,
         Err(_) => unreachable!("a frame without a denoiser has no denoising error"),
     }
@@ -123,18 +123,41 @@ pub fn render_frame_denoised(
     denoiser: &Denoiser,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, Error> {
-    render(scene, statics, frame, budget, Some(denoiser), progress)
-        .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
+    render(scene, statics, frame, budget, Denoising::Frame(denoiser), progress)
+        .map_err(|e| denoise_failed(frame, e))
 }
 
-fn render(
+/// The error of a frame whose denoising failed.
+pub(super) fn denoise_failed(frame: u32, e: DenoiseError) -> Error {
+    Error::Resource(format!("frame {frame}: {e}"))
+}
+
+/// How a frame is denoised.
+#[derive(Clone, Copy)]
+pub(super) enum Denoising<'d> {
+    /// Not at all.
+    Off,
+    /// On its own.
+    Frame(&'d Denoiser),
+    /// With the frames before it, by the caller (`renderer::temporal`): the film keeps what
+    /// carries its pixels to earlier frames (depth, normal, motion), and the finished frame is
+    /// left undenoised (the rounds under a noise threshold still decide by the frame denoised
+    /// on its own).
+    Temporal(&'d Denoiser),
+}
+
+pub(super) fn render(
     scene: &Scene,
     statics: &StaticGeometry,
     frame: u32,
     budget: &Budget,
-    denoiser: Option<&Denoiser>,
+    denoising: Denoising<'_>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, DenoiseError> {
+    let denoiser = match denoising {
+        Denoising::Off => None,
+        Denoising::Frame(d) | Denoising::Temporal(d) => Some(d),
+    };
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
@@ -143,7 +166,10 @@ fn render(
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let layout = match denoiser {
-        Some(_) => Layout::with_guides(scene.output.passes),
+        Some(_) => Layout::for_denoising(
+            scene.output.passes,
+            matches!(denoising, Denoising::Temporal(_)),
+        ),
         None => Layout::new(scene.output.passes),
     };
     let passes = (layout.stride > 0).then(|| {
@@ -277,7 +303,7 @@ fn render(
 
     stats.noisy_relative_error = relative_error(&film);
     stats.relative_error = stats.noisy_relative_error;
-    if let Some(d) = denoiser {
+    if let Denoising::Frame(d) = denoising {
         let made = match denoised {
             // The last round's film, denoised to decide to stop.
             Some(made) if stats.stop == StopReason::NoiseThreshold => made,
@@ -290,6 +316,9 @@ fn render(
         };
         stats.relative_error = made.relative_error;
         denoised = Some(made);
+    } else {
+        // Denoised by the caller, with the frames before it.
+        denoised = None;
     }
     let taken = film.all_pixels().iter().map(Pixel::taken);
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);

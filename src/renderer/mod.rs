@@ -6,7 +6,8 @@
 //! - [`tiles`]: what is fixed before the first sample, and one round over every tile;
 //! - [`budget`]: when to stop, and the uniform rounds' sizes;
 //! - [`adaptive`]: which pixels take more samples in an adaptive round;
-//! - [`denoised`]: a film denoised, and the denoised frame's estimated error.
+//! - [`denoised`]: a film denoised, and the denoised frame's estimated error;
+//! - [`temporal`]: frames denoised with the frames before them.
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
@@ -14,9 +15,11 @@ mod adaptive;
 mod budget;
 mod denoised;
 mod frame;
+mod temporal;
 mod tiles;
 
 pub use crate::film::TILE;
 pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 pub use denoised::Denoised;
 pub use frame::{FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised};
+pub use temporal::TemporalDenoiser;
