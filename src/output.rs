@@ -35,9 +35,10 @@ pub fn write_frame(
     if let Some(d) = &result.denoised {
         info.denoiser = Some(match d.frames_averaged {
             Some(mean) => {
-                info.extra
-                    .push(("temporalMeanFrames".to_string(), mean));
-                format!("{DENOISER}; temporal: the frame's colour averaged with its two frames before along the motion vectors")
+                info.extra.push(("temporalMeanFrames".to_string(), mean));
+                format!(
+                    "{DENOISER}; temporal: the frame's colour averaged with its two frames before along the motion vectors"
+                )
             }
             None => DENOISER.to_string(),
         });

@@ -68,7 +68,10 @@ impl Layout {
     /// there (depth, normal and motion), written or not.
     pub fn for_denoising(passes: PassSet, temporal: bool) -> Layout {
         let kept = match temporal {
-            true => passes.with(Pass::Depth).with(Pass::Normal).with(Pass::Motion),
+            true => passes
+                .with(Pass::Depth)
+                .with(Pass::Normal)
+                .with(Pass::Motion),
             false => passes,
         };
         Layout::build(passes, kept, true)

@@ -55,7 +55,12 @@ fn rel_mse(image: &HashMap<String, Vec<f32>>, reference: &HashMap<String, Vec<f3
 fn a_denoised_frame_is_closer_to_the_truth_and_keeps_the_noisy_colour() {
     let d = tempfile::tempdir().unwrap();
     render(d.path(), "raw_####.exr", 8, &[]);
-    render(d.path(), "dn_####.exr", 8, &["--denoise", "--passes", "noisy"]);
+    render(
+        d.path(),
+        "dn_####.exr",
+        8,
+        &["--denoise", "--passes", "noisy"],
+    );
     render(d.path(), "ref_####.exr", 1024, &[]);
     let raw = exr_channels(&d.path().join("raw_0001.exr"));
     let dn = exr_channels(&d.path().join("dn_0001.exr"));
@@ -64,7 +69,12 @@ fn a_denoised_frame_is_closer_to_the_truth_and_keeps_the_noisy_colour() {
     // The `noisy` layer is the plain render, bit for bit; the colour is not.
     for c in ["R", "G", "B"] {
         let noisy = &dn[&format!("noisy.{c}")];
-        assert!(noisy.iter().zip(&raw[c]).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(
+            noisy
+                .iter()
+                .zip(&raw[c])
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
         assert_ne!(dn[c], raw[c]);
     }
     let (before, after) = (rel_mse(&raw, &reference), rel_mse(&dn, &reference));
@@ -83,7 +93,11 @@ fn a_denoised_frame_is_closer_to_the_truth_and_keeps_the_noisy_colour() {
 
 /// 8-bit sRGB of a linear value, as the PNG format defines it (IEC 61966-2-1).
 fn srgb8(v: f32) -> u8 {
-    let x = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 } as f64;
+    let x = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } as f64;
     let e = if x <= 0.003_130_8 {
         12.92 * x
     } else {
@@ -107,14 +121,27 @@ fn png_frames_show_the_denoised_colour() {
         }
     }
     // Rounding at the boundary between two codes may differ by one between f32 and f64.
-    assert!(worst <= 1, "a PNG pixel differs from the denoised EXR's by {worst} codes");
+    assert!(
+        worst <= 1,
+        "a PNG pixel differs from the denoised EXR's by {worst} codes"
+    );
 }
 
 #[test]
 fn the_denoised_frame_is_the_same_on_any_thread_count() {
     let d = tempfile::tempdir().unwrap();
-    render(d.path(), "one_####.exr", 16, &["--denoise", "--threads", "1"]);
-    render(d.path(), "two_####.exr", 16, &["--denoise", "--threads", "2"]);
+    render(
+        d.path(),
+        "one_####.exr",
+        16,
+        &["--denoise", "--threads", "1"],
+    );
+    render(
+        d.path(),
+        "two_####.exr",
+        16,
+        &["--denoise", "--threads", "2"],
+    );
     let (one, _) = exr_bits_and_attributes(&d.path().join("one_0001.exr"));
     let (two, _) = exr_bits_and_attributes(&d.path().join("two_0001.exr"));
     assert!(one == two, "the denoised frames differ");
@@ -161,7 +188,13 @@ fn noisy_takes_denoising_and_an_exr_output() {
     let o = run(
         d.path(),
         &[
-            "render", scene, "--denoise", "--passes", "noisy", "-o", "a_####.png",
+            "render",
+            scene,
+            "--denoise",
+            "--passes",
+            "noisy",
+            "-o",
+            "a_####.png",
         ],
     );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
@@ -233,7 +266,10 @@ fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
     let message = text(&o);
     assert_eq!(o.status.code(), Some(1), "{message}");
     assert!(message.contains("Open Image Denoise"), "{message}");
-    assert!(message.contains("libOpenImageDenoise_device_cpu"), "{message}");
+    assert!(
+        message.contains("libOpenImageDenoise_device_cpu"),
+        "{message}"
+    );
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
     // Frames that are not denoised do not need the device.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
@@ -243,4 +279,73 @@ fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
         .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     assert!(out.join("f_0001.exr").exists());
+}
+
+#[test]
+fn a_temporal_frame_is_the_same_alone_in_a_sequence_and_in_a_chunk() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = quick();
+    let scene = scene.to_str().unwrap();
+    let common = [
+        "render",
+        scene,
+        "--width",
+        "48",
+        "--height",
+        "27",
+        "--samples",
+        "4",
+        "--denoise",
+        "--temporal",
+        "--quiet",
+    ];
+    let run_with = |extra: &[&str]| {
+        let mut args = common.to_vec();
+        args.extend_from_slice(extra);
+        run_ok(d.path(), &args);
+    };
+    run_with(&["--frames", "1-4", "-o", "seq_####.exr"]);
+    // Frame 4 alone renders frames 2 and 3 first (not written).
+    run_with(&["--frames", "4", "-o", "alone_####.exr"]);
+    assert!(!d.path().join("alone_0003.exr").exists());
+    // The second chunk of two (frames 3 and 4) overlaps the first by the frames it needs.
+    run_with(&[
+        "--frames",
+        "1-4",
+        "--chunk-size",
+        "2",
+        "--chunk",
+        "1",
+        "-o",
+        "chunk_####.exr",
+    ]);
+    let bits = |name: &str| exr_bits_and_attributes(&d.path().join(name)).0;
+    assert!(bits("seq_0004.exr") == bits("alone_0004.exr"));
+    assert!(bits("seq_0003.exr") == bits("chunk_0003.exr"));
+    assert!(bits("seq_0004.exr") == bits("chunk_0004.exr"));
+    // The first frame has nothing before it; later frames average more than themselves.
+    let (_, first) = exr_bits_and_attributes(&d.path().join("seq_0001.exr"));
+    let (_, fourth) = exr_bits_and_attributes(&d.path().join("seq_0004.exr"));
+    assert_eq!(exr_number(&first, "temporalMeanFrames"), 1.0);
+    let later = exr_number(&fourth, "temporalMeanFrames");
+    assert!(later > 1.5 && later <= 3.0, "{later}");
+}
+
+#[test]
+fn temporal_takes_denoising() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = quick();
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--temporal",
+            "-o",
+            "a_####.exr",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--denoise"), "{}", text(&o));
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }

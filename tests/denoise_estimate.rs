@@ -44,7 +44,13 @@ fn check(name: &str) {
     let reference_scene = scene(name, REFERENCE_SAMPLES, Some(0x5eed_0f_7e5e));
     let statics = StaticGeometry::new(&reference_scene);
     let frame = reference_scene.shot.first_frame;
-    let reference = render_frame(&reference_scene, &statics, frame, &Budget::default(), &|_| {});
+    let reference = render_frame(
+        &reference_scene,
+        &statics,
+        frame,
+        &Budget::default(),
+        &|_| {},
+    );
     let own = reference.stats.relative_error.powi(2);
     let reference = reference.film.means();
     let denoiser = Denoiser::new().unwrap();

@@ -12,9 +12,7 @@ use super::progress::print_line;
 use crate::analysis::metrics;
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
-use crate::renderer::{
-    Budget, FrameResult, TemporalDenoiser, render_frame, render_frame_denoised,
-};
+use crate::renderer::{Budget, FrameResult, TemporalDenoiser, render_frame, render_frame_denoised};
 use crate::rng::hash_words;
 use crate::scene::Scene;
 use crate::scene_file::{Overrides, SceneSource};
@@ -68,9 +66,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         })
     };
     let scene = with(samples, None)?;
-    let reference_samples = args
-        .reference_samples
-        .unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+    let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
     let reference_seed = hash_words(&[scene.render.seed, 0x666c_6963_6b65_72]) >> 1;
     let reference = with(reference_samples, Some(reference_seed))?;

@@ -7,16 +7,20 @@
 //! earlier, in pixels) into the frame before, then that frame's vector into the one before
 //! it, up to [`HISTORY`] frames back. At each step the earlier frame's images are read
 //! bilinearly, and the step is taken only where the surface is the same: unit normals within
-//! [`MIN_NORMAL_DOT`] and depths within [`DEPTH_TOLERANCE`] of the later frame's, both
-//! background, and the position inside the image. The first step that fails ends the walk:
+//! [`MIN_NORMAL_DOT`] and depths within [`DEPTH_TOLERANCE`] of the later frame's, or both
+//! background; the position inside the image; and a colour within the noise of the pixel's
+//! own 3x3 neighbourhood mean ([`COLOUR_SIGMAS`], [`COLOUR_TOLERANCE`]), which catches what the
+//! geometry does not: a shadow or reflection moving over a still surface. The first step
+//! that fails ends the walk:
 //! a pixel uncovered in frame `n - 1` does not borrow from `n - 2`. The pixel's colour is
 //! then the plain mean of its own and the earlier frames' colours it reached (each an
 //! unbiased mean of its own samples), per replicate, so the two replicates stay independent.
 //!
-//! Averaging three frames' samples divides the noise by about three where a surface is seen in
-//! all three, and the noise left is shared by consecutive frames, so it moves with the surface
-//! instead of flickering in place. What moves over the surface (shadows, reflections) is
-//! blurred over the frames averaged: the price, measured by `converge --flicker`.
+//! Averaging three frames' samples divides the noise's variance by about three where a surface
+//! is seen in all three, and the noise left is shared by consecutive frames, so it moves with
+//! the surface instead of flickering in place. The prices: reading earlier frames between
+//! pixel centres blurs them a little, and a change of shading smaller than the noise passes
+//! the colour test; `converge --flicker` measures both against references.
 
 /// The frames before a frame that its temporal denoising reads.
 pub const HISTORY: usize = 2;
@@ -29,6 +33,15 @@ pub const MIN_NORMAL_DOT: f32 = 0.9;
 /// frame for both to show one surface: a surface moving toward the camera at a tenth of its
 /// distance a frame still passes; the sphere behind it does not.
 pub const DEPTH_TOLERANCE: f32 = 0.1;
+
+/// How many standard deviations apart a pixel's colour (the mean of its 3x3 neighbourhood)
+/// and the earlier frame's colour where it lands may be, and still be taken for one: beyond,
+/// what the surface shows has changed (a shadow or a reflection moved over it).
+pub const COLOUR_SIGMAS: f32 = 3.0;
+
+/// The relative difference of colour always allowed between a pixel's neighbourhood mean and
+/// the earlier frame's colour: the neighbourhood mean itself blurs edges.
+pub const COLOUR_TOLERANCE: f32 = 0.1;
 
 /// Depths at or beyond this are the background (`passes::NO_DEPTH` is written where no sample
 /// hit).
@@ -43,6 +56,8 @@ pub struct TemporalFrame {
     /// The means of the pixel's even (`a`) and odd (`b`) samples.
     pub a: Vec<f32>,
     pub b: Vec<f32>,
+    /// Each pixel's estimated variance of its mean, per channel (interleaved RGB).
+    pub variance: Vec<f32>,
     /// The first hit's depth along the view axis (the background's: 1e10 or more).
     pub depth: Vec<f32>,
     /// The first hit's mean shading normal (zero for the background).
@@ -118,7 +133,12 @@ impl Surface {
         match (self.is_background(), other.is_background()) {
             (true, true) => true,
             (false, false) => {
-                let dot: f32 = self.normal.iter().zip(other.normal).map(|(a, b)| a * b).sum();
+                let dot: f32 = self
+                    .normal
+                    .iter()
+                    .zip(other.normal)
+                    .map(|(a, b)| a * b)
+                    .sum();
                 let close = (self.depth - other.depth).abs() <= DEPTH_TOLERANCE * self.depth;
                 dot >= MIN_NORMAL_DOT && close
             }
@@ -137,6 +157,14 @@ pub fn accumulate(current: &TemporalFrame, earlier: &[&TemporalFrame]) -> Accumu
         "frames of different sizes"
     );
     let n = w * h;
+    // Each pixel's 3x3 neighbourhood mean of its full mean and that mean's variance.
+    let full: Vec<f32> = current
+        .a
+        .iter()
+        .zip(&current.b)
+        .map(|(a, b)| 0.5 * (a + b))
+        .collect();
+    let (around, around_var) = neighbourhood(&full, &current.variance, w, h);
     let mut out = Accumulated {
         a: current.a.clone(),
         b: current.b.clone(),
@@ -167,6 +195,18 @@ pub fn accumulate(current: &TemporalFrame, earlier: &[&TemporalFrame]) -> Accumu
             if !here.same_as(&there) {
                 break;
             }
+            // The earlier pixel's own variance has one degree of freedom; the neighbourhood's
+            // mean variance (nine pixels') stands in for it.
+            let consistent = (0..3).all(|c| {
+                let d = 0.5 * (a[c] + b[c]) - around[3 * i + c];
+                let v = around_var[3 * i + c];
+                let allowed = COLOUR_SIGMAS * COLOUR_SIGMAS * (9.0 * v + v)
+                    + (COLOUR_TOLERANCE * around[3 * i + c]).powi(2);
+                d * d <= allowed
+            });
+            if !consistent {
+                break;
+            }
             for c in 0..3 {
                 sum_a[c] += a[c];
                 sum_b[c] += b[c];
@@ -185,13 +225,49 @@ pub fn accumulate(current: &TemporalFrame, earlier: &[&TemporalFrame]) -> Accumu
     out
 }
 
+/// The mean of `image` (interleaved RGB, `w` x `h`) over each pixel's 3x3 neighbourhood
+/// (cut at the edges), and that mean's variance from the pixels' `variance`s (independent
+/// pixels: their sum over the count squared).
+fn neighbourhood(image: &[f32], variance: &[f32], w: usize, h: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut mean = vec![0.0; image.len()];
+    let mut var = vec![0.0; image.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let mut count = 0.0;
+            let (mut s, mut v) = ([0.0f32; 3], [0.0f32; 3]);
+            for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                    let j = ny * w + nx;
+                    for c in 0..3 {
+                        s[c] += image[3 * j + c];
+                        v[c] += variance[3 * j + c];
+                    }
+                    count += 1.0;
+                }
+            }
+            let i = y * w + x;
+            for c in 0..3 {
+                mean[3 * i + c] = s[c] / count;
+                var[3 * i + c] = v[c] / (count * count);
+            }
+        }
+    }
+    (mean, var)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A frame of `w` x `h` whose colour at pixel (x, y) is `colour(x, y)` (both replicates),
-    /// at depth 5 with normal +z everywhere, moving by `motion` (u, v) pixels a frame.
-    fn frame(w: usize, h: usize, colour: impl Fn(usize, usize) -> f32, motion: [f32; 2]) -> TemporalFrame {
+    /// A frame of `w` x `h` whose colour at pixel (x, y) is `colour(x, y)` (both replicates,
+    /// each pixel's variance of its mean 1), at depth 5 with normal +z everywhere, moving by
+    /// `motion` (u, v) pixels a frame.
+    fn frame(
+        w: usize,
+        h: usize,
+        colour: impl Fn(usize, usize) -> f32,
+        motion: [f32; 2],
+    ) -> TemporalFrame {
         let n = w * h;
         let c: Vec<f32> = (0..n)
             .flat_map(|i| {
@@ -204,6 +280,7 @@ mod tests {
             height: h,
             a: c.clone(),
             b: c,
+            variance: vec![1.0; 3 * n],
             depth: vec![5.0; n],
             normal: (0..n).flat_map(|_| [0.0, 0.0, 1.0]).collect(),
             backward: (0..n).flat_map(|_| motion).collect(),
@@ -251,18 +328,37 @@ mod tests {
     }
 
     #[test]
+    fn a_colour_beyond_the_noise_ends_the_walk() {
+        // Variance 1 a pixel: the neighbourhood mean's is 1/9 in the middle (1/4 in a
+        // corner), and the allowed difference sqrt(9 (9 v + v) + (0.1 m)^2) about 3.2 (4.7 in a
+        // corner) for m = 3.
+        let cur = frame(3, 3, |_, _| 3.0, [0.0, 0.0]);
+        let close = frame(3, 3, |_, _| 6.0, [0.0, 0.0]);
+        let far = frame(3, 3, |_, _| 8.0, [0.0, 0.0]);
+        assert!(accumulate(&cur, &[&close]).frames.iter().all(|&f| f == 2));
+        assert!(accumulate(&cur, &[&far]).frames.iter().all(|&f| f == 1));
+        // A shadow moving over the frame before: where it was, that frame is not used.
+        let mut shadowed = frame(3, 3, |_, _| 3.0, [0.0, 0.0]);
+        shadowed.a[12..15].copy_from_slice(&[-20.0; 3]);
+        shadowed.b[12..15].copy_from_slice(&[-20.0; 3]);
+        let acc = accumulate(&cur, &[&shadowed]);
+        assert_eq!(acc.frames[4], 1);
+        assert_eq!(acc.frames.iter().filter(|&&f| f == 2).count(), 8);
+    }
+
+    #[test]
     fn another_surface_ends_the_walk() {
         let cur = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
-        let mut nearer = frame(3, 1, |_, _| 7.0, [0.0, 0.0]);
+        let mut nearer = frame(3, 1, |_, _| 2.0, [0.0, 0.0]);
         nearer.depth[1] = 3.0; // something in front at pixel 1 in the frame before
-        let mut tilted = frame(3, 1, |_, _| 9.0, [0.0, 0.0]);
+        let mut tilted = frame(3, 1, |_, _| 3.0, [0.0, 0.0]);
         // Pixel 2's normal turned 90 degrees in the frame two back.
         tilted.normal[6..9].copy_from_slice(&[1.0, 0.0, 0.0]);
         let acc = accumulate(&cur, &[&nearer, &tilted]);
         assert_eq!(acc.frames, vec![3, 1, 2]);
         assert_eq!(&acc.a[3..6], &[1.0; 3]);
-        assert_eq!(acc.a[6], 4.0); // (1 + 7) / 2
-        assert_eq!(acc.a[0], 17.0 / 3.0); // (1 + 7 + 9) / 3
+        assert_eq!(acc.a[6], 1.5); // (1 + 2) / 2
+        assert_eq!(acc.a[0], 2.0); // (1 + 2 + 3) / 3
         // The background matches only the background.
         let mut sky = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
         sky.depth = vec![1e10; 3];

@@ -123,8 +123,15 @@ pub fn render_frame_denoised(
     denoiser: &Denoiser,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, Error> {
-    render(scene, statics, frame, budget, Denoising::Frame(denoiser), progress)
-        .map_err(|e| denoise_failed(frame, e))
+    render(
+        scene,
+        statics,
+        frame,
+        budget,
+        Denoising::Frame(denoiser),
+        progress,
+    )
+    .map_err(|e| denoise_failed(frame, e))
 }
 
 /// The error of a frame whose denoising failed.

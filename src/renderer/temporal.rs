@@ -128,12 +128,21 @@ fn temporal_frame(result: &FrameResult) -> TemporalFrame {
             .flat_map(|i| cs.iter().map(move |c| c[i]))
             .collect()
     };
-    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let (mut a, mut b, mut variance) = (Vec::new(), Vec::new(), Vec::new());
     for (x, y) in (0..film.height).flat_map(|y| (0..film.width).map(move |x| (x, y))) {
-        let (pa, pb) = film.pixel(x, y).replicate_means();
-        for (out, v) in [(&mut a, pa), (&mut b, pb)] {
+        let pixel = film.pixel(x, y);
+        let (pa, pb) = pixel.replicate_means();
+        for (out, v) in [
+            (&mut a, pa),
+            (&mut b, pb),
+            (&mut variance, pixel.variance_of_mean()),
+        ] {
             let c = [v.x as f32, v.y as f32, v.z as f32];
-            out.extend(if c.iter().all(|c| c.is_finite()) { c } else { [0.0; 3] });
+            out.extend(if c.iter().all(|c| c.is_finite()) {
+                c
+            } else {
+                [0.0; 3]
+            });
         }
     }
     TemporalFrame {
@@ -141,6 +150,7 @@ fn temporal_frame(result: &FrameResult) -> TemporalFrame {
         height: film.height as usize,
         a,
         b,
+        variance,
         depth: channel("Z").to_vec(),
         normal: interleave(&["N.X", "N.Y", "N.Z"]),
         backward: interleave(&["backward.u", "backward.v"]),
