@@ -9,6 +9,9 @@
 //!   them first) to a `Scene`, naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
 //!
+//! [`schema_points`] holds the `[[points]]` table's part of the schema, and
+//! `validate::points` its checks.
+//!
 //! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
 //! [`generate`] writes large random test scenes as scene-file text.
 //!
@@ -21,6 +24,7 @@ mod pieces;
 mod report;
 mod scan;
 mod schema;
+mod schema_points;
 mod show;
 mod validate;
 

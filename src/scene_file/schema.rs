@@ -147,6 +147,8 @@ pub(super) struct RawScene {
     pub(super) materials: BTreeMap<String, RawMaterial>,
     #[serde(default)]
     pub(super) sphere: Vec<RawSphere>,
+    #[serde(default)]
+    pub(super) points: Vec<super::schema_points::RawPoints>,
 }
 
 #[derive(Deserialize, Default)]
