@@ -177,6 +177,13 @@ fn open(scene: &Scene, index: usize, frame: u32, path: &Path) -> Result<(PlyFile
     let file = PlyFile::open(path).map_err(|e| error(scene, index, frame, path, e))?;
     let layout =
         layout(&file, desc).map_err(|m| Error::Scene(about(scene, index, frame, path, &m)))?;
+    if layout.count > MAX_FRAME_SPHERES {
+        let m = format!(
+            "{} points, more than the {MAX_FRAME_SPHERES} a frame can hold",
+            layout.count
+        );
+        return Err(Error::Scene(about(scene, index, frame, path, &m)));
+    }
     Ok((file, layout))
 }
 

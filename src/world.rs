@@ -42,6 +42,10 @@ use crate::sphere::{PreparedSphere, intersect, surface_point};
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
 
+/// Marks, while a world is made, a [`MovingPrim`] whose curved path is not yet in
+/// [`World::motions`].
+const CURVED: u32 = u32::MAX - 1;
+
 /// Scenes with animated spheres and at most this many spheres in all are built into one
 /// hierarchy per frame instead of a static one and a per-frame one.
 const MERGE_LIMIT: usize = 16384;
@@ -297,63 +301,72 @@ impl<'a> World<'a> {
             _ => own(),
         };
         drop((open, close));
-        let mut motions = Vec::new();
-        let mut moving = 0;
-        let mut animated = Vec::with_capacity(animated_topology.len());
-        let colored = points.has_colors();
-        let mut tints = Vec::with_capacity(if colored { animated.capacity() } else { 0 });
-        for &k in animated_topology.order() {
-            if k as usize >= spheres {
-                let p = k as usize - spheres;
-                let (set, i) = points.locate(p).expect("a point of the frame");
-                let q = set.prepare(i, interval);
-                if q.velocity != DVec3::ZERO {
-                    moving += 1;
+        // The tracer's copies in leaf order, in parallel; then, in order, each curved path
+        // gets its index in `motions`.
+        let order = animated_topology.order();
+        let mut animated: Vec<MovingPrim> = order
+            .par_iter()
+            .map(|&k| {
+                let k = k as usize;
+                if k >= spheres {
+                    let (set, i) = points.locate(k - spheres).expect("a point of the frame");
+                    let q = set.prepare(i, interval);
+                    return MovingPrim {
+                        center: q.start,
+                        velocity: q.velocity,
+                        radius: q.radius,
+                        material: set.material,
+                        id: first_point + (k - spheres) as u32,
+                        general: LINEAR,
+                    };
                 }
-                animated.push(MovingPrim {
-                    center: q.start,
-                    velocity: q.velocity,
-                    radius: q.radius,
-                    material: set.material,
-                    id: first_point + p as u32,
+                let id = statics.animated[k];
+                let s = &prepared[k];
+                let mut prim = MovingPrim {
+                    center: DVec3::ZERO,
+                    velocity: DVec3::ZERO,
+                    radius: s.radius,
+                    material: scene.spheres[id as usize].material,
+                    id,
                     general: LINEAR,
-                });
-                if colored {
-                    tints.push(set.colors.get(i).copied().unwrap_or([1.0; 3]));
+                };
+                match &s.motion {
+                    FrameMotion::Fixed(c) => prim.center = *c,
+                    FrameMotion::Linear {
+                        start, velocity, ..
+                    } => {
+                        prim.center = *start;
+                        prim.velocity = *velocity;
+                    }
+                    _ => prim.general = CURVED,
                 }
-                continue;
+                prim
+            })
+            .collect();
+        let mut motions = Vec::new();
+        for (prim, &k) in animated.iter_mut().zip(order) {
+            if prim.general == CURVED {
+                prim.general = motions.len() as u32;
+                motions.push(prepared[k as usize].motion.clone());
             }
-            if colored {
-                tints.push([1.0; 3]);
-            }
-            let id = statics.animated[k as usize];
-            let s = &prepared[k as usize];
-            let mut prim = MovingPrim {
-                center: DVec3::ZERO,
-                velocity: DVec3::ZERO,
-                radius: s.radius,
-                material: scene.spheres[id as usize].material,
-                id,
-                general: LINEAR,
-            };
-            match &s.motion {
-                FrameMotion::Fixed(c) => prim.center = *c,
-                FrameMotion::Linear {
-                    start, velocity, ..
-                } => {
-                    prim.center = *start;
-                    prim.velocity = *velocity;
-                }
-                curved => {
-                    prim.general = motions.len() as u32;
-                    motions.push(curved.clone());
-                }
-            }
-            if prim.general != LINEAR || prim.velocity != DVec3::ZERO {
-                moving += 1;
-            }
-            animated.push(prim);
         }
+        let moving = animated
+            .par_iter()
+            .filter(|p| p.general != LINEAR || p.velocity != DVec3::ZERO)
+            .count();
+        let tints = match points.has_colors() {
+            false => Vec::new(),
+            true => order
+                .par_iter()
+                .map(|&k| match (k as usize).checked_sub(spheres) {
+                    Some(p) => {
+                        let (set, i) = points.locate(p).expect("a point of the frame");
+                        set.colors.get(i).copied().unwrap_or([1.0; 3])
+                    }
+                    None => [1.0; 3],
+                })
+                .collect(),
+        };
         World {
             statics,
             animated,
