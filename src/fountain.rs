@@ -20,9 +20,9 @@ pub const FPS: f64 = 24.0;
 /// Gravity, units per second squared (downward).
 const GRAVITY: f64 = 9.81;
 /// The launch speed's range, units per second.
-const SPEED: (f64, f64) = (4.5, 5.5);
+const SPEED: (f64, f64) = (5.0, 6.0);
 /// Largest angle of a launch from straight up, degrees.
-const CONE_DEGREES: f64 = 14.0;
+const CONE_DEGREES: f64 = 24.0;
 /// The longest flight, seconds: straight up at the highest speed.
 const LONGEST_FLIGHT: f64 = 2.0 * SPEED.1 / GRAVITY;
 /// The most particles a frame may hold.
@@ -46,10 +46,11 @@ struct Launch {
 }
 
 impl Fountain {
-    /// The mean flight time, seconds (a launch's upward speed is its speed times the mean
-    /// cosine of the cone, about 0.99).
+    /// The mean flight time, seconds: twice the mean upward speed over gravity (the cosine of
+    /// a launch's angle is uniform between the cone's and 1).
     fn mean_flight(&self) -> f64 {
-        2.0 * 0.5 * (SPEED.0 + SPEED.1) * 0.99 / GRAVITY
+        let mean_cos = 0.5 * (1.0 + CONE_DEGREES.to_radians().cos());
+        2.0 * 0.5 * (SPEED.0 + SPEED.1) * mean_cos / GRAVITY
     }
 
     /// Particles launched per second.
@@ -57,9 +58,9 @@ impl Fountain {
         self.points as f64 / self.mean_flight()
     }
 
-    /// The typical radius: the particles' volume stays about that of 2000 of radius 0.035.
+    /// The typical radius: the particles' volume stays about that of 2000 of radius 0.022.
     fn radius(&self) -> f64 {
-        0.035 * (2000.0 / self.points.max(1) as f64).cbrt()
+        0.022 * (2000.0 / self.points.max(1) as f64).cbrt()
     }
 
     /// Particle `id`'s launch.
@@ -71,7 +72,7 @@ impl Fountain {
         let cos = 1.0 - (1.0 - cos_max) * r.next_f64();
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
         let phi = std::f64::consts::TAU * r.next_f64();
-        let jitter = 0.02 * self.radius() / 0.035;
+        let jitter = 0.02 * self.radius() / 0.022;
         let origin = [
             jitter * (r.next_f64() - 0.5),
             0.05,

@@ -453,3 +453,44 @@ fn the_fountain_is_deterministic() {
         assert_eq!(a, b);
     }
 }
+
+/// The shipped fountain scene renders from the cache its documented command writes.
+#[test]
+fn the_shipped_fountain_scene_renders_from_its_documented_cache() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fountain.toml"))
+            .unwrap();
+    let command = "raytrace generate -o scenes/caches/fountain_####.ply --frames 48 --points 4000";
+    assert!(
+        scene.contains(command),
+        "the scene documents its cache's command"
+    );
+    std::fs::create_dir(dir.path().join("scenes")).unwrap();
+    std::fs::write(dir.path().join("scenes/fountain.toml"), &scene).unwrap();
+    let args: Vec<&str> = command.split(' ').skip(1).collect();
+    ok(dir.path(), &args);
+    let out = ok(dir.path(), &["check", "scenes/fountain.toml"]);
+    assert!(out.contains("over 48 frames, every file checked"), "{out}");
+    let out = ok(
+        dir.path(),
+        &[
+            "render",
+            "scenes/fountain.toml",
+            "--frames",
+            "24",
+            "--width",
+            "64",
+            "--height",
+            "36",
+            "--samples",
+            "2",
+            "-o",
+            "f.exr",
+            "--stats",
+        ],
+    );
+    assert!(out.contains("points), prepare"), "{out}");
+    let c = exr_channels(&dir.path().join("f.exr"));
+    assert!(c["B"].iter().all(|x| x.is_finite()));
+}

@@ -9,8 +9,8 @@
 //!   them first) to a `Scene`, naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
 //!
-//! [`schema_points`] holds the `[[points]]` table's part of the schema, and
-//! `validate::points` its checks.
+//! [`schema_curve`] holds the shutter curve's part of the schema, and `validate::points` the
+//! `[[points]]` tables' checks.
 //!
 //! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
 //! [`generate`] writes large random test scenes as scene-file text.
@@ -24,7 +24,7 @@ mod pieces;
 mod report;
 mod scan;
 mod schema;
-mod schema_points;
+mod schema_curve;
 mod show;
 mod validate;
 

@@ -8,8 +8,7 @@ use std::path::Path;
 use super::Check;
 use crate::material::Material;
 use crate::points::{PointCacheDesc, PointMotion};
-use crate::scene_file::schema::MaterialRef;
-use crate::scene_file::schema_points::{RawPointMotion, RawPoints};
+use crate::scene_file::schema::{MaterialRef, RawPointMotion, RawPoints};
 
 impl Check<'_> {
     /// The point caches, numbered from 0 (`points[0]`), with their files joined to the scene
