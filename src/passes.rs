@@ -105,6 +105,9 @@ impl Layout {
     }
 }
 
+/// The points of a frame without point caches.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
+
 /// What a frame needs to compute its samples' passes.
 #[derive(Clone, Debug)]
 pub struct PassContext<'a> {
@@ -129,7 +132,6 @@ impl<'a> PassContext<'a> {
     pub fn new(
         layout: Layout,
         spheres: &'a [SphereDesc],
-        points: &'a FramePoints,
         background: Background,
         camera: &'a CameraRig,
         fps: f64,
@@ -140,7 +142,7 @@ impl<'a> PassContext<'a> {
         PassContext {
             layout,
             spheres,
-            points,
+            points: &NO_POINTS,
             background,
             camera,
             still_view: (!animated).then(|| camera.view_at(0.0, width, height)),
@@ -148,6 +150,11 @@ impl<'a> PassContext<'a> {
             width,
             height,
         }
+    }
+
+    /// The context with the frame's points, spheres `spheres.len()` on (none without).
+    pub fn with_points(self, points: &'a FramePoints) -> PassContext<'a> {
+        PassContext { points, ..self }
     }
 
     /// The camera's view at time `t`.

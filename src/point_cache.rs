@@ -53,12 +53,15 @@ struct Layout {
     id: Option<usize>,
 }
 
+/// A group of properties found: their indices and names.
+type Group<const N: usize> = ([usize; N], [&'static str; N]);
+
 /// The first group of `names` whose properties are all present; a group partly present is an
 /// error. `None` when none is there.
 fn group<const N: usize>(
     e: &crate::ply::Element,
     groups: &[[&'static str; N]],
-) -> Result<Option<([usize; N], [&'static str; N])>, String> {
+) -> Result<Option<Group<N>>, String> {
     for names in groups {
         let found: Vec<Option<usize>> = names.iter().map(|n| e.property(n)).collect();
         if found.iter().all(Option::is_some) {
@@ -270,8 +273,15 @@ fn read_set(scene: &Scene, index: usize, frame: u32) -> Result<PointSet, Error> 
     let (file, layout) = open(scene, index, frame, &path)?;
     check_total(scene, frame, layout.count)?;
     let motion = motion_of(desc, &layout);
-    let read = read_points(file, &layout, motion != PointMotion::Still, true)
-        .map_err(|e| error(scene, index, frame, &path, e))?;
+    let interpolated = motion == PointMotion::Interpolate;
+    let read = read_points(
+        file,
+        &layout,
+        motion != PointMotion::Still,
+        true,
+        interpolated,
+    )
+    .map_err(|e| error(scene, index, frame, &path, e))?;
     let time = if desc.is_sequence() {
         scene.shot.frame_time(frame)
     } else {
@@ -282,7 +292,7 @@ fn read_set(scene: &Scene, index: usize, frame: u32) -> Result<PointSet, Error> 
         && let Some((next, next_path)) = next_file(scene, desc, frame)
     {
         let (next_ply, next_layout) = open(scene, index, next, &next_path)?;
-        let later = read_points(next_ply, &next_layout, false, false)
+        let later = read_points(next_ply, &next_layout, false, false, true)
             .map_err(|e| error(scene, index, next, &next_path, e))?;
         let dt = scene.shot.frame_time(next) - time;
         velocities = interpolate(&read.centers, &read.ids, velocities, &later, dt).map_err(
@@ -365,8 +375,14 @@ fn interpolate(
 }
 
 /// Reads the points of an open file with `layout`: positions, and velocities when `moving`,
-/// radii, colours when `all` (ids always, where there are), checking every value.
-fn read_points(file: PlyFile, layout: &Layout, moving: bool, all: bool) -> Result<Read, PlyError> {
+/// radii and colours when `all`, ids when `ids` (where there are), checking every value.
+fn read_points(
+    file: PlyFile,
+    layout: &Layout,
+    moving: bool,
+    all: bool,
+    ids: bool,
+) -> Result<Read, PlyError> {
     let n = layout.count as usize;
     let mut wanted: Vec<usize> = layout.position.to_vec();
     let mut names: Vec<&str> = vec!["x", "y", "z"];
@@ -385,7 +401,7 @@ fn read_points(file: PlyFile, layout: &Layout, moving: bool, all: bool) -> Resul
         names.extend(n);
         (wanted.len() - 3, integer)
     });
-    let id = layout.id.map(|k| {
+    let id = layout.id.filter(|_| ids).map(|k| {
         wanted.push(k);
         wanted.len() - 1
     });

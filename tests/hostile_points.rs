@@ -158,7 +158,9 @@ fn a_cache_without_x_is_refused() {
 
 #[test]
 fn non_finite_positions_radii_and_velocities_are_refused_naming_the_point() {
-    let cases: [(&[(&str, Scalar)], (usize, &str, f64), &str); 6] = [
+    // (extra columns, (point, column, bad value), what the message says)
+    type Case<'a> = (&'a [(&'a str, Scalar)], (usize, &'a str, f64), &'a str);
+    let cases: [Case; 6] = [
         (
             &[],
             (1, "x", f64::NAN),

@@ -216,7 +216,7 @@ fn binary_row(
             }
             Kind::List { count, item } => {
                 let n = read(r, count)?;
-                if !(n >= 0.0) {
+                if n < 0.0 {
                     return bad(format!(
                         "{} {i}: list {} has a negative count ({n})",
                         e.name, p.name
@@ -311,7 +311,7 @@ fn ascii_row<R: BufRead>(
             }
             Kind::List { count, item } => {
                 let n = value(tokens, count, &p.name)?;
-                if !(n >= 0.0) {
+                if n < 0.0 {
                     return bad(format!(
                         "{} {i}: list {} has a negative count ({n})",
                         e.name, p.name

@@ -184,13 +184,13 @@ fn render(
         PassContext::new(
             layout,
             &scene.spheres,
-            points,
             scene.background,
             &scene.camera,
             scene.shot.fps,
             req.width,
             req.height,
         )
+        .with_points(points)
     });
     let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
     let setup = FrameSetup {
