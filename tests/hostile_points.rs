@@ -240,3 +240,47 @@ fn a_directory_or_a_named_pipe_as_the_file_is_refused() {
     assert!(made.is_ok_and(|s| s.success()), "mkfifo");
     refused(d.path(), &["pipe.ply", "is a named pipe, not a PLY file"]);
 }
+
+#[test]
+fn colours_out_of_range_duplicate_ids_and_missing_velocities_are_refused() {
+    let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n";
+    let text = format!(
+        "{head}property float r\nproperty float g\nproperty float b\nend_header\n0 0 0 0.5 0.5 0.5\n1 1 1 0.5 1.5 0.5\n"
+    );
+    let d = setup("c.ply", &[("c.ply", text.into_bytes())]);
+    refused(d.path(), &["c.ply", "point 1: g is 1.5, outside 0 to 1"]);
+    let text = format!(
+        "{head}property short red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0 300 0 0\n1 1 1 0 0 0\n"
+    );
+    let d = setup("c.ply", &[("c.ply", text.into_bytes())]);
+    refused(
+        d.path(),
+        &["c.ply", "point 0: red is 300, outside 0 to 255"],
+    );
+    // Interpolated by id, with an id twice in the next frame's file.
+    let ids = |dup: bool| {
+        let bad = dup.then_some((2, "id", 0.0));
+        ply(&[("id", Scalar::I32)], bad)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        scene("s_#.ply").replace("radius = 0.1\n", "radius = 0.1\nmotion = \"interpolate\"\n");
+    std::fs::write(dir.path().join("shot.toml"), text).unwrap();
+    std::fs::write(dir.path().join("s_1.ply"), ids(false)).unwrap();
+    std::fs::write(dir.path().join("s_2.ply"), ids(true)).unwrap();
+    refused(
+        dir.path(),
+        &["s_2.ply", "frame 2", "id 0 is held by two points (0 and 2)"],
+    );
+    // motion = "velocity" with no velocities in the file.
+    let d = setup("v.ply", &[("v.ply", ply(&[], None))]);
+    let text = scene("v.ply").replace("radius = 0.1\n", "radius = 0.1\nmotion = \"velocity\"\n");
+    std::fs::write(d.path().join("shot.toml"), text).unwrap();
+    refused(
+        d.path(),
+        &[
+            "v.ply",
+            "motion = \"velocity\", but the vertex element has no vx",
+        ],
+    );
+}

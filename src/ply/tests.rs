@@ -81,7 +81,7 @@ fn three_encodings_read_the_same_values() {
     assert_eq!(got[0][2][0], 5e-324);
     assert_eq!(got[0][0][1], -128.0);
     // An element before the vertices, with a list, and a list inside them: skipped.
-    let text = "ply\nformat ascii 1.0\ncomment made by hand\nelement camera 2\nproperty list uchar int ids\nproperty float f\nelement vertex 2\nproperty list uchar float junk\nproperty double y\nproperty int x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n2 7 8 0.5\n0 1.5\n3 1 2 3 0.25 -4\n1 9.5 6\n3 0 1 2\n";
+    let text = "ply\nformat ascii 1.0\ncomment made by hand\nelement camera 2\nproperty list uchar int ids\nproperty float f\nelement vertex 2\nproperty list uchar float junk\nproperty double y\nproperty int x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n2 7 8 0.5\n0 1.5\n3 1 2 3 0.25 -4\n1 7.5 9.5 6\n3 0 1 2\n";
     let p = write_file(&dir, "t.ply", text.as_bytes());
     assert_eq!(
         rows(&p, &["x", "y"]).unwrap(),
@@ -140,7 +140,7 @@ fn bad_files_are_refused_with_what_is_wrong() {
         "vertex 1: x is \"256\"",
     );
     check(
-        b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n",
+        b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1.000 2.000\n",
         "truncated: the file ends in vertex 2 of 3",
     );
     // A list where a number is wanted.
