@@ -129,6 +129,13 @@ fn assert_same_but(a: &[Frame], b: &[Frame], except: &[&str]) {
     }
 }
 
+/// Asserts the scenes `points` and `spheres` (written in `dir`) render the same bits.
+fn renders_the_same(dir: &Path, points: &str, spheres: &str) {
+    std::fs::write(dir.join("points.toml"), points).unwrap();
+    std::fs::write(dir.join("spheres.toml"), spheres).unwrap();
+    assert_same(&render(dir, "points.toml"), &render(dir, "spheres.toml"));
+}
+
 /// Asserts two renders are the same bits, every channel.
 fn assert_same(a: &[Frame], b: &[Frame]) {
     assert_same_but(a, b, &[]);
@@ -158,12 +165,7 @@ fn points_with_velocities_render_as_spheres_with_velocity() {
             f(radii[i])
         );
     }
-    std::fs::write(dir.path().join("points.toml"), points).unwrap();
-    std::fs::write(dir.path().join("spheres.toml"), spheres).unwrap();
-    assert_same(
-        &render(dir.path(), "points.toml"),
-        &render(dir.path(), "spheres.toml"),
-    );
+    renders_the_same(dir.path(), &points, &spheres);
 }
 
 /// A two-frame sequence interpolated by id (the second file shuffled, some points dying after
@@ -371,12 +373,7 @@ fn colour_attributes_equal_per_sphere_materials() {
             f(radii[i])
         );
     }
-    std::fs::write(dir.path().join("points.toml"), points).unwrap();
-    std::fs::write(dir.path().join("spheres.toml"), spheres).unwrap();
-    assert_same(
-        &render(dir.path(), "points.toml"),
-        &render(dir.path(), "spheres.toml"),
-    );
+    renders_the_same(dir.path(), &points, &spheres);
 }
 
 /// `check` reads every file of the shot, and reports the points and the memory of each

@@ -24,7 +24,7 @@ impl PlyFile {
         if !meta.is_file() {
             return bad(format!(
                 "is {}, not a PLY file (point caches are read from regular files only)",
-                file_kind(&meta)
+                crate::scene_file::file_kind(&meta.file_type())
             ));
         }
         let file = File::open(path).map_err(|e| PlyError::Bad(e.to_string()))?;
@@ -32,7 +32,7 @@ impl PlyFile {
         if !meta.is_file() {
             return bad(format!(
                 "is {}, not a PLY file (point caches are read from regular files only)",
-                file_kind(&meta)
+                crate::scene_file::file_kind(&meta.file_type())
             ));
         }
         let mut reader = BufReader::with_capacity(1 << 20, file);
@@ -327,27 +327,4 @@ fn ascii_row<R: BufRead>(
         row(i, values).map_err(PlyError::Bad)?;
     }
     Ok(())
-}
-
-/// What kind of file system object `meta` describes, for messages.
-fn file_kind(meta: &std::fs::Metadata) -> &'static str {
-    let t = meta.file_type();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_fifo() {
-            return "a named pipe";
-        }
-        if t.is_char_device() || t.is_block_device() {
-            return "a device";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    if t.is_dir() {
-        "a directory"
-    } else {
-        "not a regular file"
-    }
 }

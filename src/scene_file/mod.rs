@@ -31,5 +31,6 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use load::file_kind;
 pub use load::{MAX_FILE_BYTES, SceneSource};
 pub use overrides::Overrides;

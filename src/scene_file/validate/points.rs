@@ -56,8 +56,7 @@ impl Check<'_> {
             };
             if motion == Some(PointMotion::Interpolate) && !desc.is_sequence() {
                 return self.err(format_args!(
-                    "{field}.motion = \"interpolate\" moves points to the next frame's file, and {field}.file \"{}\" is one file for every frame: name a sequence (a '#' for the frame number) or use \"velocity\"",
-                    p.file
+                    "{field}.motion = \"interpolate\" moves each point to its place in the next frame file, and {field}.file is one file for every frame: name a sequence (with # for the frame number), or use velocity"
                 ));
             }
             out.push(desc);
