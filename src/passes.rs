@@ -22,6 +22,7 @@ use crate::film::{Film, Pixel};
 use crate::hit::Hit;
 use crate::material::{Background, Material};
 use crate::pass::{Channel, Pass, PassSet};
+use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::sphere::SphereDesc;
 
@@ -123,12 +124,17 @@ impl Layout {
     }
 }
 
+/// The points of a frame without point caches.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
+
 /// What a frame needs to compute its samples' passes.
 #[derive(Clone, Debug)]
 pub struct PassContext<'a> {
     /// Where the sums go.
     pub layout: Layout,
     spheres: &'a [SphereDesc],
+    /// The frame's points, spheres `spheres.len()` on.
+    points: &'a FramePoints,
     background: Background,
     camera: &'a CameraRig,
     /// The camera's view when it never moves in the shot (then no view is computed per sample).
@@ -155,6 +161,7 @@ impl<'a> PassContext<'a> {
         PassContext {
             layout,
             spheres,
+            points: &NO_POINTS,
             background,
             camera,
             still_view: (!animated).then(|| camera.view_at(0.0, width, height)),
@@ -162,6 +169,11 @@ impl<'a> PassContext<'a> {
             width,
             height,
         }
+    }
+
+    /// The context with the frame's points, spheres `spheres.len()` on (none without).
+    pub fn with_points(self, points: &'a FramePoints) -> PassContext<'a> {
+        PassContext { points, ..self }
     }
 
     /// The camera's view at time `t`.
@@ -233,13 +245,21 @@ impl<'a> PassContext<'a> {
     /// displacement that cannot be projected (the point on the camera's plane, a degenerate
     /// view) is 0.
     fn motion(&self, p: DVec3, sphere: u32, t: f64, view: &View) -> (DVec2, DVec2) {
-        let path = &self.spheres[sphere as usize].motion;
-        let centre = path.at(t);
+        // A point of a cache moves on its line over the whole shot, as a sphere with a
+        // velocity does.
+        let at = |t: f64| match self.spheres.get(sphere as usize) {
+            Some(s) => s.motion.at(t),
+            None => match self.points.locate(sphere as usize - self.spheres.len()) {
+                Some((set, i)) => set.at(i, t),
+                None => DVec3::NAN,
+            },
+        };
+        let centre = at(t);
         let here = view.project(p);
         let moved = |dt: f64| {
             let t2 = t + dt;
             // Spheres translate: the point keeps its offset from the centre.
-            let p2 = path.at(t2) + (p - centre);
+            let p2 = at(t2) + (p - centre);
             let d = self.view_at(t2).project(p2) - here;
             // Image rows grow downward; v grows upward.
             let d = DVec2::new(d.x, -d.y);

@@ -8,12 +8,13 @@
 //! Frames are rendered at half their width and height, so the whole file takes a few minutes
 //! of two cores; docs/convergence.md has the same table at full size.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use raytrace::analysis::metrics;
 use raytrace::denoise::denoiser::Denoiser;
-use raytrace::renderer::{Budget, render_frame, render_frame_denoised};
+use raytrace::point_cache;
+use raytrace::renderer::{Budget, render_frame_denoised, render_frame_with};
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
 use raytrace::world::StaticGeometry;
@@ -21,13 +22,10 @@ use raytrace::world::StaticGeometry;
 const REFERENCE_SAMPLES: u32 = 2048;
 const SAMPLES: [u32; 4] = [16, 64, 256, 1024];
 
-/// The shipped scene `name` at half its width and height, with `samples` and `seed` (`None`:
+/// The scene file at `path` at half its width and height, with `samples` and `seed` (`None`:
 /// the scene's).
-fn scene(name: &str, samples: u32, seed: Option<u64>) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(format!("{name}.toml"));
-    let full = Scene::load(&path).unwrap();
+fn scene(path: &Path, samples: u32, seed: Option<u64>) -> Scene {
+    let full = Scene::load(path).unwrap();
     let overrides = Overrides {
         width: Some(full.output.width / 2),
         height: Some(full.output.height / 2),
@@ -35,18 +33,27 @@ fn scene(name: &str, samples: u32, seed: Option<u64>) -> Scene {
         seed,
         ..Overrides::default()
     };
-    Scene::load_with(&path, &overrides).unwrap()
+    Scene::load_with(path, &overrides).unwrap()
 }
 
-/// Renders the scene's first frame at each of [`SAMPLES`] denoised, and checks each stated
-/// error against the truth.
-fn check(name: &str) {
-    let reference_scene = scene(name, REFERENCE_SAMPLES, Some(0x5eed_0f_7e5e));
+fn shipped(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(format!("{name}.toml"))
+}
+
+/// Renders the first frame of the scene at `path` at each of [`SAMPLES`] denoised, and checks
+/// each stated error against the truth.
+fn check(path: &Path) {
+    let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+    let reference_scene = scene(path, REFERENCE_SAMPLES, Some(0x5eed_0f7e));
     let statics = StaticGeometry::new(&reference_scene);
     let frame = reference_scene.shot.first_frame;
-    let reference = render_frame(
+    let points = point_cache::read_frame(&reference_scene, frame).unwrap();
+    let reference = render_frame_with(
         &reference_scene,
         &statics,
+        &points,
         frame,
         &Budget::default(),
         &|_| {},
@@ -56,11 +63,18 @@ fn check(name: &str) {
     let denoiser = Denoiser::new().unwrap();
     let mut worst: f64 = 0.0;
     for n in SAMPLES {
-        let s = scene(name, n, None);
+        let s = scene(path, n, None);
         let statics = StaticGeometry::new(&s);
-        let result =
-            render_frame_denoised(&s, &statics, frame, &Budget::default(), &denoiser, &|_| {})
-                .unwrap();
+        let result = render_frame_denoised(
+            &s,
+            &statics,
+            &points,
+            frame,
+            &Budget::default(),
+            &denoiser,
+            &|_| {},
+        )
+        .unwrap();
         let denoised = result.denoised.as_ref().unwrap();
         let image: Vec<DVec3> = denoised
             .rgb
@@ -91,32 +105,50 @@ fn check(name: &str) {
 
 #[test]
 fn quick() {
-    check("quick");
+    check(&shipped("quick"));
 }
 
 #[test]
 fn defocus() {
-    check("defocus");
+    check(&shipped("defocus"));
 }
 
 #[test]
 fn orbits() {
-    check("orbits");
+    check(&shipped("orbits"));
 }
 
 #[test]
 fn turntable() {
-    check("turntable");
+    check(&shipped("turntable"));
 }
 
 #[test]
 fn propeller() {
-    check("propeller");
+    check(&shipped("propeller"));
 }
 
 #[test]
 fn bouncing_spheres() {
-    check("bouncing_spheres");
+    check(&shipped("bouncing_spheres"));
+}
+
+#[test]
+fn fountain() {
+    // Its point cache is made by the command its header gives (frame 1 is enough), beside a
+    // copy of the scene.
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir(d.path().join("scenes")).unwrap();
+    let scene = d.path().join("scenes/fountain.toml");
+    std::fs::copy(shipped("fountain"), &scene).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
+        .args(["generate", "-o", "scenes/caches/fountain_####.ply"])
+        .args(["--frames", "1", "--points", "4000"])
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    check(&scene);
 }
 
 #[test]
@@ -132,6 +164,7 @@ fn every_shipped_scene_is_checked() {
     let checked = [
         "bouncing_spheres",
         "defocus",
+        "fountain",
         "orbits",
         "propeller",
         "quick",

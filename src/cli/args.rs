@@ -312,26 +312,54 @@ pub struct ClipArgs {
     pub quiet: bool,
 }
 
-/// Arguments of `raytrace generate`.
+/// Arguments of `raytrace generate`: a random scene (`.toml`), or a fountain's point cache
+/// (`.ply`, a file per frame).
 #[derive(Args, Clone, Debug)]
 pub struct GenerateArgs {
-    /// Number of spheres.
+    /// Number of spheres (of a .toml scene).
     #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u64).range(1..=crate::scene_file::generate::MAX_SPHERES))]
     pub spheres: u64,
     /// Fraction of the spheres that move, 0 to 1.
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = fraction)]
     pub moving: f64,
-    /// Seed of the spheres' random numbers.
+    /// Seed of the spheres' (or particles') random numbers.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole::<u64>)]
     pub seed: u64,
-    /// Frames in the shot.
+    /// Particles of the fountain alive at once, about (of a .ply point cache).
+    #[arg(long, default_value_t = 2000, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u64).range(1..=crate::fountain::MAX_POINTS))]
+    pub points: u64,
+    /// How a .ply point cache is written.
+    #[arg(long, value_enum, default_value_t = PlyEncoding::BinaryLittleEndian)]
+    pub encoding: PlyEncoding,
+    /// Frames in the shot (or of the point cache, frames 1 to N at 24 fps).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
-    /// The scene file to write (.toml).
+    /// The scene file to write (.toml), or the point cache's files (.ply; each run of '#' is
+    /// the frame number, needed for more than one frame).
     #[arg(long, short)]
     pub output: PathBuf,
+}
+
+/// How a PLY file is written.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlyEncoding {
+    Ascii,
+    BinaryLittleEndian,
+    BinaryBigEndian,
+}
+
+impl PlyEncoding {
+    /// The PLY encoding.
+    pub fn encoding(self) -> crate::ply::Encoding {
+        match self {
+            PlyEncoding::Ascii => crate::ply::Encoding::Ascii,
+            PlyEncoding::BinaryLittleEndian => crate::ply::Encoding::BinaryLittleEndian,
+            PlyEncoding::BinaryBigEndian => crate::ply::Encoding::BinaryBigEndian,
+        }
+    }
 }
 
 impl SceneArgs {

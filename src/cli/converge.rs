@@ -22,7 +22,8 @@ use crate::error::Error;
 use crate::format::{FRAME_FORMATS, Format};
 use crate::io;
 use crate::output;
-use crate::renderer::{Budget, FrameResult, render_frame, render_frame_denoised};
+use crate::points::FramePoints;
+use crate::renderer::{Budget, FrameResult, render_frame_denoised, render_frame_with};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
@@ -191,12 +192,18 @@ fn measure(
         }
     };
     let statics = StaticGeometry::new(scene);
+    // The frame's points, read once for every render of it.
+    let points = match scene.points.is_empty() {
+        true => FramePoints::none(),
+        false => crate::point_cache::read_frame(scene, frame)?,
+    };
+    let statics = (&statics, &points);
     // Started before anything is measured: if it cannot start, nothing is written.
     let denoiser = match args.denoise {
         true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
         false => None,
     };
-    let reference = reference(scene, variant, &statics, frame, args, &say)?;
+    let reference = reference(scene, variant, statics, frame, args, &say)?;
     say(&format!(
         "errors against the reference, less its own estimated error ({:.3}% relative; \
          the noise of the two is independent, so their squares add)",
@@ -225,7 +232,7 @@ fn measure(
                 continue;
             }
             let (result, seconds) =
-                timed_render(&variant(n, None, kind)?, &statics, frame, denoiser.as_ref())?;
+                timed_render(&variant(n, None, kind)?, statics, frame, denoiser.as_ref())?;
             let denoised = result.denoised.as_ref().map(|d| {
                 let image: Vec<DVec3> = d
                     .rgb
@@ -347,7 +354,7 @@ impl Reference {
 fn reference(
     scene: &Scene,
     variant: &Variant,
-    statics: &StaticGeometry,
+    (statics, points): (&StaticGeometry, &FramePoints),
     frame: u32,
     args: &ConvergeArgs,
     say: &dyn Fn(&str),
@@ -375,7 +382,14 @@ fn reference(
         "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
         reference.render.sampler
     ));
-    let result = render_frame(&reference, statics, frame, &Budget::default(), &|_| {});
+    let result = render_frame_with(
+        &reference,
+        statics,
+        points,
+        frame,
+        &Budget::default(),
+        &|_| {},
+    );
     let non_finite = output::write_frame(&path, format, &reference, &result, &Budget::default())?;
     if non_finite > 0 {
         say(&format!(
@@ -400,7 +414,7 @@ fn reference(
 /// the clock).
 fn timed_render(
     scene: &Scene,
-    statics: &StaticGeometry,
+    (statics, points): (&StaticGeometry, &FramePoints),
     frame: u32,
     denoiser: Option<&Denoiser>,
 ) -> Result<(FrameResult, f64), Error> {
@@ -410,8 +424,8 @@ fn timed_render(
         let start = Instant::now();
         let budget = Budget::default();
         let r = match denoiser {
-            Some(d) => render_frame_denoised(scene, statics, frame, &budget, d, &|_| {})?,
-            None => render_frame(scene, statics, frame, &budget, &|_| {}),
+            Some(d) => render_frame_denoised(scene, statics, points, frame, &budget, d, &|_| {})?,
+            None => render_frame_with(scene, statics, points, frame, &budget, &|_| {}),
         };
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);

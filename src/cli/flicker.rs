@@ -12,7 +12,10 @@ use super::progress::print_line;
 use crate::analysis::metrics;
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
-use crate::renderer::{Budget, FrameResult, TemporalDenoiser, render_frame, render_frame_denoised};
+use crate::point_cache;
+use crate::renderer::{
+    Budget, FrameResult, TemporalDenoiser, render_frame_denoised, render_frame_with,
+};
 use crate::rng::hash_words;
 use crate::scene::Scene;
 use crate::scene_file::{Overrides, SceneSource};
@@ -68,7 +71,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     let scene = with(samples, None)?;
     let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
-    let reference_seed = hash_words(&[scene.render.seed, 0x666c_6963_6b65_72]) >> 1;
+    let reference_seed = hash_words(&[scene.render.seed, 0x0066_6c69_636b_6572]) >> 1;
     let reference = with(reference_samples, Some(reference_seed))?;
     let say = |s: &str| {
         if !args.scene_args.quiet {
@@ -80,12 +83,12 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         say(&format!(
             "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
         ));
-        let refs = references(&reference, &frames);
+        let refs = references(&reference, &frames)?;
         measure(&scene, &frames, &refs, &denoiser, &say)
     })
 }
 
-fn references(scene: &Scene, frames: &[u32]) -> References {
+fn references(scene: &Scene, frames: &[u32]) -> Result<References, Error> {
     let statics = StaticGeometry::new(scene);
     let mut refs = References {
         means: Vec::new(),
@@ -93,12 +96,13 @@ fn references(scene: &Scene, frames: &[u32]) -> References {
         own: Vec::new(),
     };
     for &frame in frames {
-        let r = render_frame(scene, &statics, frame, &Budget::default(), &|_| {});
+        let points = point_cache::read_frame(scene, frame)?;
+        let r = render_frame_with(scene, &statics, &points, frame, &Budget::default(), &|_| {});
         refs.means.push(r.film.means());
         refs.variances.push(r.film.variances());
         refs.own.push(r.stats.relative_error.powi(2));
     }
-    refs
+    Ok(refs)
 }
 
 fn measure(
@@ -115,7 +119,9 @@ fn measure(
     let mut temporal = TemporalDenoiser::new(denoiser);
     for &frame in frames {
         let start = Instant::now();
-        let result = render_frame_denoised(scene, &statics, frame, &budget, denoiser, &|_| {})?;
+        let points = point_cache::read_frame(scene, frame)?;
+        let result =
+            render_frame_denoised(scene, &statics, &points, frame, &budget, denoiser, &|_| {})?;
         let denoise_seconds = result.stats.denoise_seconds;
         let all = start.elapsed().as_secs_f64();
         seconds[0] += all - denoise_seconds;
@@ -123,7 +129,15 @@ fn measure(
         images[0].push(result.film.means());
         images[1].push(denoised_image(&result));
         let start = Instant::now();
-        let result = temporal.render(scene, &statics, frame, &budget, &|_| {})?;
+        let result = temporal.render(
+            scene,
+            &statics,
+            &points,
+            &|k| point_cache::read_frame(scene, k),
+            frame,
+            &budget,
+            &|_| {},
+        )?;
         seconds[2] += start.elapsed().as_secs_f64();
         images[2].push(denoised_image(&result));
     }

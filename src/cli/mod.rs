@@ -23,7 +23,7 @@ mod threads;
 
 pub use args::{
     BudgetArgs, CheckArgs, Cli, ClipArgs, Command, ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD,
-    GenerateArgs, MAX_THREADS, PassList, RenderArgs, SceneArgs,
+    GenerateArgs, MAX_THREADS, PassList, PlyEncoding, RenderArgs, SceneArgs,
 };
 pub use threads::thread_pool;
 
@@ -40,6 +40,10 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         },
         Command::Check(args) => check::check(args).map(|s| progress::print_line(s.trim_end())),
         Command::Clip(args) => clip::clip(args),
-        Command::Generate(args) => generate::generate(args),
+        Command::Generate(args) => generate::generate(args).map(|s| {
+            if !s.is_empty() {
+                progress::print_line(&s)
+            }
+        }),
     }
 }

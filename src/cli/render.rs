@@ -15,8 +15,9 @@ use crate::error::{Error, elide_path};
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
+use crate::point_cache;
 use crate::renderer::{
-    FrameResult, FrameStats, TemporalDenoiser, render_frame, render_frame_denoised,
+    FrameResult, FrameStats, TemporalDenoiser, render_frame_denoised, render_frame_with,
 };
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
@@ -55,7 +56,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
                 elide_path(&shot.path)
             )));
         }
-        estimate = estimate.max(check_memory(&shot.scene)?);
+        estimate = estimate.max(check_memory(&shot.scene, shot.points)?);
         if let Some(c) = &shot.scene.output.clip
             && !args.no_clip
         {
@@ -205,24 +206,43 @@ fn render_shot(
                 )),
             }
         }
+        // The frame's points, read and checked (their files were surveyed before the run).
+        let read_start = Instant::now();
+        let points = point_cache::read_frame(scene, frame)?;
+        let read_seconds = read_start.elapsed().as_secs_f64();
         let planned = (!budget.is_set()).then(|| {
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
         let result = match (&mut temporal, denoiser.filter(|_| scene.output.denoise)) {
-            (Some(t), _) => t.render(scene, &statics, frame, &budget, &|n| bar.inc(n)),
+            (Some(t), _) => t.render(
+                scene,
+                &statics,
+                &points,
+                &|k| point_cache::read_frame(scene, k),
+                frame,
+                &budget,
+                &|n| bar.inc(n),
+            ),
             (None, Some(d)) => {
-                render_frame_denoised(scene, &statics, frame, &budget, d, &|n| bar.inc(n))
+                render_frame_denoised(scene, &statics, &points, frame, &budget, d, &|n| bar.inc(n))
             }
-            (None, None) => Ok(render_frame(scene, &statics, frame, &budget, &|n| {
-                bar.inc(n)
-            })),
+            (None, None) => Ok(render_frame_with(
+                scene,
+                &statics,
+                &points,
+                frame,
+                &budget,
+                &|n| bar.inc(n),
+            )),
         };
+        let point_count = points.len();
+        drop(points);
         bar.finish_and_clear();
         let result = result?;
         let st = &result.stats;
         let non_finite = output::write_frame(&path, scene.output.format, scene, &result, &budget)?;
-        let seconds = st.prepare_seconds + st.render_seconds;
+        let seconds = read_seconds + st.prepare_seconds + st.render_seconds;
         let stop = if budget.is_set() {
             format!(" ({})", st.stop.describe())
         } else {
@@ -238,7 +258,8 @@ fn render_shot(
             elide_path(&path)
         ));
         if args.stats {
-            progress.line(&stats_line(frame, st));
+            let read = (!scene.points.is_empty()).then_some((read_seconds, point_count));
+            progress.line(&stats_line(frame, st, read));
         }
         error_sum += st.relative_error;
         summary.error_max = summary.error_max.max(st.relative_error);
@@ -301,8 +322,9 @@ fn percent(relative_error: f64) -> String {
     }
 }
 
-/// The `--stats` line of a frame.
-fn stats_line(frame: u32, st: &FrameStats) -> String {
+/// The `--stats` line of a frame; `read`: the seconds its point caches took to read, and their
+/// points.
+fn stats_line(frame: u32, st: &FrameStats, read: Option<(f64, usize)>) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
     let denoise = if st.denoise_seconds > 0.0 {
@@ -313,8 +335,11 @@ fn stats_line(frame: u32, st: &FrameStats) -> String {
     // The share of the render time the worker threads spent in tiles: what is missing is
     // time a core sat idle (waiting for the last tile) or spent scheduling.
     let busy = st.tile_seconds / (st.render_seconds * rayon::current_num_threads() as f64);
+    let read = read.map_or(String::new(), |(s, n)| {
+        format!("read {s:.3} s ({n} points), ")
+    });
     format!(
-        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: {read}prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, cores busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,

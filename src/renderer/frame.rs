@@ -11,6 +11,7 @@ use crate::denoise::denoiser::{DenoiseError, Denoiser};
 use crate::error::Error;
 use crate::film::{Film, Pixel};
 use crate::passes::{Layout, PassContext, PassImages};
+use crate::points::FramePoints;
 use crate::scene::Scene;
 use crate::shutter::Interval;
 use crate::world::{StaticGeometry, World};
@@ -97,6 +98,8 @@ impl FrameResult {
 /// bit-identical to the same pixel rendered with exactly N samples.
 ///
 /// The frame is not denoised, whatever `[output] denoise` says: see [`render_frame_denoised`].
+/// The scene's point caches are not read here (reading files is not the frame's business):
+/// a scene with `[[points]]` renders through [`render_frame_with`], given the frame's points.
 pub fn render_frame(
     scene: &Scene,
     statics: &StaticGeometry,
@@ -104,7 +107,35 @@ pub fn render_frame(
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
-    match render(scene, statics, frame, budget, Denoising::Off, progress) {
+    render_frame_with(
+        scene,
+        statics,
+        &FramePoints::none(),
+        frame,
+        budget,
+        progress,
+    )
+}
+
+/// [`render_frame`] with `points`, the frame's points of the scene's point caches (as
+/// `point_cache::read_frame` reads them), among its spheres.
+pub fn render_frame_with(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    points: &FramePoints,
+    frame: u32,
+    budget: &Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> FrameResult {
+    match render(
+        scene,
+        statics,
+        points,
+        frame,
+        budget,
+        Denoising::Off,
+        progress,
+    ) {
         Ok(result) => result,
         Err(_) => unreachable!("a frame without a denoiser has no denoising error"),
     }
@@ -115,9 +146,11 @@ pub fn render_frame(
 /// noise threshold, sampling stops when the *denoised* estimate meets it, and the adaptive
 /// rounds send samples where the denoised frame's estimated error is largest. The raw film
 /// and its passes are the same bits as [`render_frame`]'s at the same sample counts.
+/// `points`: the frame's points, as for [`render_frame_with`].
 pub fn render_frame_denoised(
     scene: &Scene,
     statics: &StaticGeometry,
+    points: &FramePoints,
     frame: u32,
     budget: &Budget,
     denoiser: &Denoiser,
@@ -126,6 +159,7 @@ pub fn render_frame_denoised(
     render(
         scene,
         statics,
+        points,
         frame,
         budget,
         Denoising::Frame(denoiser),
@@ -156,6 +190,7 @@ pub(super) enum Denoising<'d> {
 pub(super) fn render(
     scene: &Scene,
     statics: &StaticGeometry,
+    points: &FramePoints,
     frame: u32,
     budget: &Budget,
     denoising: Denoising<'_>,
@@ -169,7 +204,7 @@ pub(super) fn render(
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
     let interval = times.interval;
-    let world = World::prepare(scene, statics, interval);
+    let world = World::prepare_with(scene, statics, points, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let layout = match denoiser {
@@ -189,6 +224,7 @@ pub(super) fn render(
             req.width,
             req.height,
         )
+        .with_points(points)
     });
     let stride = passes.as_ref().map_or(0, |p| p.layout.stride);
     let setup = FrameSetup {

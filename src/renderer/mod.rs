@@ -21,5 +21,7 @@ mod tiles;
 pub use crate::film::TILE;
 pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 pub use denoised::Denoised;
-pub use frame::{FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised};
+pub use frame::{
+    FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised, render_frame_with,
+};
 pub use temporal::TemporalDenoiser;

@@ -18,6 +18,7 @@ use crate::denoise::reproject::{self, HISTORY, TemporalFrame};
 use crate::error::Error;
 use crate::pass::{Pass, PassSet};
 use crate::passes::PassImages;
+use crate::points::FramePoints;
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
@@ -43,10 +44,15 @@ impl<'d> TemporalDenoiser<'d> {
     /// [`FrameStats::relative_error`](super::FrameStats::relative_error) is the estimated
     /// error of the frame so denoised; its time and the earlier frames' are in its figures.
     /// `progress` counts the frame's own samples.
+    /// `points` are the frame's points of the scene's point caches, and `points_of` reads an
+    /// earlier frame's.
+    #[allow(clippy::too_many_arguments)]
     pub fn render(
         &mut self,
         scene: &Scene,
         statics: &StaticGeometry,
+        points: &FramePoints,
+        points_of: &dyn Fn(u32) -> Result<FramePoints, Error>,
         frame: u32,
         budget: &Budget,
         progress: &(dyn Fn(u64) + Sync),
@@ -59,12 +65,12 @@ impl<'d> TemporalDenoiser<'d> {
         self.history.retain(|(k, _)| earlier.contains(k));
         for &k in &earlier {
             if !self.history.iter().any(|(j, _)| *j == k) {
-                let r = self.render_raw(scene, statics, k, budget, &|_| {})?;
+                let r = self.render_raw(scene, statics, &points_of(k)?, k, budget, &|_| {})?;
                 self.history.push((k, temporal_frame(&r)));
             }
         }
         self.history.sort_by_key(|(k, _)| *k);
-        let mut result = self.render_raw(scene, statics, frame, budget, progress)?;
+        let mut result = self.render_raw(scene, statics, points, frame, budget, progress)?;
         let current = temporal_frame(&result);
         // The frame before first.
         let before: Vec<&TemporalFrame> = self.history.iter().rev().map(|(_, f)| f).collect();
@@ -96,6 +102,7 @@ impl<'d> TemporalDenoiser<'d> {
         &self,
         scene: &Scene,
         statics: &StaticGeometry,
+        points: &FramePoints,
         frame: u32,
         budget: &Budget,
         progress: &(dyn Fn(u64) + Sync),
@@ -103,6 +110,7 @@ impl<'d> TemporalDenoiser<'d> {
         render(
             scene,
             statics,
+            points,
             frame,
             budget,
             Denoising::Temporal(self.denoiser),

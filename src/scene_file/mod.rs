@@ -9,6 +9,9 @@
 //!   them first) to a `Scene`, naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel.
 //!
+//! [`schema_curve`] holds the shutter curve's part of the schema, and `validate::points` the
+//! `[[points]]` tables' checks.
+//!
 //! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
 //! [`generate`] writes large random test scenes as scene-file text.
 //!
@@ -21,11 +24,13 @@ mod pieces;
 mod report;
 mod scan;
 mod schema;
+mod schema_curve;
 mod show;
 mod validate;
 
 #[cfg(test)]
 mod tests;
 
+pub(crate) use load::file_kind;
 pub use load::{MAX_FILE_BYTES, SceneSource};
 pub use overrides::Overrides;
