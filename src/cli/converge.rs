@@ -205,7 +205,7 @@ fn measure(
     };
     let reference = reference(scene, variant, statics, frame, args, &say)?;
     say(&format!(
-        "errors against the reference, less its own estimated error ({:.3}% relative; \
+        "relative errors against the reference, less its own estimated error ({:.3}%; \
          the noise of the two is independent, so their squares add)",
         100.0 * reference.rel_mse.sqrt()
     ));
@@ -324,25 +324,25 @@ fn measure(
     Ok(report)
 }
 
-/// The reference image and its own estimated error, which every measured error, taken
-/// against it, holds too: the reference's noise is independent of a measured render's, so
-/// their squared errors add, and the reference's is subtracted from each measured one.
+/// The reference image and its own estimated relative error, which every measured relative
+/// error, taken against it, holds too: the reference's noise is independent of a measured
+/// render's, so their squared errors add, and the reference's is subtracted from each
+/// measured one. (The MSE columns are against the reference as it is: a reference read back
+/// records its relative error, not its MSE, and both ways must give the same figures.)
 struct Reference {
     pixels: Vec<DVec3>,
-    /// The reference's estimated mean squared error (0 when unknown).
-    mse: f64,
     /// The square of its estimated relative error (0 when unknown).
     rel_mse: f64,
 }
 
 impl Reference {
-    /// The mean squared error of `image` against the truth: against the reference, less the
-    /// reference's own.
+    /// The mean squared error of `image` against the reference.
     fn mse(&self, image: &[DVec3]) -> f64 {
-        (metrics::mse(image, &self.pixels) - self.mse).max(0.0)
+        metrics::mse(image, &self.pixels)
     }
 
-    /// The relative mean squared error of `image` against the truth, likewise.
+    /// The relative mean squared error of `image` against the truth: against the reference,
+    /// less the reference's own (never below 0).
     fn rel_mse(&self, image: &[DVec3]) -> f64 {
         (metrics::rel_mse(image, &self.pixels) - self.rel_mse).max(0.0)
     }
@@ -364,7 +364,6 @@ fn reference(
         let rel_mse = io::read_exr_number(path, "estimatedRelativeError").map_or(0.0, |e| e * e);
         return Ok(Reference {
             pixels: read_reference(path, width, height)?,
-            mse: 0.0,
             rel_mse,
         });
     }
@@ -404,7 +403,6 @@ fn reference(
     // Compare against what was written (f32), as a reused reference would be.
     Ok(Reference {
         pixels: read_reference(&path, width, height)?,
-        mse: metrics::estimated_mse(&result.film.variances()),
         rel_mse: result.stats.relative_error.powi(2),
     })
 }
