@@ -206,6 +206,7 @@ impl StaticGeometry {
             0.0,
             f64::INFINITY,
             stack,
+            #[inline(always)]
             |i, t_max| {
                 let p = &self.prims[i as usize];
                 if p.id == skip {
@@ -347,18 +348,27 @@ impl<'a> World<'a> {
                 0.0
             };
             let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
-            found = bvh.closest_hit(ray.origin, ray.dir, s, t_max, stack, |i, t_max| {
-                let p = &self.animated[i as usize];
-                if p.id == skip {
-                    return None;
-                }
-                intersect(
-                    p.center_at(&self.motions, dt, ray.time),
-                    p.radius,
-                    ray,
-                    t_max,
-                )
-            });
+            found = bvh.closest_hit(
+                ray.origin,
+                ray.dir,
+                s,
+                t_max,
+                stack,
+                // Inlined into each of the traversal's kernels, as it was into the one before.
+                #[inline(always)]
+                |i, t_max| {
+                    let p = &self.animated[i as usize];
+                    if p.id == skip {
+                        return None;
+                    }
+                    intersect(
+                        p.center_at(&self.motions, dt, ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
         }
         let (t, center, radius, material, id) = if let Some((t, i)) = found {
             let p = &self.animated[i as usize];

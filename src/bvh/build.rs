@@ -1,11 +1,12 @@
 //! Building a hierarchy: a binary tree by the binned surface-area heuristic, in parallel,
-//! collapsed into 4-wide nodes.
+//! collapsed into 8-wide nodes.
 
 use glam::DVec3;
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, Boxes4, set_moving};
+use super::boxes::{Boxes, ChildBoxes, set_moving};
+use super::lanes::LANES;
 use super::topology::{COUNT_SHIFT, Links, Topology};
 
 /// Most primitives in a leaf.
@@ -112,7 +113,7 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
             }
         };
         annotate(&mut tree, &prim);
-        // The root is always a 4-wide node, even over a single leaf, so traversal starts
+        // The root is always an 8-wide node, even over a single leaf, so traversal starts
         // at node 0.
         if let Kind::Leaf { .. } = tree.kind {
             let leaf = Build {
@@ -124,6 +125,10 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
         }
         let moving = close.is_some();
         collapse(&tree, moving, &mut topology.links, &mut boxes);
+        // Pushed one by one: up to twice the memory needed, kept for the hierarchy's life.
+        topology.links.shrink_to_fit();
+        boxes.still.shrink_to_fit();
+        boxes.moving.shrink_to_fit();
         boxes.bounds = tree.boxes.whole;
     }
     (topology, boxes)
@@ -198,15 +203,16 @@ fn annotate(t: &mut Build, prim: &impl Fn(u32) -> NodeBoxes) -> NodeBoxes {
     t.boxes
 }
 
-/// Appends the 4-wide nodes of the binary subtree `t` (an inner node) to `links` and
-/// `boxes` in depth-first order. The four children are found by opening, from the node's two, the child
-/// with the largest surface area until there are four (Embree's BVH4 collapse).
+/// Appends the 8-wide nodes of the binary subtree `t` (an inner node) to `links` and
+/// `boxes` in depth-first order. The eight children are found by opening, from the node's
+/// two, the inner child with the largest surface area until there are eight (Embree's BVH8
+/// collapse); a node with fewer leaves below it has fewer, its other slots empty.
 fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) {
     let Kind::Inner(children) = &t.kind else {
         unreachable!("collapse starts at inner nodes")
     };
     let mut kids: Vec<&Build> = children.iter().collect();
-    while kids.len() < 4 {
+    while kids.len() < LANES {
         let Some((i, _)) = kids
             .iter()
             .enumerate()
@@ -227,11 +233,11 @@ fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) 
         kids.insert(i, &grand[0]);
     }
     let index = links.len();
-    links.push(Links { child: [0; 4] });
+    links.push(Links { child: [0; LANES] });
     if moving {
-        boxes.moving.push([Boxes4::EMPTY, Boxes4::ZERO]);
+        boxes.moving.push([ChildBoxes::EMPTY, ChildBoxes::ZERO]);
     } else {
-        boxes.still.push(Boxes4::EMPTY);
+        boxes.still.push(ChildBoxes::EMPTY);
     }
     for (k, c) in kids.iter().enumerate() {
         links[index].child[k] = match c.kind {
@@ -328,7 +334,7 @@ mod tests {
             bvh.topology()
                 .links
                 .iter()
-                .all(|n| (0..4).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
+                .all(|n| (0..LANES).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
         );
         let mut seen: Vec<u32> = bvh.order().to_vec();
         seen.sort();

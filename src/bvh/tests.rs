@@ -308,3 +308,91 @@ fn grazing_rays_at_far_and_tiny_scales_agree_with_brute_force() {
         assert!(hits > 100, "{hits} hits at scale {scale}");
     }
 }
+
+/// The primitives a traversal visits (position, `t_max` bits) and the hit it finds.
+type Visits = (Vec<(u32, u64)>, Option<(f64, u32)>);
+
+/// Every kernel of the traversal (plain arrays; SSE and, where the processor has it, AVX on
+/// x86-64) visits the same primitives in the same order with the same distance bounds, and
+/// finds the same hit: their lanes give the same bits, so a render is the same bytes on any
+/// of them. Still, moving and refitted hierarchies; rays of every kind `random_rays` makes.
+#[test]
+fn every_kernel_visits_the_same_primitives() {
+    use super::lanes::{Lanes, Plain};
+    let mut r = Pcg32::new(14, 2);
+    let mut stack = TraversalStack::default();
+    /// The primitives `view` visits along `ray` on machine `m` (position and `t_max` bits),
+    /// and the hit.
+    fn visits<M: Lanes>(
+        m: M,
+        view: BvhView,
+        spheres: &[(DVec3, DVec3, f64)],
+        ray: &crate::ray::Ray,
+        stack: &mut TraversalStack,
+    ) -> Visits {
+        let order = view.topology.order();
+        let mut seen = vec![];
+        let got = view.closest_hit_on(
+            m,
+            ray.origin,
+            ray.dir,
+            ray.time,
+            f64::INFINITY,
+            stack,
+            |p, t_max| {
+                seen.push((p, t_max.to_bits()));
+                let (c, v, rad) = spheres[order[p as usize] as usize];
+                crate::sphere::intersect(c + v * ray.time, rad, ray, t_max)
+            },
+        );
+        (seen, got)
+    }
+    let mut compared = 0;
+    for &n in &[1usize, 9, 64, 700, 5000] {
+        let (spheres, open, close) = moving_spheres(&mut r, n);
+        let moving = Bvh::build_moving(&open, &close);
+        let (_, open2, close2) = moving_spheres(&mut r, n);
+        let refitted = moving.topology().refit_moving(&open2, &close2);
+        let still_spheres: Vec<(DVec3, DVec3, f64)> = spheres
+            .iter()
+            .map(|&(c, _, rad)| (c, DVec3::ZERO, rad))
+            .collect();
+        let still = Bvh::build(&open);
+        let cases = [
+            (moving.view(), &spheres),
+            (BvhView::new(moving.topology(), &refitted), &spheres),
+            (still.view(), &still_spheres),
+        ];
+        for ray in random_rays(&mut r, 1000) {
+            for (view, spheres) in cases {
+                let plain = visits(Plain, view, spheres, &ray, &mut stack);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    use super::lanes::{Avx, Sse, avx_where_available};
+                    assert_eq!(visits(Sse, view, spheres, &ray, &mut stack), plain);
+                    if let Some(v3) = avx_where_available() {
+                        let avx = v3.vectorize(|| visits(Avx(v3), view, spheres, &ray, &mut stack));
+                        assert_eq!(avx, plain);
+                    }
+                }
+                compared += usize::from(!plain.0.is_empty());
+            }
+        }
+    }
+    // A fair share of the rays reach primitives.
+    assert!(compared > 1500, "{compared}");
+}
+
+/// [`super::BYTES_PER_PRIMITIVE`] bounds a moving hierarchy's memory over random spheres, and
+/// is not far above it (within a factor of two).
+#[test]
+fn bytes_per_primitive_bounds_a_moving_hierarchy() {
+    let mut r = Pcg32::new(15, 4);
+    for &n in &[100usize, 2000, 30_000] {
+        let (_, open, close) = moving_spheres(&mut r, n);
+        let bvh = Bvh::build_moving(&open, &close);
+        let per = bvh.memory_bytes() as f64 / n as f64;
+        assert!(per <= super::BYTES_PER_PRIMITIVE as f64, "{n}: {per}");
+        assert!(per > 0.5 * super::BYTES_PER_PRIMITIVE as f64, "{n}: {per}");
+    }
+}
