@@ -31,12 +31,14 @@
 //! - `build`: the binned SAH build of a binary tree and its collapse into 8-wide nodes;
 //! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
 //! - `traverse`: [`BvhView`] and [`TraversalStack`], the nearest-hit traversal;
+//! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes.
 
 mod boxes;
 mod build;
 mod hierarchy;
 mod lanes;
+mod packet;
 mod rounding;
 mod slab;
 mod topology;
@@ -48,5 +50,6 @@ mod tests;
 pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
 pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub use packet::{PACKET, PacketRay};
 pub use topology::Topology;
 pub use traverse::{BvhView, TraversalStack};

@@ -43,6 +43,7 @@ pub(super) trait SlabTest {
 /// A ray as the `f32` slab test reads it, on the lanes of machine `M`: per axis, its
 /// reciprocal direction, and its origin rounded to `f32` both ways; whether its direction is
 /// negative; the shutter time.
+#[derive(Clone, Copy)]
 pub(super) struct RayLanes<M: Lanes> {
     m: M,
     inv: [M::V; 3],

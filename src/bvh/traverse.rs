@@ -6,12 +6,13 @@ use glam::DVec3;
 use super::boxes::Boxes;
 use super::build::MAX_SAH_DEPTH;
 use super::lanes::{LANES, Lanes};
+use super::packet::PacketStack;
 use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
 use super::topology::{COUNT_SHIFT, Links, POSITION_MASK, Topology};
 
 /// Traversal stack size: an 8-wide node pushes at most 7 entries beyond the one it replaces,
 /// and the 8-wide tree is no deeper than the binary one.
-const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
+pub(super) const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
 
 /// Scratch space for traversals. Made once per thread of work and reused for every ray:
 /// clearing a fresh stack array per ray cost about 8% of a render.
@@ -24,6 +25,8 @@ pub struct TraversalStack {
     /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
     /// are skipped.
     near: [f32; STACK],
+    /// The stack of packet traversals ([`BvhView::closest_hits`]).
+    pub(super) packet: PacketStack,
 }
 
 impl Default for TraversalStack {
@@ -32,6 +35,7 @@ impl Default for TraversalStack {
             entry: [0; STACK],
             links: [Links::default(); STACK],
             near: [0.0; STACK],
+            packet: PacketStack::default(),
         }
     }
 }
