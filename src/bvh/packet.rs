@@ -5,9 +5,9 @@
 //!
 //! A packet's traversal visits the nodes any of its rays enters, nearest first by the
 //! smallest entry distance among the rays entering; a ray takes part only in the nodes it
-//! enters itself (its bit in the node's lane mask), so it tests no more boxes and no more
-//! primitives than alone, where they are visited in the same order, and no fewer where the
-//! order differs: the nearest hit does not depend on it.
+//! enters itself (its bit in the node's lane mask) and tests them as alone. The order can
+//! differ from the ray's own, and with it how soon a nearer hit culls farther nodes, but not
+//! the nearest hit, which is the nearest of all the primitives the ray's boxes lead to.
 
 use glam::DVec3;
 
