@@ -44,6 +44,7 @@ pub mod shutter;
 pub mod shutter_curve;
 pub mod sphere;
 pub mod tracer;
+pub mod trig;
 pub mod world;
 
 pub use error::Error;

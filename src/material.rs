@@ -53,7 +53,7 @@ pub enum Scatter {
 pub fn unit_vector((a, b): (f64, f64)) -> DVec3 {
     let z = 1.0 - 2.0 * a;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (std::f64::consts::TAU * b).sin_cos();
+    let (s, c) = crate::trig::sin_cos_turns(b);
     DVec3::new(r * c, r * s, z)
 }
 

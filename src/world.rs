@@ -29,7 +29,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bvh::{Boxes, Bvh, BvhView, Topology, TraversalStack};
+use crate::bvh::{Boxes, Bvh, BvhView, PACKET, PacketRay, Topology, TraversalStack};
 use crate::hit::Hit;
 use crate::material::{Background, Material};
 use crate::motion::FrameMotion;
@@ -221,6 +221,7 @@ impl StaticGeometry {
             0.0,
             f64::INFINITY,
             stack,
+            #[inline(always)]
             |i, t_max| {
                 let p = &self.prims[i as usize];
                 if p.id == skip {
@@ -409,27 +410,56 @@ impl<'a> World<'a> {
         let mut found = None;
         let dt = ray.time - self.interval.open;
         if !self.animated.is_empty() {
-            // The ray's time as a fraction of the shutter, for the interpolated boxes.
-            let duration = self.interval.close - self.interval.open;
-            let s = if duration > 0.0 {
-                (dt / duration).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let s = self.shutter_fraction(dt);
             let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
-            found = bvh.closest_hit(ray.origin, ray.dir, s, t_max, stack, |i, t_max| {
-                let p = &self.animated[i as usize];
-                if p.id == skip {
-                    return None;
-                }
-                intersect(
-                    p.center_at(&self.motions, dt, ray.time),
-                    p.radius,
-                    ray,
-                    t_max,
-                )
-            });
+            found = bvh.closest_hit(
+                ray.origin,
+                ray.dir,
+                s,
+                t_max,
+                stack,
+                // Inlined into each of the traversal's kernels, as it was into the one before.
+                #[inline(always)]
+                |i, t_max| {
+                    let p = &self.animated[i as usize];
+                    if p.id == skip {
+                        return None;
+                    }
+                    intersect(
+                        p.center_at(&self.motions, dt, ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
         }
+        self.hit_of(ray, dt, found, still)
+    }
+
+    /// The ray's time as a fraction of the shutter (`dt` seconds after its opening), for the
+    /// interpolated boxes.
+    #[inline]
+    fn shutter_fraction(&self, dt: f64) -> f64 {
+        let duration = self.interval.close - self.interval.open;
+        if duration > 0.0 {
+            (dt / duration).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The hit of `ray` (at `dt` seconds after the shutter opened), from the nearest animated
+    /// sphere it hits (`found`, a position in their hierarchy) and the nearest still one
+    /// (`still`): the animated one if any, as it was searched nearer than the still one.
+    #[inline(always)]
+    fn hit_of(
+        &self,
+        ray: &Ray,
+        dt: f64,
+        found: Option<(f64, u32)>,
+        still: Option<(f64, u32)>,
+    ) -> Option<Hit> {
         let (t, center, radius, material, id) = if let Some((t, i)) = found {
             let p = &self.animated[i as usize];
             let c = p.center_at(&self.motions, dt, ray.time);
@@ -454,6 +484,63 @@ impl<'a> World<'a> {
             surface: surface_point(center, radius, ray, t),
             material,
             sphere: id,
+        })
+    }
+}
+
+impl World<'_> {
+    /// [`World::hit`] for a packet of up to [`PACKET`] rays that skip no sphere (camera
+    /// rays): the same hit for each, traced together ([`BvhView::closest_hits`]).
+    pub fn hit_packet(&self, rays: &[Ray], stack: &mut TraversalStack) -> [Option<Hit>; PACKET] {
+        let mut t_max = [f64::INFINITY; PACKET];
+        let mut still = [None; PACKET];
+        if !self.statics.is_empty() {
+            for (r, ray) in rays.iter().enumerate() {
+                still[r] = self.statics.closest(ray, u32::MAX, stack);
+                t_max[r] = still[r].map_or(f64::INFINITY, |b: (f64, u32)| b.0);
+            }
+        }
+        let mut found = [None; PACKET];
+        let mut dt = [0.0; PACKET];
+        for (r, ray) in rays.iter().enumerate() {
+            dt[r] = ray.time - self.interval.open;
+        }
+        if !self.animated.is_empty() {
+            let mut packet = [PacketRay {
+                origin: DVec3::ZERO,
+                dir: DVec3::ZERO,
+                s: 0.0,
+            }; PACKET];
+            for (r, ray) in rays.iter().enumerate() {
+                packet[r] = PacketRay {
+                    origin: ray.origin,
+                    dir: ray.dir,
+                    s: self.shutter_fraction(dt[r]),
+                };
+            }
+            let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
+            // One reference to the rays and their times: the traversal keeps the test small.
+            let lanes = &(rays, dt);
+            found = bvh.closest_hits(
+                &packet[..rays.len()],
+                t_max,
+                stack,
+                #[inline(always)]
+                move |r, i, t_max| {
+                    let p = &self.animated[i as usize];
+                    let ray = &lanes.0[r];
+                    intersect(
+                        p.center_at(&self.motions, lanes.1[r], ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
+        }
+        std::array::from_fn(|r| {
+            let ray = rays.get(r)?;
+            self.hit_of(ray, dt[r], found[r], still[r])
         })
     }
 }

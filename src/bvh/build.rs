@@ -1,11 +1,12 @@
 //! Building a hierarchy: a binary tree by the binned surface-area heuristic, in parallel,
-//! collapsed into 4-wide nodes.
+//! collapsed into 8-wide nodes.
 
 use glam::DVec3;
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, Boxes4, set_moving};
+use super::boxes::{Boxes, ChildBoxes, set_moving};
+use super::lanes::LANES;
 use super::topology::{COUNT_SHIFT, Links, Topology};
 
 /// Most primitives in a leaf.
@@ -30,7 +31,7 @@ const _: () = assert!(
 pub const BUILD_BYTES_PER_PRIMITIVE: usize =
     std::mem::size_of::<BuildItem>() + std::mem::size_of::<Build>();
 
-/// A node of the binary build tree. It keeps no boxes: the collapse into 4-wide nodes
+/// A node of the binary build tree. It keeps no boxes: the collapse into 8-wide nodes
 /// computes them bottom up from the primitives' (as a refit does), so the tree holds 24 bytes
 /// a node instead of the 144 of three boxes.
 enum Build {
@@ -107,7 +108,7 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
         let mut tree = build_node(&mut items, 0, 0);
         topology.order = items.iter().map(|it| it.index).collect();
         drop(items);
-        // The root is always a 4-wide node, even over a single leaf, so traversal starts
+        // The root is always an 8-wide node, even over a single leaf, so traversal starts
         // at node 0. (Its area is never compared: only children are opened.)
         if let Build::Leaf { .. } = tree {
             let lone = std::mem::replace(&mut tree, Build::empty());
@@ -126,6 +127,10 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
         };
         let moving = close.is_some();
         let all = collapse(&tree, &prim, moving, &mut topology.links, &mut boxes);
+        // Pushed one by one: up to twice the memory needed, kept for the hierarchy's life.
+        topology.links.shrink_to_fit();
+        boxes.still.shrink_to_fit();
+        boxes.moving.shrink_to_fit();
         boxes.bounds = all.whole;
     }
     (topology, boxes)
@@ -182,11 +187,12 @@ fn build_node(items: &mut [BuildItem], offset: usize, depth: usize) -> Build {
     }
 }
 
-/// Appends the 4-wide nodes of the binary subtree `t` (an inner node) to `links` and
+/// Appends the 8-wide nodes of the binary subtree `t` (an inner node) to `links` and
 /// `boxes` in depth-first order, and returns the boxes of `t`: the unions of its primitives'
 /// boxes (`prim(pos)` is the boxes of the primitive at position `pos` of the leaf order),
-/// computed bottom up. The four children are found by opening, from the node's two, the child
-/// with the largest surface area until there are four (Embree's BVH4 collapse).
+/// computed bottom up. The eight children are found by opening, from the node's two, the inner
+/// child with the largest surface area until there are eight (Embree's BVH8 collapse); a node
+/// with fewer leaves below it has fewer, its other slots empty.
 fn collapse(
     t: &Build,
     prim: &impl Fn(u32) -> NodeBoxes,
@@ -198,7 +204,7 @@ fn collapse(
         unreachable!("collapse starts at inner nodes")
     };
     let mut kids: Vec<&Build> = children.iter().collect();
-    while kids.len() < 4 {
+    while kids.len() < LANES {
         let Some((i, _)) = kids
             .iter()
             .enumerate()
@@ -220,11 +226,11 @@ fn collapse(
         kids.insert(i, &grand[0]);
     }
     let index = links.len();
-    links.push(Links { child: [0; 4] });
+    links.push(Links { child: [0; LANES] });
     if moving {
-        boxes.moving.push([Boxes4::EMPTY, Boxes4::ZERO]);
+        boxes.moving.push([ChildBoxes::EMPTY, ChildBoxes::ZERO]);
     } else {
-        boxes.still.push(Boxes4::EMPTY);
+        boxes.still.push(ChildBoxes::EMPTY);
     }
     let mut all = NodeBoxes::EMPTY;
     for (k, c) in kids.iter().enumerate() {
@@ -325,7 +331,7 @@ mod tests {
             bvh.topology()
                 .links
                 .iter()
-                .all(|n| (0..4).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
+                .all(|n| (0..LANES).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
         );
         let mut seen: Vec<u32> = bvh.order().to_vec();
         seen.sort();
