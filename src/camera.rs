@@ -160,15 +160,13 @@ pub fn concentric_disk((a, b): (f64, f64)) -> (f64, f64) {
     if x == 0.0 && y == 0.0 {
         return (0.0, 0.0);
     }
-    let (r, theta) = if x.abs() > y.abs() {
-        (x, std::f64::consts::FRAC_PI_4 * (y / x))
+    // The angle in turns: pi/4 is 1/8 of a turn.
+    let (r, turns) = if x.abs() > y.abs() {
+        (x, 0.125 * (y / x))
     } else {
-        (
-            y,
-            std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (x / y),
-        )
+        (y, 0.25 - 0.125 * (x / y))
     };
-    let (s, c) = theta.sin_cos();
+    let (s, c) = crate::trig::sin_cos_turns(turns);
     (r * c, r * s)
 }
 

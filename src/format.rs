@@ -25,6 +25,8 @@ pub enum Format {
     Gif,
     /// An animated PNG clip.
     Apng,
+    /// PLY (point caches that `generate` writes).
+    Ply,
 }
 
 /// The formats a frame can be written in.
@@ -45,6 +47,7 @@ impl Format {
             Format::Mp4 => "mp4",
             Format::Gif => "gif",
             Format::Apng => "apng",
+            Format::Ply => "ply",
         }
     }
 

@@ -53,7 +53,7 @@ pub enum Scatter {
 pub fn unit_vector((a, b): (f64, f64)) -> DVec3 {
     let z = 1.0 - 2.0 * a;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (std::f64::consts::TAU * b).sin_cos();
+    let (s, c) = crate::trig::sin_cos_turns(b);
     DVec3::new(r * c, r * s, z)
 }
 
@@ -88,6 +88,22 @@ pub fn schlick(cosine: f64, eta_ratio: f64) -> f64 {
 }
 
 impl Material {
+    /// The material with its albedo multiplied by `color` (a point's colour attribute);
+    /// glass, which has no albedo, is unchanged.
+    #[inline]
+    pub fn tinted(self, color: DVec3) -> Material {
+        match self {
+            Material::Lambertian { albedo } => Material::Lambertian {
+                albedo: albedo * color,
+            },
+            Material::Metal { albedo, fuzz } => Material::Metal {
+                albedo: albedo * color,
+                fuzz,
+            },
+            glass @ Material::Dielectric { .. } => glass,
+        }
+    }
+
     /// Scatters a ray arriving in unit direction `dir_in` at a point with unit outward normal
     /// `outward`, with the bounce's numbers `sample`.
     /// This is the integrand of "Ray Tracing in One Weekend" exactly: the scattered

@@ -6,9 +6,9 @@ use crate::film::Pixel;
 use crate::scene::Scene;
 
 /// Resident bytes of the process with a scene of a few spheres and no image to speak of:
-/// code, the thread pool, the allocator's arenas. Measured: the peak of a 1x1 render of
-/// `scenes/quick.toml` (5.6 MiB).
-const FLOOR_BYTES: u64 = 11 << 19;
+/// code (the denoiser's library included), the thread pool, the allocator's arenas.
+/// Measured: the peak of a 1x1 render of `scenes/quick.toml` (8.0 MiB).
+const FLOOR_BYTES: u64 = 8 << 20;
 
 /// Bytes per sphere while the scene file is read, beyond the [`Scene`] itself: the file's
 /// text and its parsed form are gone once the scene is validated, but they set the peak of a
@@ -36,13 +36,30 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
         + (2 * pass_channels * size_of::<f32>()) as u64
 }
 
+/// Bytes per point of a point cache in a frame at the peak: its columns as read (position,
+/// velocity, radius, colour), held for the whole frame, and the larger of what the
+/// hierarchy's build holds (the boxes at the shutter's opening and closing, the build's
+/// working arrays) and what replaces it (the tracer's copy with its colour, the hierarchy).
+/// Measured: 2.79 GB at the peak of a frame of 1.009e7 points, 277 bytes a point.
+pub const BYTES_PER_POINT: u64 = {
+    use std::mem::size_of;
+    let columns = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
+    let building = 2 * size_of::<crate::aabb::Aabb>() + crate::bvh::BUILD_BYTES_PER_PRIMITIVE;
+    let built = crate::world::PRIM_BYTES + size_of::<[f32; 3]>() + crate::bvh::BYTES_PER_PRIMITIVE;
+    (columns + if building > built { building } else { built }) as u64
+};
+
+/// What interpolating a point to the next frame's file adds, per point: that file's position
+/// and id, this file's id, and both sets of ids sorted with their indices.
+pub const INTERPOLATE_BYTES_PER_POINT: u64 = 24 + 8 + 8 + 2 * 16;
+
 /// An estimate of the most memory a render of one frame of `scene` at a time holds, in
 /// bytes: the process's floor; per pixel, [`bytes_per_pixel`]; per sphere, the scene's
 /// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
-/// hierarchy build's working arrays and the hierarchy, and the scene file while it is read. It
-/// grows linearly in pixels and spheres, and errs high for scenes whose spheres are mostly
-/// still.
-pub fn memory_estimate(scene: &Scene) -> u64 {
+/// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
+/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`]. It grows linearly
+/// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
+pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
     let per_pixel = bytes_per_pixel(scene);
@@ -64,20 +81,36 @@ pub fn memory_estimate(scene: &Scene) -> u64 {
         + crate::world::PRIM_BYTES
         + crate::bvh::BUILD_BYTES_PER_PRIMITIVE
         + crate::bvh::BYTES_PER_PRIMITIVE;
+    let interpolates = scene
+        .points
+        .iter()
+        .any(|p| p.motion == Some(crate::points::PointMotion::Interpolate));
+    let per_point = BYTES_PER_POINT
+        + if interpolates {
+            INTERPOLATE_BYTES_PER_POINT
+        } else {
+            0
+        };
     FLOOR_BYTES
         + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
+        + points * per_point
 }
 
-/// The memory a render of `scene` needs ([`memory_estimate`]), or, if that is more than the
-/// machine has available (Linux: `MemAvailable`; elsewhere not checked), a usage error that
-/// says what to lower.
-pub fn check_memory(scene: &Scene) -> Result<u64, Error> {
-    let estimate = memory_estimate(scene);
+/// The memory a render of `scene` needs with `points` points in its largest frame
+/// ([`memory_estimate`]), or, if that is more than the machine has available (Linux:
+/// `MemAvailable`; elsewhere not checked), a usage error that says what to lower.
+pub fn check_memory(scene: &Scene, points: u64) -> Result<u64, Error> {
+    let estimate = memory_estimate(scene, points);
+    let with_points = if points > 0 {
+        format!(" and {points} points")
+    } else {
+        String::new()
+    };
     match available_memory_bytes() {
         Some(available) if estimate > available => Err(Error::Usage(format!(
-            "a frame of {}x{} pixels with {} spheres needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            "a frame of {}x{} pixels with {} spheres{with_points} needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
             scene.output.width,
             scene.output.height,
             scene.spheres.len(),
@@ -124,7 +157,10 @@ mod tests {
                     "[[sphere]]\ncenter = [{i}.0, 0.0, 0.0]\nradius = 0.5\nvelocity = [0.0, 1.0, 0.0]\nmaterial = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}\n"
                 );
             }
-            memory_estimate(&Scene::parse(&text, std::path::Path::new("m.toml")).unwrap())
+            memory_estimate(
+                &Scene::parse(&text, std::path::Path::new("m.toml")).unwrap(),
+                0,
+            )
         };
         let base = scene(100, 100, 10);
         let pixels = scene(200, 100, 10) - base;
@@ -159,11 +195,11 @@ mod tests {
         // Alpha: one sum and one channel (and its copy as written) per pixel, and the
         // colour's copy as written beside it.
         assert_eq!(
-            memory_estimate(&alpha) - memory_estimate(&none),
+            memory_estimate(&alpha, 0) - memory_estimate(&none, 0),
             pixels * (8 + 2 * 4 + 12)
         );
         assert_eq!(
-            memory_estimate(&all) - memory_estimate(&none),
+            memory_estimate(&all, 0) - memory_estimate(&none, 0),
             pixels * (12 * 8 + 2 * 15 * 4 + 12)
         );
         let statics = crate::world::StaticGeometry::new(&none);

@@ -32,8 +32,16 @@ pub fn write_frame(
         info.extra
             .push(("estimatedRelativeError".to_string(), st.relative_error));
     }
-    if result.denoised.is_some() {
-        info.denoiser = Some(DENOISER.to_string());
+    if let Some(d) = &result.denoised {
+        info.denoiser = Some(match d.frames_averaged {
+            Some(mean) => {
+                info.extra.push(("temporalMeanFrames".to_string(), mean));
+                format!(
+                    "{DENOISER}; temporal: the frame's colour averaged with its two frames before along the motion vectors"
+                )
+            }
+            None => DENOISER.to_string(),
+        });
         if st.noisy_relative_error.is_finite() {
             info.extra
                 .push(("noisyRelativeError".to_string(), st.noisy_relative_error));
@@ -65,7 +73,8 @@ pub fn write_frame(
 }
 
 /// How a denoised frame's file names its denoiser (the `denoiser` attribute).
-pub const DENOISER: &str = "Intel Open Image Denoise 2.5 RT filter, HDR, albedo and normal guides";
+pub const DENOISER: &str =
+    "Intel Open Image Denoise 2.5 RT filter, HDR, prefiltered albedo and normal guides";
 
 /// The attributes of `result`, a frame of `scene`, rendered with `samples` per pixel.
 fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {

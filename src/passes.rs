@@ -22,6 +22,7 @@ use crate::film::{Film, Pixel};
 use crate::hit::Hit;
 use crate::material::{Background, Material};
 use crate::pass::{Channel, Pass, PassSet};
+use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::sphere::SphereDesc;
 
@@ -32,8 +33,12 @@ use crate::sphere::SphereDesc;
 /// guides per replicate ([`Layout::with_guides`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
+    /// The passes written.
     passes: PassSet,
-    /// Whether the hits are counted (alpha, depth, normal or motion requested).
+    /// The passes whose sums are kept: those written, and those a denoiser over several
+    /// frames reads (depth, normal, motion: [`Layout::for_denoising`]).
+    kept: PassSet,
+    /// Whether the hits are counted (alpha, depth, normal or motion kept).
     counts_hits: bool,
     hits: usize,
     depth: usize,
@@ -70,12 +75,21 @@ const GUIDE_SUMS: usize = 12;
 impl Layout {
     /// The sums `passes` need.
     pub fn new(passes: PassSet) -> Layout {
-        Layout::build(passes, false)
+        Layout::build(passes, passes, false)
     }
 
-    /// The sums `passes` need and the denoiser's guides.
-    pub fn with_guides(passes: PassSet) -> Layout {
-        Layout::build(passes, true)
+    /// The sums `passes` need and the denoiser's guides; with `temporal`, also those that
+    /// carry a pixel to the frames before it and tell whether it shows the same surface
+    /// there (depth, normal and motion), written or not.
+    pub fn for_denoising(passes: PassSet, temporal: bool) -> Layout {
+        let kept = match temporal {
+            true => passes
+                .with(Pass::Depth)
+                .with(Pass::Normal)
+                .with(Pass::Motion),
+            false => passes,
+        };
+        Layout::build(passes, kept, true)
     }
 
     /// The passes written.
@@ -83,26 +97,31 @@ impl Layout {
         self.passes
     }
 
+    /// The passes whose sums are kept (those written among them).
+    pub fn kept(&self) -> PassSet {
+        self.kept
+    }
+
     /// Where the guides' sums start, if they are kept.
     pub fn guides(&self) -> Option<usize> {
         self.guides
     }
 
-    /// Where each requested pass's sums start in a pixel's run (`None`: not kept), for a
-    /// tracer that adds them elsewhere (the GPU's, `crate::gpu`).
+    /// Where each kept pass's sums start in a pixel's run (`None`: not kept), for a tracer
+    /// that adds them elsewhere (the GPU's, `crate::gpu`).
     pub fn slots(&self) -> Slots {
-        let passes = self.passes;
+        let kept = self.kept;
         Slots {
             hits: self.counts_hits.then_some(self.hits),
-            depth: passes.contains(Pass::Depth).then_some(self.depth),
-            normal: passes.contains(Pass::Normal).then_some(self.normal),
-            albedo: passes.contains(Pass::Albedo).then_some(self.albedo),
-            motion: passes.contains(Pass::Motion).then_some(self.motion),
+            depth: kept.contains(Pass::Depth).then_some(self.depth),
+            normal: kept.contains(Pass::Normal).then_some(self.normal),
+            albedo: kept.contains(Pass::Albedo).then_some(self.albedo),
+            motion: kept.contains(Pass::Motion).then_some(self.motion),
             guides: self.guides,
         }
     }
 
-    fn build(passes: PassSet, guides: bool) -> Layout {
+    fn build(passes: PassSet, kept: PassSet, guides: bool) -> Layout {
         let mut stride = 0;
         let mut slot = |used: bool, n: usize| {
             let at = stride;
@@ -111,15 +130,16 @@ impl Layout {
             }
             at
         };
-        let counts_hits = passes.iter().any(uses_hits);
+        let counts_hits = kept.iter().any(uses_hits);
         let hits = slot(counts_hits, 1);
-        let depth = slot(passes.contains(Pass::Depth), 1);
-        let normal = slot(passes.contains(Pass::Normal), 3);
-        let albedo = slot(passes.contains(Pass::Albedo), 3);
-        let motion = slot(passes.contains(Pass::Motion), 4);
+        let depth = slot(kept.contains(Pass::Depth), 1);
+        let normal = slot(kept.contains(Pass::Normal), 3);
+        let albedo = slot(kept.contains(Pass::Albedo), 3);
+        let motion = slot(kept.contains(Pass::Motion), 4);
         let guides = guides.then(|| slot(true, GUIDE_SUMS));
         Layout {
             passes,
+            kept,
             counts_hits,
             hits,
             depth,
@@ -132,12 +152,17 @@ impl Layout {
     }
 }
 
+/// The points of a frame without point caches.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
+
 /// What a frame needs to compute its samples' passes.
 #[derive(Clone, Debug)]
 pub struct PassContext<'a> {
     /// Where the sums go.
     pub layout: Layout,
     spheres: &'a [SphereDesc],
+    /// The frame's points, spheres `spheres.len()` on.
+    points: &'a FramePoints,
     background: Background,
     camera: &'a CameraRig,
     /// The camera's view when it never moves in the shot (then no view is computed per sample).
@@ -164,6 +189,7 @@ impl<'a> PassContext<'a> {
         PassContext {
             layout,
             spheres,
+            points: &NO_POINTS,
             background,
             camera,
             still_view: (!animated).then(|| camera.view_at(0.0, width, height)),
@@ -171,6 +197,11 @@ impl<'a> PassContext<'a> {
             width,
             height,
         }
+    }
+
+    /// The context with the frame's points, spheres `spheres.len()` on (none without).
+    pub fn with_points(self, points: &'a FramePoints) -> PassContext<'a> {
+        PassContext { points, ..self }
     }
 
     /// The camera's view at time `t`.
@@ -188,7 +219,7 @@ impl<'a> PassContext<'a> {
     #[inline]
     pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>, odd: bool) {
         let l = &self.layout;
-        let passes = l.passes;
+        let passes = l.kept;
         if let Some(at) = l.guides {
             let g = &mut slots[at + if odd { 6 } else { 0 }..];
             match hit {
@@ -242,13 +273,21 @@ impl<'a> PassContext<'a> {
     /// displacement that cannot be projected (the point on the camera's plane, a degenerate
     /// view) is 0.
     fn motion(&self, p: DVec3, sphere: u32, t: f64, view: &View) -> (DVec2, DVec2) {
-        let path = &self.spheres[sphere as usize].motion;
-        let centre = path.at(t);
+        // A point of a cache moves on its line over the whole shot, as a sphere with a
+        // velocity does.
+        let at = |t: f64| match self.spheres.get(sphere as usize) {
+            Some(s) => s.motion.at(t),
+            None => match self.points.locate(sphere as usize - self.spheres.len()) {
+                Some((set, i)) => set.at(i, t),
+                None => DVec3::NAN,
+            },
+        };
+        let centre = at(t);
         let here = view.project(p);
         let moved = |dt: f64| {
             let t2 = t + dt;
             // Spheres translate: the point keeps its offset from the centre.
-            let p2 = path.at(t2) + (p - centre);
+            let p2 = at(t2) + (p - centre);
             let d = self.view_at(t2).project(p2) - here;
             // Image rows grow downward; v grows upward.
             let d = DVec2::new(d.x, -d.y);
@@ -319,7 +358,12 @@ impl PassImages {
     /// The images of the passes of `layout` from a finished film: its pass sums (laid out by
     /// `layout`), its pixels' sample counts, means and variances.
     pub fn from_film(layout: &Layout, film: &Film) -> PassImages {
-        let passes = layout.passes;
+        PassImages::of(layout.passes, layout, film)
+    }
+
+    /// The images of `passes` (whose sums `layout` keeps, or which need none) from a finished
+    /// film laid out by `layout`.
+    pub fn of(passes: PassSet, layout: &Layout, film: &Film) -> PassImages {
         let stride = layout.stride;
         assert_eq!(
             film.pass_stride(),

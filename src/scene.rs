@@ -10,6 +10,7 @@ use crate::camera::CameraRig;
 use crate::format::Format;
 use crate::material::{Background, Material};
 use crate::pass::PassSet;
+use crate::points::PointCacheDesc;
 use crate::sampler::SamplerKind;
 use crate::shutter::Shot;
 use crate::sphere::SphereDesc;
@@ -110,4 +111,6 @@ pub struct Scene {
     /// Every material used by a sphere; spheres refer to them by index.
     pub materials: Vec<Material>,
     pub spheres: Vec<SphereDesc>,
+    /// The `[[points]]` tables: point caches whose points are spheres too, read per frame.
+    pub points: Vec<PointCacheDesc>,
 }

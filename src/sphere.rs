@@ -171,7 +171,7 @@ impl PreparedSphere {
 /// centre at `start + velocity * (t - open)` as rounded: by 64 units in the last place of
 /// their largest coordinate, which is several times the few roundings of either computation
 /// (`lo + s (hi - lo)`, `c + v dt`).
-fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
+pub(crate) fn pad_for_interpolation(open: Aabb, close: Aabb) -> (Aabb, Aabb) {
     let m = open
         .min
         .abs()

@@ -7,7 +7,7 @@
 
 use glam::DVec3;
 
-use crate::bvh::TraversalStack;
+use crate::bvh::{PACKET, TraversalStack};
 use crate::hit::Hit;
 use crate::material::Scatter;
 use crate::ray::{Ray, offset_origin};
@@ -41,7 +41,39 @@ pub fn radiance<S: Sampler>(
 ) -> DVec3 {
     // With nothing to report and an opaque background, the loop compiles to the plain
     // tracer: the closure and the transparency test are constants once inlined.
-    trace(world, ray, max_depth, sampler, stats, false, |_| {})
+    trace(world, ray, None, max_depth, sampler, stats, false, |_| {})
+}
+
+/// [`radiance`] of the camera rays of samples `first..first + rays.len()` of pixel (`x`,
+/// `y`), at most [`PACKET`]: their first intersections are found together, in one traversal
+/// ([`World::hit_packet`]: coherent rays share its order, stack and branches), then each path
+/// goes on alone, its sampler positioned at its sample. The same values, bit for bit, as
+/// [`radiance`] of each ray in turn.
+#[inline]
+pub fn radiance_packet<S: Sampler>(
+    world: &World,
+    rays: &[Ray],
+    (x, y, first): (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+) -> [DVec3; PACKET] {
+    let hits = world.hit_packet(rays, &mut stats.stack);
+    let mut out = [DVec3::ZERO; PACKET];
+    for (k, (ray, hit)) in rays.iter().zip(hits).enumerate() {
+        sampler.start_sample(x, y, first + k as u32);
+        out[k] = trace(
+            world,
+            *ray,
+            Some(hit),
+            max_depth,
+            sampler,
+            stats,
+            false,
+            |_| {},
+        );
+    }
+    out
 }
 
 /// [`radiance`] for a camera ray, handing the ray's first intersection (`None`: it missed
@@ -60,14 +92,26 @@ pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
     transparent: bool,
     first: F,
 ) -> DVec3 {
-    trace(world, ray, max_depth, sampler, stats, transparent, first)
+    trace(
+        world,
+        ray,
+        None,
+        max_depth,
+        sampler,
+        stats,
+        transparent,
+        first,
+    )
 }
 
-/// The loop of [`radiance`] and [`camera_radiance`].
+/// The loop of [`radiance`], [`radiance_packet`] and [`camera_radiance`]; `camera_hit`, if
+/// given, is the ray's first intersection, found already.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
     world: &World,
     mut ray: Ray,
+    mut camera_hit: Option<Option<Hit>>,
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
@@ -83,7 +127,10 @@ fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
     let mut skip = u32::MAX;
     for _ in 0..max_depth {
         stats.rays += 1;
-        let found = world.hit(&ray, skip, &mut stats.stack);
+        let found = match camera_hit.take() {
+            Some(found) => found,
+            None => world.hit(&ray, skip, &mut stats.stack),
+        };
         let camera_ray = match first.take() {
             Some(f) => {
                 f(found.as_ref());

@@ -13,6 +13,13 @@
 //! [`World`] refits it into boxes of its own, so worlds of any frames can exist at once. A
 //! frame whose refitted boxes are too poor ([`REBUILD_AREA`]) gets a hierarchy of its own.
 //!
+//! The points of a scene's point caches ([`FramePoints`], read for each frame by the files
+//! floor) are animated spheres of the frame like the others: prepared for its interval
+//! ([`PointSet::prepare`]) straight into the tracer's compact form, without a description
+//! per point, and built into the frame's hierarchy with the animated spheres. A point's colour
+//! attribute multiplies its material's albedo where the hit is made ([`Material::tinted`]).
+//!
+//! [`PointSet::prepare`]: crate::points::PointSet::prepare
 //! [`SphereDesc::prepare`]: crate::sphere::SphereDesc::prepare
 //! [`Shot::interval`]: crate::shutter::Shot::interval
 
@@ -22,10 +29,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bvh::{Boxes, Bvh, BvhView, Topology, TraversalStack};
+use crate::bvh::{Boxes, Bvh, BvhView, PACKET, PacketRay, Topology, TraversalStack};
 use crate::hit::Hit;
 use crate::material::{Background, Material};
 use crate::motion::FrameMotion;
+use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
@@ -33,6 +41,10 @@ use crate::sphere::{PreparedSphere, intersect, surface_point};
 
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
+
+/// Marks, while a world is made, a [`MovingPrim`] whose curved path is not yet in
+/// [`World::motions`].
+const CURVED: u32 = u32::MAX - 1;
 
 /// Scenes with animated spheres and at most this many spheres in all are built into one
 /// hierarchy per frame instead of a static one and a per-frame one.
@@ -125,7 +137,9 @@ impl StaticGeometry {
             .iter()
             .filter(|s| s.motion.is_animated())
             .count();
-        let one_hierarchy = animated_count > 0
+        // A scene with point caches has animated spheres in every frame: its points.
+        let points = !scene.points.is_empty();
+        let one_hierarchy = (animated_count > 0 || points)
             && (n <= MERGE_LIMIT || animated_count as f64 >= SHARED_FRACTION * n as f64);
         let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy {
             // One hierarchy over everything, one traversal per ray: rebuilt per frame for a
@@ -134,10 +148,11 @@ impl StaticGeometry {
         } else {
             (0..n as u32).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
         };
-        let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
+        // The points change from frame to frame, so a topology built once cannot serve them.
+        let shared = (one_hierarchy && n > MERGE_LIMIT && !points).then(|| {
             let first = scene.shot.interval(scene.shot.first_frame);
             let prepared = prepare_spheres(scene, &animated, first);
-            let (open, close) = shutter_boxes(&prepared, first);
+            let (open, close) = shutter_boxes(&prepared, &FramePoints::none(), first);
             let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
             SharedTopology {
                 topology,
@@ -206,6 +221,7 @@ impl StaticGeometry {
             0.0,
             f64::INFINITY,
             stack,
+            #[inline(always)]
             |i, t_max| {
                 let p = &self.prims[i as usize];
                 if p.id == skip {
@@ -230,6 +246,9 @@ pub struct World<'a> {
     animated_boxes: Boxes,
     /// The curved paths of this frame (circles, several keyframe segments).
     motions: Vec<FrameMotion>,
+    /// Per animated sphere, in the same order, the colour multiplying its material's albedo
+    /// (a point's colour attribute; white for the others); empty when no point has one.
+    tints: Vec<[f32; 3]>,
     materials: &'a [Material],
     /// What rays that leave the scene see.
     pub background: Background,
@@ -242,16 +261,32 @@ pub struct World<'a> {
 impl<'a> World<'a> {
     /// Prepares every animated sphere of `scene` for the shutter `interval` (in parallel on
     /// the current rayon pool); the static ones come from `statics`, built once for the
-    /// sequence. The result depends only on its arguments, never on other worlds.
+    /// sequence. The result depends only on its arguments, never on other worlds. A scene
+    /// with point caches is prepared with its frame's points by [`World::prepare_with`].
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
+        World::prepare_with(scene, statics, &FramePoints::none(), interval)
+    }
+
+    /// [`World::prepare`], with `points` (the frame's points of the scene's caches) among the
+    /// animated spheres. Point `k` (numbered over every set) is sphere `spheres.len() + k`
+    /// in hits and in what the tracer skips.
+    pub fn prepare_with(
+        scene: &'a Scene,
+        statics: &'a StaticGeometry,
+        points: &FramePoints,
+        interval: Interval,
+    ) -> World<'a> {
         let prepared = prepare_spheres(scene, &statics.animated, interval);
-        let (open, close) = shutter_boxes(&prepared, interval);
+        let (open, close) = shutter_boxes(&prepared, points, interval);
+        let spheres = prepared.len();
+        let first_point = scene.spheres.len() as u32;
         let own = || {
             let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
             (Cow::Owned(topology), boxes)
         };
         let (animated_topology, animated_boxes) = match &statics.shared {
-            Some(shared) => {
+            // (A scene with points has no shared topology; frames without points use it.)
+            Some(shared) if points.is_empty() => {
                 let boxes = shared.topology.refit_moving(&open, &close);
                 // Refitted boxes that have moved far from those the topology was built on
                 // overlap a lot and make a slow traversal: then the frame builds its own
@@ -264,47 +299,82 @@ impl<'a> World<'a> {
                     (Cow::Borrowed(&shared.topology), boxes)
                 }
             }
-            None => own(),
+            _ => own(),
         };
         drop((open, close));
+        // The tracer's copies in leaf order, in parallel; then, in order, each curved path
+        // gets its index in `motions`.
+        let order = animated_topology.order();
+        let mut animated: Vec<MovingPrim> = order
+            .par_iter()
+            .map(|&k| {
+                let k = k as usize;
+                if k >= spheres {
+                    let (set, i) = points.locate(k - spheres).expect("a point of the frame");
+                    let q = set.prepare(i, interval);
+                    return MovingPrim {
+                        center: q.start,
+                        velocity: q.velocity,
+                        radius: q.radius,
+                        material: set.material,
+                        id: first_point + (k - spheres) as u32,
+                        general: LINEAR,
+                    };
+                }
+                let id = statics.animated[k];
+                let s = &prepared[k];
+                let mut prim = MovingPrim {
+                    center: DVec3::ZERO,
+                    velocity: DVec3::ZERO,
+                    radius: s.radius,
+                    material: scene.spheres[id as usize].material,
+                    id,
+                    general: LINEAR,
+                };
+                match &s.motion {
+                    FrameMotion::Fixed(c) => prim.center = *c,
+                    FrameMotion::Linear {
+                        start, velocity, ..
+                    } => {
+                        prim.center = *start;
+                        prim.velocity = *velocity;
+                    }
+                    _ => prim.general = CURVED,
+                }
+                prim
+            })
+            .collect();
         let mut motions = Vec::new();
-        let mut moving = 0;
-        let mut animated = Vec::with_capacity(prepared.len());
-        for &k in animated_topology.order() {
-            let id = statics.animated[k as usize];
-            let s = &prepared[k as usize];
-            let mut prim = MovingPrim {
-                center: DVec3::ZERO,
-                velocity: DVec3::ZERO,
-                radius: s.radius,
-                material: scene.spheres[id as usize].material,
-                id,
-                general: LINEAR,
-            };
-            match &s.motion {
-                FrameMotion::Fixed(c) => prim.center = *c,
-                FrameMotion::Linear {
-                    start, velocity, ..
-                } => {
-                    prim.center = *start;
-                    prim.velocity = *velocity;
-                }
-                curved => {
-                    prim.general = motions.len() as u32;
-                    motions.push(curved.clone());
-                }
+        for (prim, &k) in animated.iter_mut().zip(order) {
+            if prim.general == CURVED {
+                prim.general = motions.len() as u32;
+                motions.push(prepared[k as usize].motion.clone());
             }
-            if prim.general != LINEAR || prim.velocity != DVec3::ZERO {
-                moving += 1;
-            }
-            animated.push(prim);
         }
+        let moving = animated
+            .par_iter()
+            .filter(|p| p.general != LINEAR || p.velocity != DVec3::ZERO)
+            .count();
+        let tints = match points.has_colors() {
+            false => Vec::new(),
+            true => order
+                .par_iter()
+                .map(|&k| match (k as usize).checked_sub(spheres) {
+                    Some(p) => {
+                        let (set, i) = points.locate(p).expect("a point of the frame");
+                        set.colors.get(i).copied().unwrap_or([1.0; 3])
+                    }
+                    None => [1.0; 3],
+                })
+                .collect(),
+        };
         World {
             statics,
             animated,
             animated_topology,
             animated_boxes,
             motions,
+            tints,
             materials: &scene.materials,
             background: scene.background,
             interval,
@@ -328,6 +398,7 @@ impl<'a> World<'a> {
             + topology
             + self.animated_boxes.memory_bytes()
             + self.motions.capacity() * std::mem::size_of::<FrameMotion>()
+            + self.tints.capacity() * std::mem::size_of::<[f32; 3]>()
     }
 
     /// The nearest intersection of `ray` with any sphere except the one with index `skip`
@@ -339,41 +410,137 @@ impl<'a> World<'a> {
         let mut found = None;
         let dt = ray.time - self.interval.open;
         if !self.animated.is_empty() {
-            // The ray's time as a fraction of the shutter, for the interpolated boxes.
-            let duration = self.interval.close - self.interval.open;
-            let s = if duration > 0.0 {
-                (dt / duration).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let s = self.shutter_fraction(dt);
             let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
-            found = bvh.closest_hit(ray.origin, ray.dir, s, t_max, stack, |i, t_max| {
-                let p = &self.animated[i as usize];
-                if p.id == skip {
-                    return None;
-                }
-                intersect(
-                    p.center_at(&self.motions, dt, ray.time),
-                    p.radius,
-                    ray,
-                    t_max,
-                )
-            });
+            found = bvh.closest_hit(
+                ray.origin,
+                ray.dir,
+                s,
+                t_max,
+                stack,
+                // Inlined into each of the traversal's kernels, as it was into the one before.
+                #[inline(always)]
+                |i, t_max| {
+                    let p = &self.animated[i as usize];
+                    if p.id == skip {
+                        return None;
+                    }
+                    intersect(
+                        p.center_at(&self.motions, dt, ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
         }
+        self.hit_of(ray, dt, found, still)
+    }
+
+    /// The ray's time as a fraction of the shutter (`dt` seconds after its opening), for the
+    /// interpolated boxes.
+    #[inline]
+    fn shutter_fraction(&self, dt: f64) -> f64 {
+        let duration = self.interval.close - self.interval.open;
+        if duration > 0.0 {
+            (dt / duration).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The hit of `ray` (at `dt` seconds after the shutter opened), from the nearest animated
+    /// sphere it hits (`found`, a position in their hierarchy) and the nearest still one
+    /// (`still`): the animated one if any, as it was searched nearer than the still one.
+    #[inline(always)]
+    fn hit_of(
+        &self,
+        ray: &Ray,
+        dt: f64,
+        found: Option<(f64, u32)>,
+        still: Option<(f64, u32)>,
+    ) -> Option<Hit> {
         let (t, center, radius, material, id) = if let Some((t, i)) = found {
             let p = &self.animated[i as usize];
             let c = p.center_at(&self.motions, dt, ray.time);
-            (t, c, p.radius, p.material, p.id)
+            let mut m = self.materials[p.material as usize];
+            if let Some(&[r, g, b]) = self.tints.get(i as usize) {
+                m = m.tinted(DVec3::new(r.into(), g.into(), b.into()));
+            }
+            (t, c, p.radius, m, p.id)
         } else {
             let (t, i) = still?;
             let p = &self.statics.prims[i as usize];
-            (t, p.center, p.radius, p.material, p.id)
+            (
+                t,
+                p.center,
+                p.radius,
+                self.materials[p.material as usize],
+                p.id,
+            )
         };
         Some(Hit {
             t,
             surface: surface_point(center, radius, ray, t),
-            material: self.materials[material as usize],
+            material,
             sphere: id,
+        })
+    }
+}
+
+impl World<'_> {
+    /// [`World::hit`] for a packet of up to [`PACKET`] rays that skip no sphere (camera
+    /// rays): the same hit for each, traced together ([`BvhView::closest_hits`]).
+    pub fn hit_packet(&self, rays: &[Ray], stack: &mut TraversalStack) -> [Option<Hit>; PACKET] {
+        let mut t_max = [f64::INFINITY; PACKET];
+        let mut still = [None; PACKET];
+        if !self.statics.is_empty() {
+            for (r, ray) in rays.iter().enumerate() {
+                still[r] = self.statics.closest(ray, u32::MAX, stack);
+                t_max[r] = still[r].map_or(f64::INFINITY, |b: (f64, u32)| b.0);
+            }
+        }
+        let mut found = [None; PACKET];
+        let mut dt = [0.0; PACKET];
+        for (r, ray) in rays.iter().enumerate() {
+            dt[r] = ray.time - self.interval.open;
+        }
+        if !self.animated.is_empty() {
+            let mut packet = [PacketRay {
+                origin: DVec3::ZERO,
+                dir: DVec3::ZERO,
+                s: 0.0,
+            }; PACKET];
+            for (r, ray) in rays.iter().enumerate() {
+                packet[r] = PacketRay {
+                    origin: ray.origin,
+                    dir: ray.dir,
+                    s: self.shutter_fraction(dt[r]),
+                };
+            }
+            let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
+            // One reference to the rays and their times: the traversal keeps the test small.
+            let lanes = &(rays, dt);
+            found = bvh.closest_hits(
+                &packet[..rays.len()],
+                t_max,
+                stack,
+                #[inline(always)]
+                move |r, i, t_max| {
+                    let p = &self.animated[i as usize];
+                    let ray = &lanes.0[r];
+                    intersect(
+                        p.center_at(&self.motions, lanes.1[r], ray.time),
+                        p.radius,
+                        ray,
+                        t_max,
+                    )
+                },
+            );
+        }
+        std::array::from_fn(|r| {
+            let ray = rays.get(r)?;
+            self.hit_of(ray, dt[r], found[r], still[r])
         })
     }
 }
@@ -386,18 +553,32 @@ fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Vec<Prepar
         .collect()
 }
 
-/// The boxes of `prepared` at the shutter's opening and at its closing
-/// ([`PreparedSphere::shutter_boxes`]). One pass each, rather than one array of pairs and two
-/// copies: at a million spheres the difference is a few hundred megabytes at the peak.
-fn shutter_boxes(prepared: &[PreparedSphere], interval: Interval) -> (Vec<Aabb>, Vec<Aabb>) {
+/// The boxes of `prepared`, then of every point of `points`, at the shutter's opening and at
+/// its closing ([`PreparedSphere::shutter_boxes`], [`PreparedPoint::shutter_boxes`]). One
+/// pass each, rather than one array of pairs and two copies: at a million spheres the
+/// difference is a few hundred megabytes at the peak.
+///
+/// [`PreparedPoint::shutter_boxes`]: crate::points::PreparedPoint::shutter_boxes
+fn shutter_boxes(
+    prepared: &[PreparedSphere],
+    points: &FramePoints,
+    interval: Interval,
+) -> (Vec<Aabb>, Vec<Aabb>) {
     let boxes = |at_close: bool| -> Vec<Aabb> {
-        prepared
-            .par_iter()
-            .map(|p| {
-                let (open, close) = p.shutter_boxes(interval);
-                if at_close { close } else { open }
-            })
-            .collect()
+        let pick = |(open, close)| if at_close { close } else { open };
+        let mut out = vec![Aabb::EMPTY; prepared.len() + points.len()];
+        let (head, mut rest) = out.split_at_mut(prepared.len());
+        head.par_iter_mut()
+            .zip(prepared.par_iter())
+            .for_each(|(b, p)| *b = pick(p.shutter_boxes(interval)));
+        for set in &points.sets {
+            let (part, tail) = rest.split_at_mut(set.len());
+            part.par_iter_mut()
+                .enumerate()
+                .for_each(|(i, b)| *b = pick(set.prepare(i, interval).shutter_boxes(interval)));
+            rest = tail;
+        }
+        out
     };
     (boxes(false), boxes(true))
 }

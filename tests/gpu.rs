@@ -152,6 +152,17 @@ fn every_shipped_scene_agrees_with_the_cpu_within_noise() {
     for name in &names {
         // A frame in the middle of the shot, where things move; independent seeds.
         let cpu = shipped(name, 48, 32, 64, 1);
+        if !cpu.points.is_empty() {
+            // Point caches are the CPU's alone (scenes_with_point_caches_are_refused_for_the_gpu).
+            assert!(
+                matches!(
+                    raytrace::gpu::unsupported(&cpu),
+                    Some(raytrace::gpu::Unsupported::PointCaches { .. })
+                ),
+                "{name}"
+            );
+            continue;
+        }
         let frame = cpu.shot.first_frame + cpu.shot.frames / 2;
         let a = render(&cpu, frame);
         let b = render_gpu(gpu, &shipped(name, 48, 32, 64, 2), frame);
@@ -641,4 +652,108 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
     let empty: Vec<usize> = (0..alpha.len()).filter(|&i| alpha[i] == 0.0).collect();
     assert!(!empty.is_empty());
     assert!(empty.iter().all(|&i| means[i] == glam::DVec3::ZERO));
+}
+
+#[test]
+fn scenes_with_point_caches_are_refused_for_the_gpu() {
+    // Point caches are rendered by the CPU alone: `check`, `render` and `converge` refuse a
+    // scene with `[[points]]` for the GPU (exit 2, nothing written, `--device cpu` offered),
+    // whether the scene or the flag asks for it; the CPU renders it. Needs no GPU.
+    let dir = tempfile::tempdir().unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 -2\n0.5 0 -2\n";
+    std::fs::write(dir.path().join("p.ply"), ply).unwrap();
+    let scene = |device: &str| {
+        format!(
+            "[output]\npath = \"f_####.png\"\nwidth = 8\nheight = 8\n[render]\nsamples = 2\ndevice = \"{device}\"\n[materials]\nwater = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}\n[[points]]\nfile = \"p.ply\"\nmaterial = \"water\"\nradius = 0.2\n"
+        )
+    };
+    std::fs::write(dir.path().join("gpu.toml"), scene("gpu")).unwrap();
+    std::fs::write(dir.path().join("cpu.toml"), scene("cpu")).unwrap();
+    let refused = |args: &[&str], chosen: &str| {
+        let o = raytrace(dir.path(), args, &[]);
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {all}");
+        for words in [
+            chosen,
+            "the GPU does not render point caches",
+            "a [[points]] table",
+            "--device cpu",
+        ] {
+            assert!(all.contains(words), "{args:?}: {words}: {all}");
+        }
+    };
+    let gpu_file = "gpu.toml: render.device = \"gpu\"";
+    refused(&["check", "gpu.toml"], gpu_file);
+    refused(&["render", "gpu.toml"], gpu_file);
+    refused(&["check", "cpu.toml", "--device", "gpu"], "--device gpu: ");
+    refused(&["render", "cpu.toml", "--device", "gpu"], "--device gpu: ");
+    refused(
+        &[
+            "converge",
+            "cpu.toml",
+            "--device",
+            "gpu",
+            "--max-samples",
+            "2",
+        ],
+        "--device gpu: ",
+    );
+    // Nothing written: the two scenes and the cache.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+    // The CPU renders it.
+    let o = raytrace(dir.path(), &["render", "gpu.toml", "--device", "cpu"], &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(dir.path().join("f_0001.png").exists());
+    // The library says why, and a shot of it is not made for the GPU.
+    let s = raytrace::scene::Scene::load(&dir.path().join("cpu.toml")).unwrap();
+    assert_eq!(
+        raytrace::gpu::unsupported(&s),
+        Some(raytrace::gpu::Unsupported::PointCaches { tables: 1 })
+    );
+    if let Some(gpu) = gpu() {
+        let mut on_gpu = s.clone();
+        on_gpu.render.device = raytrace::scene::Device::Gpu;
+        let e = raytrace::renderer::ShotGeometry::new(&on_gpu, Some(gpu)).unwrap_err();
+        assert!(e.to_string().contains("point caches"), "{e}");
+    }
+}
+
+#[test]
+fn temporal_denoising_works_on_the_gpu() {
+    // `--temporal` on the GPU: the film keeps depth, normal and motion, which the frame does
+    // not write, and frame 3 is denoised with frames 1 and 2, rendered first. With the same
+    // seed as the CPU, its first hits are the CPU's to f32 rounding, so as many pixels find
+    // their surfaces in the earlier frames: the frames averaged agree closely.
+    let Some(gpu) = gpu() else { return };
+    let mut scene = common::scene(MOVING);
+    scene.output.passes = raytrace::pass::PassSet::EMPTY;
+    let denoiser = raytrace::denoise::denoiser::Denoiser::new().unwrap();
+    let none = raytrace::points::FramePoints::none();
+    let temporal = |scene: &Scene, gpu: Option<&raytrace::gpu::Gpu>| {
+        let shot = raytrace::renderer::ShotGeometry::new(scene, gpu).unwrap();
+        let mut t = raytrace::renderer::TemporalDenoiser::new(&denoiser);
+        t.render(
+            scene,
+            &shot,
+            &none,
+            &|_| Ok(raytrace::points::FramePoints::none()),
+            3,
+            &Budget::default(),
+            &|_| {},
+        )
+        .unwrap()
+    };
+    let cpu = temporal(&scene, None);
+    let mut on_gpu = scene.clone();
+    on_gpu.render.device = raytrace::scene::Device::Gpu;
+    let g = temporal(&on_gpu, Some(gpu));
+    let kept = g.layout.slots();
+    assert!(kept.depth.is_some() && kept.normal.is_some() && kept.motion.is_some());
+    assert!(g.layout.passes().is_empty());
+    let frames = |r: &FrameResult| r.denoised.as_ref().unwrap().frames_averaged.unwrap();
+    let (fc, fg) = (frames(&cpu), frames(&g));
+    assert!(fg > 1.5, "frames averaged on the GPU: {fg}");
+    assert!((fg - fc).abs() <= 0.05, "GPU {fg}, CPU {fc}");
+    let d = g.denoised.as_ref().unwrap();
+    assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
 }

@@ -2,55 +2,18 @@
 //! limit (`ulimit -v`, so an allocation proportional to a shot's length fails), with the
 //! exit status stated (0, 1 or 2), no panic, and nothing partial or temporary left behind.
 
+mod common;
+
 use std::os::unix::fs::symlink;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
 const SECONDS: u64 = 5;
 const MEMORY_KIB: u64 = 1 << 20;
 
 /// Runs the binary in `dir` under the limits; panics if it takes longer than [`SECONDS`].
 fn run(dir: &Path, args: &[&str]) -> Output {
-    let mut cmd = Command::new("sh");
-    cmd.arg("-c")
-        .arg(format!("ulimit -v {MEMORY_KIB} && exec \"$0\" \"$@\""))
-        .arg(BIN)
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let mut child = cmd.spawn().expect("run raytrace");
-    let start = Instant::now();
-    let shown: Vec<String> = args.iter().map(|a| shorten(a)).collect();
-    loop {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        if start.elapsed() > Duration::from_secs(SECONDS) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("raytrace {shown:?} took more than {SECONDS} s");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    let o = child.wait_with_output().unwrap();
-    println!(
-        "{shown:?}: {} in {:.2} s",
-        o.status,
-        start.elapsed().as_secs_f64()
-    );
-    o
-}
-
-fn shorten(a: &str) -> String {
-    if a.len() > 60 {
-        format!("{}… ({} bytes)", &a[..40], a.len())
-    } else {
-        a.to_string()
-    }
+    common::run_limited(dir, args, SECONDS, MEMORY_KIB)
 }
 
 fn text(o: &Output) -> String {

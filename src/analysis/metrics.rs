@@ -62,6 +62,43 @@ pub fn estimated_rel_mse(pixels: impl Iterator<Item = (DVec3, DVec3)>) -> f64 {
     sum / count.max(1) as f64
 }
 
+/// A sequence's flicker, relative: how much its error changes from one frame to the next.
+/// The square root of the mean over consecutive frames, pixels and channels of
+/// `(e_n - e_(n-1))^2 / (R + 0.01)^2`, where `e_n = X_n - T_n` is frame `n`'s error and `R`
+/// the two references' mean. The errors are taken against the `references`, whose own noise
+/// (`reference_variances`, each pixel's estimated variance of its mean) is independent from
+/// frame to frame and of the sequence's, so it adds both variances to the mean square, which
+/// are taken out. An error that stays (a fixed bias, or noise that stays put) does not
+/// flicker; independent noise of relative variance `s^2` in every frame flickers by
+/// `sqrt(2) s`. Measured at fixed pixels: with a moving camera, an error that moves with the
+/// picture counts too. Clamped at 0 before the root.
+pub fn flicker(
+    frames: &[Vec<DVec3>],
+    references: &[Vec<DVec3>],
+    reference_variances: &[Vec<DVec3>],
+) -> f64 {
+    assert!(
+        frames.len() == references.len() && references.len() == reference_variances.len(),
+        "one reference per frame"
+    );
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for n in 1..frames.len() {
+        let (x0, x1) = (&frames[n - 1], &frames[n]);
+        let (r0, r1) = (&references[n - 1], &references[n]);
+        let (v0, v1) = (&reference_variances[n - 1], &reference_variances[n]);
+        for i in 0..x1.len() {
+            let de = (x1[i] - r1[i]) - (x0[i] - r0[i]);
+            let change = de * de - v0[i] - v1[i];
+            let s = (r0[i] + r1[i]) * 0.5 + RELATIVE_EPSILON;
+            let t = change / (s * s);
+            sum += t.x + t.y + t.z;
+            count += 3;
+        }
+    }
+    (sum / count.max(1) as f64).max(0.0).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -76,6 +113,42 @@ mod tests {
         let expected = (300.0 + 0.09 / 1.0201) / 6.0;
         assert!((rel_mse(&image, &reference) - expected).abs() < 1e-9);
         assert_eq!(mse(&reference, &reference), 0.0);
+    }
+
+    #[test]
+    fn flicker_sees_independent_noise_and_not_shared_error() {
+        // A truth that changes from frame to frame, exact references.
+        let truth: Vec<Vec<DVec3>> = (0..4)
+            .map(|n| vec![DVec3::splat(1.0 + 0.1 * n as f64); 2])
+            .collect();
+        let zero = vec![vec![DVec3::ZERO; 2]; 4];
+        assert_eq!(flicker(&truth, &truth, &zero), 0.0);
+        // A fixed error in every frame: no flicker.
+        let biased: Vec<Vec<DVec3>> = truth
+            .iter()
+            .map(|f| f.iter().map(|v| *v + DVec3::splat(0.05)).collect())
+            .collect();
+        assert!(flicker(&biased, &truth, &zero) < 1e-9);
+        // Errors of +e and -e in alternate frames, on a still truth of 1: the change is 2e,
+        // so the flicker is 2e / 1.01.
+        let still = vec![vec![DVec3::ONE; 2]; 4];
+        let e = 0.03;
+        let alternating: Vec<Vec<DVec3>> = (0..4)
+            .map(|n| vec![DVec3::splat(if n % 2 == 0 { 1.0 + e } else { 1.0 - e }); 2])
+            .collect();
+        assert!((flicker(&alternating, &still, &zero) - 2.0 * e / 1.01).abs() < 1e-12);
+        // Noisy references whose noise is known is taken out: references off by +-d in
+        // alternate frames, each with variance d^2, against a sequence equal to the truth:
+        // (2d)^2 - 2 d^2 = 2 d^2 is left; relative to 1.01^2.
+        let d = 0.02;
+        let noisy: Vec<Vec<DVec3>> = (0..4)
+            .map(|n| vec![DVec3::splat(if n % 2 == 0 { 1.0 + d } else { 1.0 - d }); 2])
+            .collect();
+        let var = vec![vec![DVec3::splat(d * d); 2]; 4];
+        let expected = (2.0 * d * d).sqrt() / 1.01;
+        assert!((flicker(&still, &noisy, &var) - expected).abs() < 1e-12);
+        let exact_var = vec![vec![DVec3::splat(2.0 * d * d); 2]; 4];
+        assert!(flicker(&still, &noisy, &exact_var) < 1e-6);
     }
 
     #[test]

@@ -1,35 +1,37 @@
-//! The boxes of a hierarchy's nodes: per 4-wide node, its four children's boxes as `f32`
+//! The boxes of a hierarchy's nodes: per 8-wide node, its eight children's boxes as `f32`
 //! structure-of-arrays, still or moving over the shutter.
 
 use crate::aabb::Aabb;
 
+use super::lanes::LANES;
 use super::rounding::{f32_above, f32_below, moving_lower};
 
-/// Four children's boxes, structure-of-arrays: `planes[axis][child]` is the lower side,
-/// `planes[3 + axis][child]` the upper side, as `f32` rounded outward ([`f32_below`],
-/// [`f32_above`]) so a stored box always contains the `f64` box it stands for. An empty slot
-/// has lower sides `+inf` and upper sides `-inf`, which no ray hits. 96 bytes, aligned to 32,
-/// so a node's boxes always lie on exactly two cache lines.
+/// Eight children's boxes, structure-of-arrays: `planes[axis][child]` is the lower side,
+/// `planes[3 + axis][child]` the upper side (axes x, y, z), as `f32` rounded outward
+/// ([`f32_below`], [`f32_above`]) so a stored box always contains the `f64` box it stands
+/// for. An empty slot has lower sides `+inf` and upper sides `-inf`, which no ray hits. 192
+/// bytes, aligned to 64, so a node's boxes always lie on exactly three cache lines, and each
+/// side's eight lanes are one aligned 32-byte load.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(align(32))]
-pub(super) struct Boxes4 {
-    pub(super) planes: [[f32; 4]; 6],
+#[repr(align(64))]
+pub(super) struct ChildBoxes {
+    pub(super) planes: [[f32; LANES]; 6],
 }
 
-impl Boxes4 {
-    pub(super) const EMPTY: Boxes4 = Boxes4 {
+impl ChildBoxes {
+    pub(super) const EMPTY: ChildBoxes = ChildBoxes {
         planes: [
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
+            [f32::INFINITY; LANES],
+            [f32::INFINITY; LANES],
+            [f32::INFINITY; LANES],
+            [f32::NEG_INFINITY; LANES],
+            [f32::NEG_INFINITY; LANES],
+            [f32::NEG_INFINITY; LANES],
         ],
     };
 
-    pub(super) const ZERO: Boxes4 = Boxes4 {
-        planes: [[0.0; 4]; 6],
+    pub(super) const ZERO: ChildBoxes = ChildBoxes {
+        planes: [[0.0; LANES]; 6],
     };
 
     /// Sets slot `k` to the smallest `f32` box containing `b`.
@@ -41,7 +43,7 @@ impl Boxes4 {
     }
 }
 
-/// The boxes of the nodes of a [`Topology`], which a refit recomputes: per node, its four
+/// The boxes of the nodes of a [`Topology`], which a refit recomputes: per node, its eight
 /// children's boxes, and for a moving hierarchy their change over the shutter. Only one of
 /// `still` and `moving` has entries.
 ///
@@ -49,11 +51,11 @@ impl Boxes4 {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Boxes {
     /// For a still hierarchy, per node, its children's boxes.
-    pub(super) still: Vec<Boxes4>,
+    pub(super) still: Vec<ChildBoxes>,
     /// For a moving hierarchy, per node, its children's boxes at the shutter's opening and
     /// their change until its closing (about `close - open`, widened: see [`moving_lower`]),
     /// side by side: a traversal step reads both, with one bounds check.
-    pub(super) moving: Vec<[Boxes4; 2]>,
+    pub(super) moving: Vec<[ChildBoxes; 2]>,
     /// The box of everything (over the whole shutter, for a moving hierarchy).
     pub(super) bounds: Aabb,
 }
@@ -63,7 +65,7 @@ impl Boxes {
     /// cost a ray pays to traverse the hierarchy, up to a constant. It grows as refitted
     /// primitives move away from where the topology was built.
     pub fn area(&self) -> f64 {
-        let child = |node: &Boxes4, k: usize| {
+        let child = |node: &ChildBoxes, k: usize| {
             let mut b = Aabb::EMPTY;
             for a in 0..3 {
                 b.min[a] = f64::from(node.planes[a][k]);
@@ -73,7 +75,7 @@ impl Boxes {
         };
         let mut sum = 0.0;
         for node in &self.still {
-            for k in 0..4 {
+            for k in 0..LANES {
                 let b = child(node, k);
                 // Skips an empty slot.
                 if b.min.x.is_finite() {
@@ -82,7 +84,7 @@ impl Boxes {
             }
         }
         for [node, delta] in &self.moving {
-            for k in 0..4 {
+            for k in 0..LANES {
                 let b = child(node, k);
                 if !b.min.x.is_finite() {
                     continue;
@@ -106,8 +108,8 @@ impl Boxes {
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.still.capacity() * std::mem::size_of::<Boxes4>()
-            + self.moving.capacity() * std::mem::size_of::<[Boxes4; 2]>()
+        self.still.capacity() * std::mem::size_of::<ChildBoxes>()
+            + self.moving.capacity() * std::mem::size_of::<[ChildBoxes; 2]>()
     }
 }
 
@@ -115,7 +117,7 @@ impl Boxes {
 /// shutter time `s` in [0, 1], the box interpolated from `open` (at `s = 0`) to `close` (at
 /// `s = 1`): stored as its sides at the opening and their change until the closing, both
 /// `f32`, which a traversal evaluates in `f32` as `side + s * change` ([`moving_lower`]).
-pub(super) fn set_moving(node: &mut [Boxes4; 2], k: usize, open: &Aabb, close: &Aabb) {
+pub(super) fn set_moving(node: &mut [ChildBoxes; 2], k: usize, open: &Aabb, close: &Aabb) {
     let [boxes, delta] = node;
     for a in 0..3 {
         (boxes.planes[a][k], delta.planes[a][k]) = moving_lower(open.min[a], close.min[a]);

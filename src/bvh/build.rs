@@ -1,11 +1,12 @@
 //! Building a hierarchy: a binary tree by the binned surface-area heuristic, in parallel,
-//! collapsed into 4-wide nodes.
+//! collapsed into 8-wide nodes.
 
 use glam::DVec3;
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, Boxes4, set_moving};
+use super::boxes::{Boxes, ChildBoxes, set_moving};
+use super::lanes::LANES;
 use super::topology::{COUNT_SHIFT, Links, Topology};
 
 /// Most primitives in a leaf.
@@ -30,15 +31,20 @@ const _: () = assert!(
 pub const BUILD_BYTES_PER_PRIMITIVE: usize =
     std::mem::size_of::<BuildItem>() + std::mem::size_of::<Build>();
 
-/// A node of the binary build tree, with its boxes (filled in after the build).
-struct Build {
-    boxes: NodeBoxes,
-    kind: Kind,
-}
-
-enum Kind {
-    Leaf { first: u32, count: u32 },
-    Inner(Box<[Build; 2]>),
+/// A node of the binary build tree. It keeps no boxes: the collapse into 8-wide nodes
+/// computes them bottom up from the primitives' (as a refit does), so the tree holds 24 bytes
+/// a node instead of the 144 of three boxes.
+enum Build {
+    Leaf {
+        first: u32,
+        count: u32,
+    },
+    /// `area`: the surface area of the node's box over the whole shutter, which the collapse
+    /// compares to choose the children it opens.
+    Inner {
+        area: f64,
+        children: Box<[Build; 2]>,
+    },
 }
 
 struct BuildItem {
@@ -48,8 +54,7 @@ struct BuildItem {
     index: u32,
 }
 
-/// The boxes of a node of the build tree: over the whole shutter, at its opening and at its
-/// closing.
+/// The boxes of a node: over the whole shutter, at its opening and at its closing.
 #[derive(Clone, Copy)]
 struct NodeBoxes {
     whole: Aabb,
@@ -103,6 +108,15 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
         let mut tree = build_node(&mut items, 0, 0);
         topology.order = items.iter().map(|it| it.index).collect();
         drop(items);
+        // The root is always an 8-wide node, even over a single leaf, so traversal starts
+        // at node 0. (Its area is never compared: only children are opened.)
+        if let Build::Leaf { .. } = tree {
+            let lone = std::mem::replace(&mut tree, Build::empty());
+            tree = Build::Inner {
+                area: 0.0,
+                children: Box::new([lone, Build::empty()]),
+            };
+        }
         let prim = |pos: u32| {
             let i = topology.order[pos as usize] as usize;
             NodeBoxes {
@@ -111,20 +125,13 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
                 close: close.map_or(open[i], |c| c[i]),
             }
         };
-        annotate(&mut tree, &prim);
-        // The root is always a 4-wide node, even over a single leaf, so traversal starts
-        // at node 0.
-        if let Kind::Leaf { .. } = tree.kind {
-            let leaf = Build {
-                boxes: tree.boxes,
-                kind: Kind::Leaf { first: 0, count: 0 },
-            };
-            let lone = std::mem::replace(&mut tree, leaf);
-            tree.kind = Kind::Inner(Box::new([lone, Build::empty()]));
-        }
         let moving = close.is_some();
-        collapse(&tree, moving, &mut topology.links, &mut boxes);
-        boxes.bounds = tree.boxes.whole;
+        let all = collapse(&tree, &prim, moving, &mut topology.links, &mut boxes);
+        // Pushed one by one: up to twice the memory needed, kept for the hierarchy's life.
+        topology.links.shrink_to_fit();
+        boxes.still.shrink_to_fit();
+        boxes.moving.shrink_to_fit();
+        boxes.bounds = all.whole;
     }
     (topology, boxes)
 }
@@ -132,22 +139,16 @@ pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, B
 impl Build {
     /// A leaf of no primitives, with empty boxes: no ray enters it.
     fn empty() -> Build {
-        Build {
-            boxes: NodeBoxes::EMPTY,
-            kind: Kind::Leaf { first: 0, count: 0 },
-        }
+        Build::Leaf { first: 0, count: 0 }
     }
 }
 
 /// Builds the binary tree over `items` (reordered in place so every leaf is a contiguous
-/// range); `offset` is the position of `items[0]` in the whole array. Boxes are left empty.
+/// range); `offset` is the position of `items[0]` in the whole array.
 fn build_node(items: &mut [BuildItem], offset: usize, depth: usize) -> Build {
-    let leaf = Build {
-        boxes: NodeBoxes::EMPTY,
-        kind: Kind::Leaf {
-            first: offset as u32,
-            count: items.len() as u32,
-        },
+    let leaf = Build::Leaf {
+        first: offset as u32,
+        count: items.len() as u32,
     };
     if items.len() <= 1 {
         return leaf;
@@ -178,77 +179,79 @@ fn build_node(items: &mut [BuildItem], offset: usize, depth: usize) -> Build {
             build_node(right, offset + mid, depth + 1),
         )
     };
-    Build {
-        boxes: NodeBoxes::EMPTY,
-        kind: Kind::Inner(Box::new([l, r])),
+    // The union of the items' boxes is the union of the primitives' boxes below, as the
+    // collapse computes it (a union of boxes is exact, in any order).
+    Build::Inner {
+        area: bounds.surface_area(),
+        children: Box::new([l, r]),
     }
 }
 
-/// Fills in the boxes of every node of `t`, bottom up.
-fn annotate(t: &mut Build, prim: &impl Fn(u32) -> NodeBoxes) -> NodeBoxes {
-    t.boxes = match &mut t.kind {
-        Kind::Leaf { first, count } => {
-            (*first..*first + *count).fold(NodeBoxes::EMPTY, |b, p| b.union(&prim(p)))
-        }
-        Kind::Inner(c) => {
-            let [l, r] = &mut **c;
-            annotate(l, prim).union(&annotate(r, prim))
-        }
-    };
-    t.boxes
-}
-
-/// Appends the 4-wide nodes of the binary subtree `t` (an inner node) to `links` and
-/// `boxes` in depth-first order. The four children are found by opening, from the node's two, the child
-/// with the largest surface area until there are four (Embree's BVH4 collapse).
-fn collapse(t: &Build, moving: bool, links: &mut Vec<Links>, boxes: &mut Boxes) {
-    let Kind::Inner(children) = &t.kind else {
+/// Appends the 8-wide nodes of the binary subtree `t` (an inner node) to `links` and
+/// `boxes` in depth-first order, and returns the boxes of `t`: the unions of its primitives'
+/// boxes (`prim(pos)` is the boxes of the primitive at position `pos` of the leaf order),
+/// computed bottom up. The eight children are found by opening, from the node's two, the inner
+/// child with the largest surface area until there are eight (Embree's BVH8 collapse); a node
+/// with fewer leaves below it has fewer, its other slots empty.
+fn collapse(
+    t: &Build,
+    prim: &impl Fn(u32) -> NodeBoxes,
+    moving: bool,
+    links: &mut Vec<Links>,
+    boxes: &mut Boxes,
+) -> NodeBoxes {
+    let Build::Inner { children, .. } = t else {
         unreachable!("collapse starts at inner nodes")
     };
     let mut kids: Vec<&Build> = children.iter().collect();
-    while kids.len() < 4 {
+    while kids.len() < LANES {
         let Some((i, _)) = kids
             .iter()
             .enumerate()
-            .filter(|(_, c)| matches!(c.kind, Kind::Inner(_)))
-            .max_by(|a, b| {
-                a.1.boxes
-                    .whole
-                    .surface_area()
-                    .total_cmp(&b.1.boxes.whole.surface_area())
+            .filter_map(|(i, c)| match c {
+                Build::Inner { area, .. } => Some((i, *area)),
+                Build::Leaf { .. } => None,
             })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
         else {
             break;
         };
-        let Kind::Inner(grand) = &kids.remove(i).kind else {
+        let Build::Inner {
+            children: grand, ..
+        } = kids.remove(i)
+        else {
             unreachable!()
         };
         kids.insert(i, &grand[1]);
         kids.insert(i, &grand[0]);
     }
     let index = links.len();
-    links.push(Links { child: [0; 4] });
+    links.push(Links { child: [0; LANES] });
     if moving {
-        boxes.moving.push([Boxes4::EMPTY, Boxes4::ZERO]);
+        boxes.moving.push([ChildBoxes::EMPTY, ChildBoxes::ZERO]);
     } else {
-        boxes.still.push(Boxes4::EMPTY);
+        boxes.still.push(ChildBoxes::EMPTY);
     }
+    let mut all = NodeBoxes::EMPTY;
     for (k, c) in kids.iter().enumerate() {
-        links[index].child[k] = match c.kind {
-            Kind::Leaf { first, count } => first | count << COUNT_SHIFT,
-            Kind::Inner(_) => {
-                let at = links.len() as u32;
-                collapse(c, moving, links, boxes);
-                at
+        let b = match **c {
+            Build::Leaf { first, count } => {
+                links[index].child[k] = first | count << COUNT_SHIFT;
+                (first..first + count).fold(NodeBoxes::EMPTY, |b, p| b.union(&prim(p)))
+            }
+            Build::Inner { .. } => {
+                links[index].child[k] = links.len() as u32;
+                collapse(c, prim, moving, links, boxes)
             }
         };
-        let b = &c.boxes;
         if moving {
             set_moving(&mut boxes.moving[index], k, &b.open, &b.close);
         } else {
             boxes.still[index].set(k, &b.whole);
         }
+        all = all.union(&b);
     }
+    all
 }
 
 /// The best SAH split of `items` (reordered in place so the split is at the returned index),
@@ -328,7 +331,7 @@ mod tests {
             bvh.topology()
                 .links
                 .iter()
-                .all(|n| (0..4).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
+                .all(|n| (0..LANES).all(|k| n.slot(k).1 as usize <= MAX_LEAF))
         );
         let mut seen: Vec<u32> = bvh.order().to_vec();
         seen.sort();

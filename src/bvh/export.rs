@@ -2,7 +2,8 @@
 //! holds and its box. For copies of a hierarchy in other layouts (the GPU's, `crate::gpu`),
 //! which then depend on this file alone and not on how nodes are packed.
 
-use super::boxes::Boxes4;
+use super::boxes::ChildBoxes;
+use super::lanes::LANES;
 use super::traverse::BvhView;
 
 /// What a child slot holds.
@@ -41,8 +42,9 @@ impl BvhView<'_> {
             Some([b, d]) => (b, Some(d)),
             None => (&self.boxes.still[node], None),
         };
-        let side = |b: &Boxes4, first: usize, k: usize| [0, 1, 2].map(|a| b.planes[first + a][k]);
-        (0..4)
+        let side =
+            |b: &ChildBoxes, first: usize, k: usize| [0, 1, 2].map(|a| b.planes[first + a][k]);
+        (0..LANES)
             .filter_map(|k| {
                 let (child, count) = links.slot(k);
                 let kind = match (count, child) {

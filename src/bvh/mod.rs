@@ -1,10 +1,10 @@
 //! A bounding volume hierarchy over boxes: built as a binary tree with the surface-area
 //! heuristic (binned, as in Wald 2007, "On fast Construction of SAH-based Bounding Volume
-//! Hierarchies"), in parallel, then collapsed into a 4-wide tree (as Embree's BVH4) stored as
-//! flat arrays of nodes. A node holds its four children's boxes as structure-of-arrays, in
+//! Hierarchies"), in parallel, then collapsed into an 8-wide tree (as Embree's BVH8) stored as
+//! flat arrays of nodes. A node holds its eight children's boxes as structure-of-arrays, in
 //! `f32` rounded outward (half the memory of `f64`; a box only ever grows, so no hit is lost),
-//! so a ray is tested against all four at once with straight-line arithmetic the compiler
-//! vectorises, and the children a ray hits are visited nearest first.
+//! so a ray is tested against all eight at once (one AVX register where the processor has
+//! AVX2, two SSE registers otherwise), and the children a ray hits are visited nearest first.
 //!
 //! A hierarchy ([`Bvh`]) is kept in two parts: its [`Topology`] (every node's children and
 //! the primitives in leaf order) and its [`Boxes`] (every node's children's boxes). A
@@ -25,12 +25,13 @@
 //!
 //! The files, one concept each, in the order they build on one another:
 //! - `rounding`: `f64` sides rounded outward to `f32`, still and moving;
-//! - `boxes`: [`Boxes`], the nodes' `f32` boxes (four children a node, still or moving);
+//! - `lanes`: eight `f32` lanes (AVX chosen at run time, SSE, or plain arrays);
+//! - `boxes`: [`Boxes`], the nodes' `f32` boxes (eight children a node, still or moving);
 //! - `topology`: [`Topology`], the nodes' children and the leaf order; the refit;
-//! - `build`: the binned SAH build of a binary tree and its collapse into 4-wide nodes;
-//! - `lanes`: four `f32` lanes (SSE on x86-64, plain arrays elsewhere);
-//! - `slab`: a ray against a node's four boxes at once, in `f32` lanes or in `f64`;
+//! - `build`: the binned SAH build of a binary tree and its collapse into 8-wide nodes;
+//! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
 //! - `traverse`: [`BvhView`] and [`TraversalStack`], the nearest-hit traversal;
+//! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes;
 //! - `export`: a node's children and their boxes read one by one ([`Child`]), for copies of a
 //!   hierarchy in other layouts.
@@ -40,6 +41,7 @@ mod build;
 mod export;
 mod hierarchy;
 mod lanes;
+mod packet;
 mod rounding;
 mod slab;
 mod topology;
@@ -52,5 +54,6 @@ pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
 pub use export::{Child, ChildKind};
 pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub use packet::{PACKET, PacketRay};
 pub use topology::Topology;
 pub use traverse::{BvhView, TraversalStack};

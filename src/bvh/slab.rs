@@ -1,10 +1,10 @@
-//! The slab test of a ray against a node's four children at once: in `f32` lanes with every
+//! The slab test of a ray against a node's eight children at once: in `f32` lanes with every
 //! rounding bounded outward, and in `f64` for the rare rays the lanes cannot take.
 
 use glam::DVec3;
 
 use super::boxes::Boxes;
-use super::lanes;
+use super::lanes::{LANES, Lanes};
 use super::rounding::f32_below;
 
 /// The relative error of an entry or exit distance computed in `f32` as
@@ -32,34 +32,37 @@ pub(super) fn widened_limit(t: f64) -> f32 {
     (t * (1.0 + f64::from(2f32.powi(-22)))) as f32 * FAR_SCALE + TINY
 }
 
-/// A ray's test against the four children of a node.
+/// A ray's test against the children of a node.
 pub(super) trait SlabTest {
     /// The children of `node` (with `boxes`) the ray may enter before the distance `t_max`,
     /// or `limit` (an `f32` at or above it, [`widened_limit`]), as bits, and their entry
     /// distances, at most the true ones.
-    fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; 4]);
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; LANES]);
 }
 
-/// A ray as the `f32` slab test reads it: per axis, its reciprocal direction, and its origin
-/// rounded to `f32` both ways; whether its direction is negative; the shutter time.
-pub(super) struct RayLanes {
-    inv: [lanes::F4; 3],
+/// A ray as the `f32` slab test reads it, on the lanes of machine `M`: per axis, its
+/// reciprocal direction, and its origin rounded to `f32` both ways; whether its direction is
+/// negative; the shutter time.
+#[derive(Clone, Copy)]
+pub(super) struct RayLanes<M: Lanes> {
+    m: M,
+    inv: [M::V; 3],
     /// The origin rounded up, subtracted from lower sides: `lower - origin` comes out at
     /// most the exact difference, so a positive direction's entry distance is not
     /// overestimated, nor a negative one's exit distance underestimated.
-    o_up: [lanes::F4; 3],
+    o_up: [M::V; 3],
     /// The origin rounded down, for upper sides (the mirror image).
-    o_down: [lanes::F4; 3],
+    o_down: [M::V; 3],
     /// Per axis, whether the direction is negative: the ray enters through the upper side.
     negative: [bool; 3],
-    s: lanes::F4,
+    s: M::V,
 }
 
-impl RayLanes {
+impl<M: Lanes> RayLanes<M> {
     /// `None` if some origin coordinate exceeds 1e30 in magnitude or some direction
     /// component is below 1e-30 (its reciprocal would be beyond the `f32` range).
     #[inline(always)]
-    pub(super) fn new(origin: DVec3, dir: DVec3, s: f64) -> Option<RayLanes> {
+    pub(super) fn new(m: M, origin: DVec3, dir: DVec3, s: f64) -> Option<RayLanes<M>> {
         if !(origin.abs().max_element() <= 1e30 && dir.abs().min_element() >= 1e-30) {
             return None;
         }
@@ -68,23 +71,25 @@ impl RayLanes {
         // the rounding to `f32` (at most 2^-24 of the magnitude, or 2^-150 below the normal
         // range) and the two `f64` roundings before it. Without the branches of
         // `f32_below`, whose outcome is a coin toss per ray; one `f32` ulp looser.
-        let m = origin.abs() * f64::from(2f32.powi(-23)) + f64::from(f32::MIN_POSITIVE);
-        let (up, down) = ((origin + m).as_vec3(), (origin - m).as_vec3());
+        let margin = origin.abs() * f64::from(2f32.powi(-23)) + f64::from(f32::MIN_POSITIVE);
+        let (up, down) = ((origin + margin).as_vec3(), (origin - margin).as_vec3());
         Some(RayLanes {
-            inv: std::array::from_fn(|a| lanes::F4::splat(inv[a])),
-            o_up: std::array::from_fn(|a| lanes::F4::splat(up[a])),
-            o_down: std::array::from_fn(|a| lanes::F4::splat(down[a])),
-            negative: std::array::from_fn(|a| inv[a] < 0.0),
-            s: lanes::F4::splat(s as f32),
+            m,
+            inv: splat3(m, inv),
+            o_up: splat3(m, up),
+            o_down: splat3(m, down),
+            negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            s: m.splat(s as f32),
         })
     }
 
     /// Along axis `a`, the distances to a box's lower and upper sides, with the rounded
     /// origins they take, as (entry, exit).
     #[inline(always)]
-    fn axis(&self, a: usize, lower: lanes::F4, upper: lanes::F4) -> (lanes::F4, lanes::F4) {
-        let lower = lower.sub(self.o_up[a]).mul(self.inv[a]);
-        let upper = upper.sub(self.o_down[a]).mul(self.inv[a]);
+    fn axis(&self, a: usize, lower: M::V, upper: M::V) -> (M::V, M::V) {
+        let m = self.m;
+        let lower = m.mul(m.sub(lower, self.o_up[a]), self.inv[a]);
+        let upper = m.mul(m.sub(upper, self.o_down[a]), self.inv[a]);
         // A select of values, not of indices: no bounds checks in the loop.
         if self.negative[a] {
             (upper, lower)
@@ -94,39 +99,47 @@ impl RayLanes {
     }
 }
 
-impl SlabTest for RayLanes {
+/// Each coordinate of `v` in all lanes. A function of its own, always inlined: a closure or
+/// `array::from_fn` here was left out of line, compiled without the AVX kernel's features.
+#[inline(always)]
+fn splat3<M: Lanes>(m: M, v: glam::Vec3) -> [M::V; 3] {
+    [m.splat(v.x), m.splat(v.y), m.splat(v.z)]
+}
+
+impl<M: Lanes> SlabTest for RayLanes<M> {
     /// Entry distances at most the exact ones (computed in real arithmetic from the `f64`
     /// origin and direction, against the box a traversal's `f32` evaluation gives).
     #[inline(always)]
-    fn test(&self, boxes: &Boxes, node: usize, limit: f32, _: f64) -> (u32, [f32; 4]) {
-        use lanes::F4;
-        let mut near = F4::splat(0.0);
-        let mut far = F4::splat(f32::INFINITY);
+    fn test(&self, boxes: &Boxes, node: usize, limit: f32, _: f64) -> (u32, [f32; LANES]) {
+        let m = self.m;
+        let mut near = m.splat(0.0);
+        let mut far = m.splat(f32::INFINITY);
         // `max` and `min` keep the running value when the new one is NaN (0 * inf cannot
         // arise with a finite reciprocal, but a NaN side can), which leaves that axis out.
         for a in 0..3 {
             let (lower, upper) = if boxes.moving.is_empty() {
                 let planes = &boxes.still[node].planes;
-                (F4::load(&planes[a]), F4::load(&planes[3 + a]))
+                (m.load(&planes[a]), m.load(&planes[3 + a]))
             } else {
                 let [planes, d] = &boxes.moving[node];
                 let (planes, d) = (&planes.planes, &d.planes);
-                // Evaluated in `f32`, as `moving_lower` allows for.
+                // Evaluated in `f32` (a product, then a sum: no fused multiply-add), as
+                // `moving_lower` allows for.
                 (
-                    F4::load(&planes[a]).add(self.s.mul(F4::load(&d[a]))),
-                    F4::load(&planes[3 + a]).add(self.s.mul(F4::load(&d[3 + a]))),
+                    m.add(m.load(&planes[a]), m.mul(self.s, m.load(&d[a]))),
+                    m.add(m.load(&planes[3 + a]), m.mul(self.s, m.load(&d[3 + a]))),
                 )
             };
             let (n, f) = self.axis(a, lower, upper);
-            near = n.max_keep(near);
-            far = f.min_keep(far);
+            near = m.max_keep(n, near);
+            far = m.min_keep(f, far);
         }
-        let near = near.mul(F4::splat(NEAR_SCALE));
-        let far = far
-            .mul(F4::splat(FAR_SCALE))
-            .add(F4::splat(TINY))
-            .min_keep(F4::splat(limit));
-        (near.le_mask(far), near.to_array())
+        let near = m.mul(near, m.splat(NEAR_SCALE));
+        let far = m.min_keep(
+            m.add(m.mul(far, m.splat(FAR_SCALE)), m.splat(TINY)),
+            m.splat(limit),
+        );
+        (m.le_mask(near, far), m.to_array(near))
     }
 }
 
@@ -144,9 +157,9 @@ impl RayF64 {
     #[inline(never)]
     pub(super) fn new(origin: DVec3, dir: DVec3, s: f64) -> RayF64 {
         let inv = (DVec3::ONE / dir).to_array();
-        // Per axis, the index in `Boxes4::planes` of the planes through which the ray enters
-        // and leaves boxes: the upper one first for a negative direction. Taken from the
-        // reciprocal so that a direction of -0 (reciprocal -inf) counts as negative.
+        // Per axis, the index in `ChildBoxes::planes` of the planes through which the ray
+        // enters and leaves boxes: the upper one first for a negative direction. Taken from
+        // the reciprocal so that a direction of -0 (reciprocal -inf) counts as negative.
         RayF64 {
             inv,
             o: origin.to_array(),
@@ -160,17 +173,17 @@ impl RayF64 {
 impl SlabTest for RayF64 {
     /// Tested against `t_max`, with the entry distances rounded down to `f32`.
     #[inline(never)]
-    fn test(&self, boxes: &Boxes, node: usize, _: f32, t_max: f64) -> (u32, [f32; 4]) {
+    fn test(&self, boxes: &Boxes, node: usize, _: f32, t_max: f64) -> (u32, [f32; LANES]) {
         let (o, inv, s32) = (&self.o, &self.inv, self.s);
-        let mut near = [0.0f64; 4];
-        let mut far = [t_max; 4];
+        let mut near = [0.0f64; LANES];
+        let mut far = [t_max; LANES];
         // `max` and `min` ignore a NaN (0 * inf: a ray in a box's face plane, parallel
         // to it), which leaves that axis out of the interval.
         if boxes.moving.is_empty() {
             let planes = &boxes.still[node].planes;
             for a in 0..3 {
                 let (e, x) = (self.entry[a], self.exit[a]);
-                for k in 0..4 {
+                for k in 0..LANES {
                     near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
                     far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
                 }
@@ -180,7 +193,7 @@ impl SlabTest for RayF64 {
             let (planes, d) = (&planes.planes, &d.planes);
             for a in 0..3 {
                 let (e, x) = (self.entry[a], self.exit[a]);
-                for k in 0..4 {
+                for k in 0..LANES {
                     // In `f32`, which `moving_lower`'s margin allows for.
                     let n = f64::from(planes[e][k] + s32 * d[e][k]);
                     let f = f64::from(planes[x][k] + s32 * d[x][k]);
@@ -190,7 +203,7 @@ impl SlabTest for RayF64 {
             }
         }
         let mut mask = 0;
-        for k in 0..4 {
+        for k in 0..LANES {
             mask |= u32::from(near[k] <= far[k]) << k;
         }
         (mask, near.map(f32_below))
@@ -201,16 +214,16 @@ impl SlabTest for RayF64 {
 mod tests {
     use super::*;
     use crate::aabb::Aabb;
-    use crate::bvh::boxes::{Boxes4, set_moving};
+    use crate::bvh::boxes::{ChildBoxes, set_moving};
+    use crate::bvh::lanes::Plain;
     use crate::rng::Pcg32;
 
-    /// The `f32` slab test never misses a child the `f64` one hits, and never puts a child's
-    /// entry beyond the `f64` one's: random boxes and rays at scales from 1e-6 to 1e6 and far
-    /// from the origin, rays starting on or a few ulps off a face, running along faces, and
-    /// nearly axis-parallel (reciprocals up to 1e29); still and moving nodes, any time and
-    /// limit.
-    #[test]
-    fn f32_slab_test_is_conservative() {
+    /// The `f32` slab test on machine `m` never misses a child the `f64` one hits, and never
+    /// puts a child's entry beyond the `f64` one's, and gives the bits plain arrays give:
+    /// random boxes and rays at scales from 1e-6 to 1e6 and far from the origin, rays
+    /// starting on or a few ulps off a face, running along faces, and nearly axis-parallel
+    /// (reciprocals up to 1e29); still and moving nodes, any time and limit.
+    fn conservative_on<M: Lanes>(m: M) {
         let mut r = Pcg32::new(41, 3);
         let (mut checked, mut hits) = (0u32, 0u32);
         for round in 0..40_000 {
@@ -219,7 +232,7 @@ mod tests {
             let v = |r: &mut Pcg32| {
                 (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale
             };
-            let boxes: Vec<Aabb> = (0..4)
+            let boxes: Vec<Aabb> = (0..LANES)
                 .map(|_| {
                     let c = DVec3::splat(offset) + v(&mut r);
                     Aabb {
@@ -235,10 +248,10 @@ mod tests {
                     max: b.max + v(&mut r) * 0.3,
                 })
                 .collect();
-            let mut still = Boxes4::EMPTY;
-            let mut moving = [Boxes4::EMPTY, Boxes4::ZERO];
-            // Slot 3 stays empty one time in four.
-            for k in 0..4 - usize::from(round % 4 == 1) {
+            let mut still = ChildBoxes::EMPTY;
+            let mut moving = [ChildBoxes::EMPTY, ChildBoxes::ZERO];
+            // The last slots stay empty one time in four.
+            for k in 0..LANES - 3 * usize::from(round % 4 == 1) {
                 still.set(k, &boxes[k]);
                 set_moving(&mut moving, k, &boxes[k], &moved[k]);
             }
@@ -253,7 +266,7 @@ mod tests {
                 },
             ];
             // A point on a face of a box (as stored), or a few ulps off it, or anywhere.
-            let k = (r.next_f64() * 4.0) as usize % 3;
+            let k = (r.next_f64() * 5.0) as usize % 5;
             let axis = (r.next_f64() * 3.0) as usize;
             let mut origin = DVec3::splat(offset) + v(&mut r) * 1.5;
             let side = if r.next_f64() < 0.5 { axis } else { 3 + axis };
@@ -275,18 +288,22 @@ mod tests {
             let dir = dir.normalize();
             let s = [0.0, 1.0, r.next_f64()][round % 3];
             let t_max = [f64::INFINITY, r.next_f64() * 2.0 * scale][round % 2];
-            let Some(lanes) = RayLanes::new(origin, dir, s) else {
+            let Some(lanes) = RayLanes::new(m, origin, dir, s) else {
                 assert!(dir.abs().min_element() < 1e-30);
                 continue;
             };
+            let plain = RayLanes::new(Plain, origin, dir, s).unwrap();
             let exact = RayF64::new(origin, dir, s);
             for boxes in &nodes {
                 let limit = widened_limit(t_max);
                 let (mask, near) = lanes.test(boxes, 0, limit, t_max);
                 let (want, want_near) = exact.test(boxes, 0, limit, t_max);
+                let (plain_mask, plain_near) = plain.test(boxes, 0, limit, t_max);
+                assert_eq!(mask, plain_mask);
+                assert_eq!(near.map(f32::to_bits), plain_near.map(f32::to_bits));
                 // The `f64` entry, as exact: `RayF64` rounds it down to `f32`.
                 assert_eq!(mask & want, want, "{origin:?} {dir:?} {s} {t_max}");
-                for k in 0..4 {
+                for k in 0..LANES {
                     if want & (1 << k) != 0 {
                         assert!(near[k] <= want_near[k], "{origin:?} {dir:?} {k}");
                         assert!(near[k] <= limit);
@@ -297,6 +314,20 @@ mod tests {
             }
         }
         // Most rays are taken by the `f32` test, and a fair share of children are hit.
-        assert!(checked > 50_000 && hits > 20_000, "{checked} {hits}");
+        assert!(checked > 50_000 && hits > 40_000, "{checked} {hits}");
+    }
+
+    #[test]
+    fn f32_slab_test_is_conservative() {
+        conservative_on(Plain);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::bvh::lanes::{Avx, Sse};
+            conservative_on(Sse);
+            let v3 = crate::bvh::lanes::avx_where_available();
+            if let Some(v3) = v3 {
+                v3.vectorize(|| conservative_on(Avx(v3)));
+            }
+        }
     }
 }

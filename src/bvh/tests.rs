@@ -125,6 +125,22 @@ fn non_finite_rays_and_boxes_find_nothing() {
             assert_eq!(got, None);
             assert!(visits <= n, "{visits} visits of {n} primitives");
         }
+        // The same for a packet: each ray visits each leaf once at most.
+        let rays: Vec<super::PacketRay> = random_rays(&mut r, super::PACKET)
+            .iter()
+            .map(|ray| super::PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s: 0.5,
+            })
+            .collect();
+        let mut visits = [0usize; super::PACKET];
+        let got = view.closest_hits(&rays, [inf; super::PACKET], &mut stack, |lane, _, _| {
+            visits[lane] += 1;
+            None
+        });
+        assert_eq!(got, [None; super::PACKET]);
+        assert!(visits.iter().all(|&v| v <= n), "{visits:?} of {n}");
     }
 }
 
@@ -307,4 +323,210 @@ fn grazing_rays_at_far_and_tiny_scales_agree_with_brute_force() {
         // Grazing rays hit about half the time: the test is not vacuous.
         assert!(hits > 100, "{hits} hits at scale {scale}");
     }
+}
+
+/// The primitives a traversal visits (position, `t_max` bits) and the hit it finds.
+type Visits = (Vec<(u32, u64)>, Option<(f64, u32)>);
+
+/// Every kernel of the traversal (plain arrays; SSE and, where the processor has it, AVX on
+/// x86-64) visits the same primitives in the same order with the same distance bounds, and
+/// finds the same hit: their lanes give the same bits, so a render is the same bytes on any
+/// of them. Still, moving and refitted hierarchies; rays of every kind `random_rays` makes.
+#[test]
+fn every_kernel_visits_the_same_primitives() {
+    use super::lanes::{Lanes, Plain};
+    let mut r = Pcg32::new(14, 2);
+    let mut stack = TraversalStack::default();
+    /// The primitives `view` visits along `ray` on machine `m` (position and `t_max` bits),
+    /// and the hit.
+    fn visits<M: Lanes>(
+        m: M,
+        view: BvhView,
+        spheres: &[(DVec3, DVec3, f64)],
+        ray: &crate::ray::Ray,
+        stack: &mut TraversalStack,
+    ) -> Visits {
+        let order = view.topology.order();
+        let mut seen = vec![];
+        let got = view.closest_hit_on(
+            m,
+            ray.origin,
+            ray.dir,
+            ray.time,
+            f64::INFINITY,
+            stack,
+            |p, t_max| {
+                seen.push((p, t_max.to_bits()));
+                let (c, v, rad) = spheres[order[p as usize] as usize];
+                crate::sphere::intersect(c + v * ray.time, rad, ray, t_max)
+            },
+        );
+        (seen, got)
+    }
+    let mut compared = 0;
+    for &n in &[1usize, 9, 64, 700, 5000] {
+        let (spheres, open, close) = moving_spheres(&mut r, n);
+        let moving = Bvh::build_moving(&open, &close);
+        let (_, open2, close2) = moving_spheres(&mut r, n);
+        let refitted = moving.topology().refit_moving(&open2, &close2);
+        let still_spheres: Vec<(DVec3, DVec3, f64)> = spheres
+            .iter()
+            .map(|&(c, _, rad)| (c, DVec3::ZERO, rad))
+            .collect();
+        let still = Bvh::build(&open);
+        let cases = [
+            (moving.view(), &spheres),
+            (BvhView::new(moving.topology(), &refitted), &spheres),
+            (still.view(), &still_spheres),
+        ];
+        for ray in random_rays(&mut r, 1000) {
+            for (view, spheres) in cases {
+                let plain = visits(Plain, view, spheres, &ray, &mut stack);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    use super::lanes::{Avx, Sse, avx_where_available};
+                    assert_eq!(visits(Sse, view, spheres, &ray, &mut stack), plain);
+                    if let Some(v3) = avx_where_available() {
+                        let avx = v3.vectorize(|| visits(Avx(v3), view, spheres, &ray, &mut stack));
+                        assert_eq!(avx, plain);
+                    }
+                }
+                compared += usize::from(!plain.0.is_empty());
+            }
+        }
+    }
+    // A fair share of the rays reach primitives.
+    assert!(compared > 1500, "{compared}");
+}
+
+/// [`super::BYTES_PER_PRIMITIVE`] bounds a moving hierarchy's memory over random spheres, and
+/// is not far above it (within a factor of two).
+#[test]
+fn bytes_per_primitive_bounds_a_moving_hierarchy() {
+    let mut r = Pcg32::new(15, 4);
+    for &n in &[100usize, 2000, 30_000] {
+        let (_, open, close) = moving_spheres(&mut r, n);
+        let bvh = Bvh::build_moving(&open, &close);
+        let per = bvh.memory_bytes() as f64 / n as f64;
+        assert!(per <= super::BYTES_PER_PRIMITIVE as f64, "{n}: {per}");
+        assert!(per > 0.5 * super::BYTES_PER_PRIMITIVE as f64, "{n}: {per}");
+    }
+}
+
+/// A packet of rays finds, ray for ray, the hit each finds alone: coherent packets (from
+/// around one point towards around another, as a pixel's camera rays) and random ones, some
+/// lanes with bounds on the distance, axis-parallel, tiny-direction or non-finite rays among
+/// them, packets of one to eight rays; still, moving and refitted hierarchies; every kernel.
+#[test]
+fn packets_find_what_each_ray_finds_alone() {
+    use super::lanes::{Lanes, Plain};
+    use super::packet::{PACKET, PacketRay};
+    let mut r = Pcg32::new(16, 6);
+    let mut stack = TraversalStack::default();
+    fn check<M: Lanes + Copy>(
+        m: M,
+        view: BvhView,
+        spheres: &[(DVec3, DVec3, f64)],
+        rays: &[crate::ray::Ray],
+        t_max: [f64; PACKET],
+        stack: &mut TraversalStack,
+    ) -> usize {
+        let order = view.topology.order();
+        let test = |ray: &crate::ray::Ray, p: u32, t: f64| {
+            let (c, v, rad) = spheres[order[p as usize] as usize];
+            crate::sphere::intersect(c + v * ray.time, rad, ray, t)
+        };
+        let packet: Vec<PacketRay> = rays
+            .iter()
+            .map(|ray| PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s: ray.time,
+            })
+            .collect();
+        let got = view.closest_hits_on(m, &packet, t_max, stack, |lane, p, t| {
+            test(&rays[lane], p, t)
+        });
+        let mut hits = 0;
+        for (lane, ray) in rays.iter().enumerate() {
+            let alone = view.closest_hit_on(
+                m,
+                ray.origin,
+                ray.dir,
+                ray.time,
+                t_max[lane],
+                stack,
+                |p, t| test(ray, p, t),
+            );
+            assert_eq!(got[lane], alone, "lane {lane} of {}: {ray:?}", rays.len());
+            hits += usize::from(alone.is_some());
+        }
+        assert!(got[rays.len()..].iter().all(Option::is_none));
+        hits
+    }
+    let mut hits = 0;
+    for &n in &[1usize, 9, 64, 700, 5000] {
+        let (spheres, open, close) = moving_spheres(&mut r, n);
+        let moving = Bvh::build_moving(&open, &close);
+        let (_, open2, close2) = moving_spheres(&mut r, n);
+        let refitted = moving.topology().refit_moving(&open2, &close2);
+        let still_spheres: Vec<(DVec3, DVec3, f64)> = spheres
+            .iter()
+            .map(|&(c, _, rad)| (c, DVec3::ZERO, rad))
+            .collect();
+        let still = Bvh::build(&open);
+        let cases = [
+            (moving.view(), &spheres),
+            (BvhView::new(moving.topology(), &refitted), &spheres),
+            (still.view(), &still_spheres),
+        ];
+        for round in 0..300 {
+            let len = 1 + round % PACKET;
+            let rays: Vec<crate::ray::Ray> = if round % 3 == 0 {
+                random_rays(&mut r, len)
+            } else {
+                // Coherent: from within 0.1 of one point towards within 0.3 of another.
+                let from = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 30.0 - 15.0;
+                let to = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 16.0 - 8.0;
+                (0..len)
+                    .map(|_| {
+                        let jitter =
+                            |r: &mut Pcg32| DVec3::new(r.next_f64(), r.next_f64(), r.next_f64());
+                        let origin = from + (jitter(&mut r) - 0.5) * 0.2;
+                        crate::ray::Ray {
+                            origin,
+                            dir: (to + (jitter(&mut r) - 0.5) * 0.6 - origin).normalize(),
+                            time: r.next_f64(),
+                        }
+                    })
+                    .collect()
+            };
+            let mut rays = rays;
+            // Now and then a ray the `f32` test cannot take, or one that is not finite.
+            if round % 7 == 3 {
+                rays[0].dir = DVec3::new(1e-31, 1.0, 0.0).normalize();
+            }
+            if round % 11 == 5 {
+                rays[len - 1].origin.x = f64::NAN;
+            }
+            let mut t_max = [f64::INFINITY; PACKET];
+            if round % 2 == 1 {
+                for t in t_max.iter_mut().take(len) {
+                    *t = r.next_f64() * 30.0;
+                }
+            }
+            for (view, spheres) in cases {
+                hits += check(Plain, view, spheres, &rays, t_max, &mut stack);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    use super::lanes::{Avx, Sse, avx_where_available};
+                    check(Sse, view, spheres, &rays, t_max, &mut stack);
+                    if let Some(v3) = avx_where_available() {
+                        v3.vectorize(|| check(Avx(v3), view, spheres, &rays, t_max, &mut stack));
+                    }
+                }
+            }
+        }
+    }
+    assert!(hits > 2000, "{hits}");
 }

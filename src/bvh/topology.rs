@@ -1,9 +1,10 @@
-//! The structure of a hierarchy, which a refit keeps: every 4-wide node's children, packed
+//! The structure of a hierarchy, which a refit keeps: every 8-wide node's children, packed
 //! one word a slot, and the primitives in leaf order; refitting it to new boxes.
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, Boxes4, set_moving};
+use super::boxes::{Boxes, ChildBoxes, set_moving};
+use super::lanes::LANES;
 
 /// A child slot is one word: a node index, or a leaf's first primitive position with its
 /// primitive count in the bits from this one up (a node has count 0). Positions are below
@@ -12,14 +13,14 @@ pub(super) const COUNT_SHIFT: u32 = 28;
 /// The position bits of a child slot.
 pub(super) const POSITION_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
-/// The children of a 4-wide node: per slot, a node index or a leaf's first primitive position
-/// and count, packed in one word ([`COUNT_SHIFT`]). An empty slot is 0 (node 0 is the root,
-/// nobody's child). Sixteen bytes, aligned, so a node's children never straddle a cache line:
-/// a traversal reads them apart from the node's boxes, one line more per node.
+/// The children of an 8-wide node: per slot, a node index or a leaf's first primitive
+/// position and count, packed in one word ([`COUNT_SHIFT`]). An empty slot is 0 (node 0 is the
+/// root, nobody's child). Thirty-two bytes, aligned, so a node's children never straddle a
+/// cache line: a traversal reads them apart from the node's boxes, one line more per node.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(align(16))]
+#[repr(align(32))]
 pub(super) struct Links {
-    pub(super) child: [u32; 4],
+    pub(super) child: [u32; LANES],
 }
 
 impl Links {
@@ -32,7 +33,7 @@ impl Links {
 }
 
 /// The structure of a hierarchy over primitives `0..n`, which a refit keeps: the children of
-/// every 4-wide node (nodes in depth-first order, the root first) and the primitives in leaf
+/// every 8-wide node (nodes in depth-first order, the root first) and the primitives in leaf
 /// order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Topology {
@@ -54,7 +55,7 @@ impl Topology {
         let n = self.links.len();
         let mut boxes = Boxes {
             still: Vec::new(),
-            moving: vec![[Boxes4::EMPTY, Boxes4::ZERO]; n],
+            moving: vec![[ChildBoxes::EMPTY, ChildBoxes::ZERO]; n],
             bounds: Aabb::EMPTY,
         };
         // Nodes are in depth-first order, so every child comes after its parent: in reverse
@@ -63,7 +64,7 @@ impl Topology {
         for i in (0..n).rev() {
             let links = &self.links[i];
             let mut all = (Aabb::EMPTY, Aabb::EMPTY);
-            for k in 0..4 {
+            for k in 0..LANES {
                 let (child, count) = links.slot(k);
                 let (o, c) = if count > 0 {
                     (child..child + count).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
@@ -105,7 +106,7 @@ impl Topology {
         &self.order
     }
 
-    /// Number of 4-wide nodes.
+    /// Number of 8-wide nodes.
     pub fn node_count(&self) -> usize {
         self.links.len()
     }

@@ -181,6 +181,12 @@ pub struct RenderArgs {
     /// denoise = true`; the estimated error printed and recorded is the denoised frame's.
     #[arg(long)]
     pub denoise: bool,
+    /// With denoising: average each frame's noisy colour with the two frames before it,
+    /// followed along the motion vectors where they show the same surface, before denoising,
+    /// so that a denoised sequence does not flicker. A frame then depends on the two before
+    /// it, which are rendered first (not written) when the run does not render them.
+    #[arg(long)]
+    pub temporal: bool,
 }
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
@@ -267,6 +273,12 @@ pub struct ConvergeArgs {
     /// included) and its time with the denoising.
     #[arg(long)]
     pub denoise: bool,
+    /// Measure a sequence instead of one frame: these frames (`1-12`, as render's --frames)
+    /// rendered at --max-samples (default: the scene's), raw, denoised frame by frame and
+    /// denoised with --temporal; prints each one's true error and its flicker (its
+    /// frame-to-frame change beyond the true change) against references of every frame.
+    #[arg(long, value_name = "FRAMES", conflicts_with_all = ["frame", "reference", "budget", "csv", "plot"])]
+    pub flicker: Option<String>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
 }
@@ -313,26 +325,54 @@ pub struct ClipArgs {
     pub device: Option<Device>,
 }
 
-/// Arguments of `raytrace generate`.
+/// Arguments of `raytrace generate`: a random scene (`.toml`), or a fountain's point cache
+/// (`.ply`, a file per frame).
 #[derive(Args, Clone, Debug)]
 pub struct GenerateArgs {
-    /// Number of spheres.
+    /// Number of spheres (of a .toml scene).
     #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u64).range(1..=crate::scene_file::generate::MAX_SPHERES))]
     pub spheres: u64,
     /// Fraction of the spheres that move, 0 to 1.
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = fraction)]
     pub moving: f64,
-    /// Seed of the spheres' random numbers.
+    /// Seed of the spheres' (or particles') random numbers.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole::<u64>)]
     pub seed: u64,
-    /// Frames in the shot.
+    /// Particles of the fountain alive at once, about (of a .ply point cache).
+    #[arg(long, default_value_t = 2000, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u64).range(1..=crate::fountain::MAX_POINTS))]
+    pub points: u64,
+    /// How a .ply point cache is written.
+    #[arg(long, value_enum, default_value_t = PlyEncoding::BinaryLittleEndian)]
+    pub encoding: PlyEncoding,
+    /// Frames in the shot (or of the point cache, frames 1 to N at 24 fps).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
-    /// The scene file to write (.toml).
+    /// The scene file to write (.toml), or the point cache's files (.ply; each run of '#' is
+    /// the frame number, needed for more than one frame).
     #[arg(long, short)]
     pub output: PathBuf,
+}
+
+/// How a PLY file is written.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlyEncoding {
+    Ascii,
+    BinaryLittleEndian,
+    BinaryBigEndian,
+}
+
+impl PlyEncoding {
+    /// The PLY encoding.
+    pub fn encoding(self) -> crate::ply::Encoding {
+        match self {
+            PlyEncoding::Ascii => crate::ply::Encoding::Ascii,
+            PlyEncoding::BinaryLittleEndian => crate::ply::Encoding::BinaryLittleEndian,
+            PlyEncoding::BinaryBigEndian => crate::ply::Encoding::BinaryBigEndian,
+        }
+    }
 }
 
 impl SceneArgs {

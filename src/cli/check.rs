@@ -7,8 +7,9 @@ use super::args::CheckArgs;
 use super::frames;
 use super::jobs::{Job, load_shots};
 use crate::error::{Error, elide, elide_path};
-use crate::memory::{check_memory, mib};
+use crate::memory::{check_memory, memory_estimate, mib};
 use crate::motion::Motion;
+use crate::point_cache::{self, FrameSurvey};
 use crate::scene_file::Overrides;
 use crate::shutter::ShutterCurve;
 
@@ -44,7 +45,14 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
 fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
     let (scene_path, scene) = (&shot.path, &shot.scene);
     let selected = &shot.targets.frames;
-    let memory = check_memory(scene)?;
+    let memory = check_memory(scene, shot.points)?;
+    // Every file of every selected frame read and checked, value by value.
+    let mut surveys = std::collections::BTreeMap::new();
+    if !scene.points.is_empty() {
+        for f in selected.iter() {
+            surveys.insert(f, point_cache::check_frame(scene, f)?);
+        }
+    }
     let shot = &scene.shot;
     let mut s = String::new();
     let _ = writeln!(s, "{}: ok", elide_path(scene_path));
@@ -83,6 +91,33 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         moving,
         scene.spheres.len() - moving
     );
+    for (i, p) in scene.points.iter().enumerate() {
+        let kind = if p.is_sequence() {
+            "a file per frame"
+        } else {
+            "one file for every frame"
+        };
+        let motion = p
+            .motion
+            .map_or("default (velocity where the file has it)", |m| m.name());
+        let radius = p
+            .radius
+            .map_or("from the file".to_string(), |r| r.to_string());
+        let counts = surveys.values().map(|s: &FrameSurvey| s.points);
+        let (least, most) = (counts.clone().min().unwrap_or(0), counts.max().unwrap_or(0));
+        let _ = writeln!(
+            s,
+            "points[{i}]: {} ({kind}), motion {motion}, radius {radius}",
+            elide(&p.file)
+        );
+        if i + 1 == scene.points.len() {
+            let _ = writeln!(
+                s,
+                "points: {least} to {most} a frame over {} frames, every file checked",
+                surveys.len()
+            );
+        }
+    }
     let cam = match (&scene.camera.look_from, &scene.camera.look_at) {
         (Motion::Orbit { orbit, .. }, _) => {
             format!("orbit at {} degrees/s", orbit.degrees_per_second)
@@ -160,9 +195,18 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
                     .iter()
                     .filter(|s| s.prepare(i).motion.is_moving())
                     .count();
+                let points = match surveys.get(&f) {
+                    Some(p) => format!(
+                        ", {} points ({} moving), memory about {}",
+                        p.points,
+                        p.moving,
+                        mib(memory_estimate(scene, p.points))
+                    ),
+                    None => String::new(),
+                };
                 let _ = writeln!(
                     s,
-                    "  {f}: shutter [{}, {}] s, {moving_now} moving",
+                    "  {f}: shutter [{}, {}] s, {moving_now} moving{points}",
                     i.open, i.close
                 );
             }

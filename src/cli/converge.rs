@@ -23,7 +23,8 @@ use crate::format::{FRAME_FORMATS, Format};
 use crate::gpu::Gpu;
 use crate::io;
 use crate::output;
-use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame};
+use crate::points::FramePoints;
+use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame_with};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::{Device, Scene};
@@ -197,11 +198,22 @@ fn measure(
         Device::Cpu => None,
     };
     let geometry = ShotGeometry::new(scene, gpu.as_ref())?;
+    // The frame's points, read once for every render of it.
+    let points = match scene.points.is_empty() {
+        true => FramePoints::none(),
+        false => crate::point_cache::read_frame(scene, frame)?,
+    };
+    let shot = (&geometry, &points);
     let denoiser = match args.denoise {
         true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
         false => None,
     };
-    let reference = reference(scene, variant, &geometry, frame, args, &say)?;
+    let reference = reference(scene, variant, shot, frame, args, &say)?;
+    say(&format!(
+        "relative errors against the reference, less its own estimated error ({:.3}%; \
+         the noise of the two is independent, so their squares add)",
+        100.0 * reference.rel_mse.sqrt()
+    ));
 
     let samplers = if args.sampler.is_empty() {
         SamplerKind::ALL.to_vec()
@@ -224,12 +236,8 @@ fn measure(
             if !active[i] {
                 continue;
             }
-            let (result, seconds) = timed_render(
-                &variant(n, None, kind)?,
-                &geometry,
-                frame,
-                denoiser.as_ref(),
-            )?;
+            let (result, seconds) =
+                timed_render(&variant(n, None, kind)?, shot, frame, denoiser.as_ref())?;
             let denoised = result.denoised.as_ref().map(|d| {
                 let image: Vec<DVec3> = d
                     .rgb
@@ -238,8 +246,8 @@ fn measure(
                     .collect();
                 DenoisedMeasurement {
                     seconds,
-                    mse: metrics::mse(&image, &reference),
-                    rel_mse: metrics::rel_mse(&image, &reference),
+                    mse: reference.mse(&image),
+                    rel_mse: reference.rel_mse(&image),
                     estimated_rel_mse: d.relative_error.powi(2),
                 }
             });
@@ -249,8 +257,8 @@ fn measure(
                 sampler: kind,
                 samples: n,
                 seconds,
-                mse: metrics::mse(&result.film.means(), &reference),
-                rel_mse: metrics::rel_mse(&result.film.means(), &reference),
+                mse: reference.mse(&result.film.means()),
+                rel_mse: reference.rel_mse(&result.film.means()),
                 estimated_mse: metrics::estimated_mse(&result.film.variances()),
                 // The square of the raw frame's estimated relative error.
                 estimated_rel_mse: result.stats.noisy_relative_error.powi(2),
@@ -321,19 +329,48 @@ fn measure(
     Ok(report)
 }
 
-/// The reference image of `frame`: read from `--reference`, or rendered with many samples
-/// and a seed of its own, written to EXR, and read back.
+/// The reference image and its own estimated relative error, which every measured relative
+/// error, taken against it, holds too: the reference's noise is independent of a measured
+/// render's, so their squared errors add, and the reference's is subtracted from each
+/// measured one. (The MSE columns are against the reference as it is: a reference read back
+/// records its relative error, not its MSE, and both ways must give the same figures.)
+struct Reference {
+    pixels: Vec<DVec3>,
+    /// The square of its estimated relative error (0 when unknown).
+    rel_mse: f64,
+}
+
+impl Reference {
+    /// The mean squared error of `image` against the reference.
+    fn mse(&self, image: &[DVec3]) -> f64 {
+        metrics::mse(image, &self.pixels)
+    }
+
+    /// The relative mean squared error of `image` against the truth: against the reference,
+    /// less the reference's own (never below 0).
+    fn rel_mse(&self, image: &[DVec3]) -> f64 {
+        (metrics::rel_mse(image, &self.pixels) - self.rel_mse).max(0.0)
+    }
+}
+
+/// The reference image of `frame`: read from `--reference` (with its own error when its
+/// `estimatedRelativeError` attribute records it), or rendered with many samples and a seed
+/// of its own, written to EXR, and read back.
 fn reference(
     scene: &Scene,
     variant: &Variant,
-    geometry: &ShotGeometry,
+    (geometry, points): (&ShotGeometry, &FramePoints),
     frame: u32,
     args: &ConvergeArgs,
     say: &dyn Fn(&str),
-) -> Result<Vec<DVec3>, Error> {
+) -> Result<Reference, Error> {
     let (width, height) = (scene.output.width, scene.output.height);
     if let Some(path) = &args.reference {
-        return read_reference(path, width, height);
+        let rel_mse = io::read_exr_number(path, "estimatedRelativeError").map_or(0.0, |e| e * e);
+        return Ok(Reference {
+            pixels: read_reference(path, width, height)?,
+            rel_mse,
+        });
     }
     let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     let path = args
@@ -349,9 +386,10 @@ fn reference(
         "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
         reference.render.sampler
     ));
-    let result = render_shot_frame(
+    let result = render_shot_frame_with(
         &reference,
         geometry,
+        points,
         frame,
         &Budget::default(),
         None,
@@ -369,7 +407,10 @@ fn reference(
         path.display()
     ));
     // Compare against what was written (f32), as a reused reference would be.
-    read_reference(&path, width, height)
+    Ok(Reference {
+        pixels: read_reference(&path, width, height)?,
+        rel_mse: result.stats.relative_error.powi(2),
+    })
 }
 
 /// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
@@ -377,7 +418,7 @@ fn reference(
 /// the clock).
 fn timed_render(
     scene: &Scene,
-    geometry: &ShotGeometry,
+    (geometry, points): (&ShotGeometry, &FramePoints),
     frame: u32,
     denoiser: Option<&Denoiser>,
 ) -> Result<(FrameResult, f64), Error> {
@@ -386,7 +427,7 @@ fn timed_render(
     while times.len() < MAX_REPEATS {
         let start = Instant::now();
         let budget = Budget::default();
-        let r = render_shot_frame(scene, geometry, frame, &budget, denoiser, &|_| {})?;
+        let r = render_shot_frame_with(scene, geometry, points, frame, &budget, denoiser, &|_| {})?;
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);
         if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {

@@ -1,15 +1,22 @@
-//! `raytrace generate`: writes a large random test scene (see [`crate::scene_file::generate`]).
+//! `raytrace generate`: writes a large random test scene (see [`crate::scene_file::generate`]),
+//! or a fountain's point cache, a PLY file per frame (see [`crate::fountain`]).
 
 use super::args::GenerateArgs;
-use crate::error::Error;
+use crate::error::{Error, elide_path};
 use crate::format::Format;
+use crate::fountain::{FPS, Fountain, write_frame};
 use crate::io;
+use crate::path_pattern::{frame_path, pattern_has_frame_number};
 use crate::scene_file::generate::{RandomScene, scene_text};
 
-/// Writes the scene to its `.toml` file, atomically. The argument ranges were checked by the
-/// command line's parsers.
-pub(crate) fn generate(args: &GenerateArgs) -> Result<(), Error> {
-    Format::of(&args.output, &[Format::Toml], "scene").map_err(Error::Usage)?;
+/// Writes the scene to its `.toml` file, or the point cache's `.ply` files, atomically. The
+/// argument ranges were checked by the command line's parsers. Returns what was written.
+pub(crate) fn generate(args: &GenerateArgs) -> Result<String, Error> {
+    let format =
+        Format::of(&args.output, &[Format::Toml, Format::Ply], "scene").map_err(Error::Usage)?;
+    if format == Format::Ply {
+        return point_cache(args);
+    }
     io::check_target(&args.output).map_err(Error::Usage)?;
     let scene = RandomScene {
         spheres: args.spheres,
@@ -17,5 +24,36 @@ pub(crate) fn generate(args: &GenerateArgs) -> Result<(), Error> {
         seed: args.seed,
         frames: args.frames,
     };
-    io::write_file(&args.output, scene_text(&scene).as_bytes())
+    io::write_file(&args.output, scene_text(&scene).as_bytes())?;
+    Ok(String::new())
+}
+
+/// The fountain's frames 1 to `args.frames`, one file each.
+fn point_cache(args: &GenerateArgs) -> Result<String, Error> {
+    let pattern = args.output.to_string_lossy().into_owned();
+    if args.frames > 1 && !pattern_has_frame_number(&pattern) {
+        return Err(Error::Usage(format!(
+            "{}: {} frames of a point cache need a '#' in the name for the frame number",
+            elide_path(&args.output),
+            args.frames
+        )));
+    }
+    let paths: Vec<_> = (1..=args.frames).map(|f| frame_path(&pattern, f)).collect();
+    for p in [paths.first(), paths.last()].into_iter().flatten() {
+        io::check_target(p).map_err(Error::Usage)?;
+    }
+    let fountain = Fountain {
+        points: args.points,
+        seed: args.seed,
+    };
+    let (mut least, mut most) = (usize::MAX, 0);
+    for (k, path) in paths.iter().enumerate() {
+        let n = write_frame(&fountain, k as f64 / FPS, path, args.encoding.encoding())?;
+        (least, most) = (least.min(n), most.max(n));
+    }
+    Ok(format!(
+        "{} frames of a fountain ({least} to {most} points a frame) written to {}",
+        args.frames,
+        elide_path(&args.output)
+    ))
 }

@@ -8,6 +8,7 @@ use super::frames::{Selection, batch_chunk};
 use crate::error::{Error, elide_path};
 use crate::io;
 use crate::path_pattern;
+use crate::point_cache;
 use crate::scene::Scene;
 use crate::scene_file::Overrides;
 
@@ -73,11 +74,27 @@ pub(crate) struct Job {
     pub(crate) path: PathBuf,
     pub(crate) scene: Scene,
     pub(crate) targets: Targets,
+    /// The most points one of the frames holds, over the scene's point caches (0 without).
+    pub(crate) points: u64,
+}
+
+/// Surveys the point-cache files of every frame `targets` renders (each exists, is a PLY
+/// file with the attributes its cache needs and the bytes its header declares: see
+/// [`point_cache::survey_frame`]); returns the most points a frame holds.
+fn survey_points(scene: &Scene, targets: &Targets) -> Result<u64, Error> {
+    let mut most = 0;
+    if !scene.points.is_empty() {
+        for frame in targets.frames.iter() {
+            most = most.max(point_cache::survey_frame(scene, frame)?);
+        }
+    }
+    Ok(most)
 }
 
 /// Loads and validates every scene of a run, selects the frames of each (`--frames` applies
 /// to each scene; a chunk counts over the frames of all of them, in order), and checks their
-/// files, before anything is rendered: any bad scene or argument fails the whole run.
+/// files (and the point caches' files of those frames), before anything is rendered: any bad
+/// scene or argument fails the whole run.
 /// Several scenes must not write the same files, so with several scenes an `--output` (or a
 /// `--clip`) must hold `{scene}`.
 pub(crate) fn load_shots(
@@ -113,10 +130,12 @@ pub(crate) fn load_shots(
     let mut shots = Vec::with_capacity(paths.len());
     for ((path, scene), selected) in paths.iter().zip(scenes).zip(selections) {
         let targets = targets_of(&scene, selected)?;
+        let points = survey_points(&scene, &targets)?;
         shots.push(Job {
             path: path.clone(),
             scene,
             targets,
+            points,
         });
     }
     check_distinct(&shots)?;

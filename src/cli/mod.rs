@@ -5,12 +5,14 @@
 //! A command module parses nothing more, calls the library and prints; no command imports
 //! another. What several commands share lives in helper modules: the shots and frames of a
 //! run ([`jobs`], [`frames`]), progress and printed lines ([`progress`]), interrupts
-//! ([`interrupt`]) and worker threads ([`threads`]).
+//! ([`interrupt`]) and worker threads ([`threads`]). `converge --flicker` measures a sequence
+//! in a module of its own ([`flicker`]).
 
 mod args;
 mod check;
 mod clip;
 mod converge;
+mod flicker;
 mod frames;
 mod generate;
 mod interrupt;
@@ -21,7 +23,7 @@ mod threads;
 
 pub use args::{
     BudgetArgs, CheckArgs, Cli, ClipArgs, Command, ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD,
-    GenerateArgs, MAX_THREADS, PassList, RenderArgs, SceneArgs,
+    GenerateArgs, MAX_THREADS, PassList, PlyEncoding, RenderArgs, SceneArgs,
 };
 pub use threads::thread_pool;
 
@@ -32,9 +34,16 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
     interrupt::install()?;
     match &cli.command {
         Command::Render(args) => render::render(args).map(|_| ()),
-        Command::Converge(args) => converge::converge(args).map(|_| ()),
+        Command::Converge(args) => match &args.flicker {
+            Some(spec) => flicker::measure_flicker(args, spec).map(|_| ()),
+            None => converge::converge(args).map(|_| ()),
+        },
         Command::Check(args) => check::check(args).map(|s| progress::print_line(s.trim_end())),
         Command::Clip(args) => clip::clip(args),
-        Command::Generate(args) => generate::generate(args),
+        Command::Generate(args) => generate::generate(args).map(|s| {
+            if !s.is_empty() {
+                progress::print_line(&s)
+            }
+        }),
     }
 }

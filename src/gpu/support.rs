@@ -1,13 +1,18 @@
 //! What the GPU path renders, and what it refuses before anything is rendered.
 //!
-//! The GPU traces every feature of the format (the three motions, the camera's motion and
-//! lens, shutter positions, curves and rolling shutters, the three materials and both
-//! backgrounds, passes, budgets) with the CPU's integrand, in `f32`: WGSL has no `f64`. An
-//! `f32` carries 24 bits, so a coordinate `X` is resolved to about `2^-24 X` (6e-8 of it),
-//! where the CPU's `f64` resolves `1.1e-16 X`. Scenes whose numbers `f32` cannot carry
-//! faithfully are refused here, when the scene is validated (`check` and `render` exit 2),
-//! never rendered differently; docs/gpu.md lists the limits and the stability suite
-//! (tests/stability.rs) which of its extreme cases pass on the GPU and which are refused.
+//! The GPU traces every feature of the format but point caches (below): the three motions,
+//! the camera's motion and lens, shutter positions, curves and rolling shutters, the three
+//! materials and both backgrounds, passes, budgets, with the CPU's integrand, in `f32`: WGSL
+//! has no `f64`. An `f32` carries 24 bits, so a coordinate `X` is resolved to about
+//! `2^-24 X` (6e-8 of it), where the CPU's `f64` resolves `1.1e-16 X`. Scenes whose numbers
+//! `f32` cannot carry faithfully are refused here, when the scene is validated (`check` and
+//! `render` exit 2), never rendered differently; docs/gpu.md lists the limits and the
+//! stability suite (tests/stability.rs) which of its extreme cases pass on the GPU and which
+//! are refused.
+//!
+//! Point caches (`[[points]]`) are not traced on the GPU: their points may carry colours of
+//! their own, which the GPU's sphere records do not, and a frame's points are read per frame
+//! and may be far more than one GPU buffer holds. A scene with point caches is refused too.
 
 use crate::motion::Motion;
 use crate::scene::Scene;
@@ -46,6 +51,9 @@ pub const MAX_BUFFER_BYTES: u64 = 128 << 20;
 /// Why the GPU path does not render a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Unsupported {
+    /// The scene has point caches (`[[points]]`, this many tables), which only the CPU
+    /// renders.
+    PointCaches { tables: usize },
     /// A coordinate (of a sphere's path over the shot, or the camera's) or a radius beyond
     /// [`MAX_COORDINATE`]; `what` names it (`sphere[3]`, `camera.look_from`).
     Far { what: String, value: f64 },
@@ -69,8 +77,14 @@ pub enum Unsupported {
 }
 
 /// Why the GPU path does not render `scene`, if it does not: the first limit it passes, in
-/// the order of [`Unsupported`]'s kinds (spheres in order, then the camera, then the size).
+/// the order of [`Unsupported`]'s kinds (point caches, spheres in order, then the camera,
+/// then the size).
 pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
+    if !scene.points.is_empty() {
+        return Some(Unsupported::PointCaches {
+            tables: scene.points.len(),
+        });
+    }
     let shot = &scene.shot;
     let period = 1.0 / shot.fps;
     let whole = shot.whole_interval();

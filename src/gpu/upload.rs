@@ -55,6 +55,10 @@ impl ShotWords {
     /// The words of `scene`'s shot: its materials, the Sobol tables, and its spheres that
     /// never move with their hierarchy (built as the CPU tracer builds its own).
     pub(super) fn new(scene: &Scene) -> Result<ShotWords, String> {
+        if !scene.points.is_empty() {
+            // Refused when the scene is validated (`super::support`).
+            return Err("the GPU renders no point caches ([[points]])".to_string());
+        }
         let mut w = Words::default();
         let materials = w.at();
         for m in &scene.materials {

@@ -95,6 +95,20 @@ pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<glam::DVec3>), Str
     Ok((size.width(), size.height(), pixels))
 }
 
+/// The numeric (double or int) header attribute `name` of the EXR file at `path`'s first
+/// part, if it has one; reads the header only.
+pub fn read_exr_number(path: &Path, name: &str) -> Option<f64> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    let meta = exr::meta::MetaData::read_from_file(path, false).ok()?;
+    let header = meta.headers.first()?;
+    match header.own_attributes.other.get(&Text::from(name))? {
+        AttributeValue::F64(x) => Some(*x),
+        AttributeValue::F32(x) => Some(*x as f64),
+        AttributeValue::I32(x) => Some(*x as f64),
+        _ => None,
+    }
+}
+
 /// A frame rate as the rational of the standard `framesPerSecond` attribute.
 ///
 /// Whole numbers are exact (`24` → 24/1); the NTSC rates `n * 1000/1001` written to a few

@@ -16,7 +16,7 @@ pub(crate) use atomic::{
     write_with_temp_file,
 };
 pub(crate) use exr::fps_rational;
-pub use exr::{FrameInfo, read_exr_rgb};
+pub use exr::{FrameInfo, read_exr_number, read_exr_rgb};
 pub(crate) use frame::check_frame_file;
 pub use frame::{write_frame, write_frame_from, write_frame_with_passes};
 pub use image::{Image, RgbSource};

@@ -1,11 +1,17 @@
 //! A film denoised: the full frame and each of its two replicates through the denoiser, each
 //! with guides of its own samples, and from them the denoised frame's estimated error, bias
 //! included (`denoise::estimate`), per pixel and for the frame.
+//!
+//! Seven runs of the filter: each replicate's albedo and normal prefiltered (four), then the
+//! two replicates and the full frame. The full frame's guides are the prefiltered replicates'
+//! guides averaged by their samples: prefiltering the full frame's own would take two more
+//! runs for guides hardly cleaner.
 
 use glam::DVec3;
 
 use crate::denoise::denoiser::{DenoiseError, Denoiser, Guides};
 use crate::denoise::estimate::{self, PixelInputs};
+use crate::denoise::reproject::Accumulated;
 use crate::film::Film;
 use crate::passes::Layout;
 
@@ -24,6 +30,9 @@ pub struct Denoised {
     /// Each pixel's estimated relative squared error, row-major: unbiased but noisy, possibly
     /// negative.
     pub pixel_errors: Vec<f64>,
+    /// With temporal denoising: how many frames a pixel's colour averaged, on average over
+    /// the frame (`denoise::reproject`).
+    pub frames_averaged: Option<f64>,
 }
 
 impl Denoised {
@@ -47,13 +56,16 @@ impl Denoised {
 }
 
 /// The film's images as the denoiser takes them, row-major: the full frame, the two
-/// replicates, and each one's guides.
+/// replicates, and each replicate's guides.
 struct Images {
     full: Vec<f32>,
     a: Vec<f32>,
     b: Vec<f32>,
-    albedo: [Vec<f32>; 3],
-    normal: [Vec<f32>; 3],
+    albedo: [Vec<f32>; 2],
+    normal: [Vec<f32>; 2],
+    /// Each pixel's share of its samples in replicate `a`, `n_a / n` (one half without
+    /// samples).
+    share_a: Vec<f32>,
     /// The estimate's inputs but for the denoised replicates, filled in later.
     inputs: Vec<PixelInputs>,
 }
@@ -75,8 +87,9 @@ fn images(film: &Film, guides: usize) -> Images {
         full: zeros(),
         a: zeros(),
         b: zeros(),
-        albedo: [zeros(), zeros(), zeros()],
-        normal: [zeros(), zeros(), zeros()],
+        albedo: [zeros(), zeros()],
+        normal: [zeros(), zeros()],
+        share_a: vec![0.5; n],
         inputs: vec![
             PixelInputs {
                 a: DVec3::ZERO,
@@ -109,13 +122,10 @@ fn images(film: &Film, guides: usize) -> Images {
             im.full[at.clone()].copy_from_slice(&pixel.rgb_f32());
             im.a[at.clone()].copy_from_slice(&finite_f32(a));
             im.b[at.clone()].copy_from_slice(&finite_f32(b));
-            let sum = |j: usize| {
-                let (e, o) = (&g[j..j + 3], &g[6 + j..9 + j]);
-                [e[0] + o[0], e[1] + o[1], e[2] + o[2]]
-            };
-            let all = n_a + n_b;
+            if taken > 0 {
+                im.share_a[i] = (n_a / (n_a + n_b)) as f32;
+            }
             let guide = [
-                (over(&sum(0), all), over(&sum(3), all)),
                 (over(&g[0..3], n_a), over(&g[3..6], n_a)),
                 (over(&g[6..9], n_b), over(&g[9..12], n_b)),
             ];
@@ -143,28 +153,74 @@ pub(super) fn denoise(
     layout: &Layout,
     denoiser: &Denoiser,
 ) -> Result<Denoised, DenoiseError> {
+    denoise_with(film, layout, denoiser, None)
+}
+
+/// [`denoise`], with the replicates' colours `accumulated` over the frames before the film's
+/// in place of its own (`denoise::reproject`). The error is still estimated against the
+/// film's own replicates: `D(a)`, made from `a` accumulated, is checked against this frame's
+/// own `b` (independent of it, and unbiased for this frame), so the estimate sees what
+/// borrowing from earlier frames costs as well as what it gains.
+pub(super) fn denoise_with(
+    film: &Film,
+    layout: &Layout,
+    denoiser: &Denoiser,
+    accumulated: Option<&Accumulated>,
+) -> Result<Denoised, DenoiseError> {
     let guides = layout
         .guides()
         .expect("a denoised frame keeps the denoiser's guides");
     let (w, h) = (film.width as usize, film.height as usize);
     let mut im = images(film, guides);
-    let run = |colour: &[f32], r: usize| {
-        denoiser.denoise(
+    if let Some(acc) = accumulated {
+        im.a.clone_from(&acc.a);
+        im.b.clone_from(&acc.b);
+        for (k, full) in im.full.iter_mut().enumerate() {
+            let s = im.share_a[k / 3];
+            *full = s * acc.a[k] + (1.0 - s) * acc.b[k];
+        }
+    }
+    let replicate = |colour: &[f32], r: usize| -> Result<(Vec<f32>, [Vec<f32>; 2]), DenoiseError> {
+        let raw = Guides {
+            albedo: &im.albedo[r],
+            normal: &im.normal[r],
+        };
+        let (albedo, normal) = denoiser.prefilter(w, h, raw)?;
+        let clean = Guides {
+            albedo: &albedo,
+            normal: &normal,
+        };
+        let mut out = denoiser.denoise_with_clean_guides(w, h, &[colour], clean)?;
+        Ok((out.remove(0), [albedo, normal]))
+    };
+    let (a, [albedo_a, normal_a]) = replicate(&im.a, 0)?;
+    let (b, [albedo_b, normal_b]) = replicate(&im.b, 1)?;
+    let mean = |x: &[f32], y: &[f32]| -> Vec<f32> {
+        x.iter()
+            .zip(y)
+            .enumerate()
+            .map(|(k, (x, y))| {
+                let s = im.share_a[k / 3];
+                s * x + (1.0 - s) * y
+            })
+            .collect()
+    };
+    let (albedo, normal) = (mean(&albedo_a, &albedo_b), mean(&normal_a, &normal_b));
+    let full = denoiser
+        .denoise_with_clean_guides(
             w,
             h,
-            colour,
+            &[&im.full],
             Guides {
-                albedo: &im.albedo[r],
-                normal: &im.normal[r],
+                albedo: &albedo,
+                normal: &normal,
             },
-        )
-    };
-    let full = run(&im.full, 0)?;
-    let a = run(&im.a, 1)?;
-    let b = run(&im.b, 2)?;
+        )?
+        .remove(0);
+    let mut inputs = im.inputs;
     let triple =
         |v: &[f32], i: usize| DVec3::new(v[3 * i] as f64, v[3 * i + 1] as f64, v[3 * i + 2] as f64);
-    for (i, p) in im.inputs.iter_mut().enumerate() {
+    for (i, p) in inputs.iter_mut().enumerate() {
         p.denoised_a = triple(&a, i);
         p.denoised_b = triple(&b, i);
     }
@@ -172,8 +228,8 @@ pub(super) fn denoise(
     let denoised_full: Vec<DVec3> = (0..w * h)
         .map(|i| triple(&full, i).max(DVec3::ZERO))
         .collect();
-    let pixel_errors = estimate::relative_squared_errors(&im.inputs, &denoised_full, w);
-    let relative_error = estimate::frame_relative_error(&im.inputs, &denoised_full, w);
+    let pixel_errors = estimate::relative_squared_errors(&inputs, &denoised_full, w);
+    let relative_error = estimate::frame_relative_error(&inputs, &denoised_full, w);
     let rgb = full
         .into_iter()
         .map(|c| if c.is_finite() { c } else { 0.0 })
@@ -182,5 +238,6 @@ pub(super) fn denoise(
         rgb,
         relative_error,
         pixel_errors,
+        frames_averaged: None,
     })
 }

@@ -11,7 +11,9 @@ use super::tiles::{FrameRequest, FrameSetup};
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
+use crate::gpu::GpuError;
 use crate::passes::{Layout, PassContext, PassImages};
+use crate::points::FramePoints;
 use crate::scene::Scene;
 use crate::shutter::{FrameTimes, Interval};
 use crate::world::{StaticGeometry, World};
@@ -98,6 +100,8 @@ impl FrameResult {
 /// bit-identical to the same pixel rendered with exactly N samples.
 ///
 /// The frame is not denoised, whatever `[output] denoise` says: see [`render_frame_denoised`].
+/// The scene's point caches are not read here (reading files is not the frame's business):
+/// a scene with `[[points]]` renders through [`render_frame_with`], given the frame's points.
 pub fn render_frame(
     scene: &Scene,
     statics: &StaticGeometry,
@@ -105,7 +109,35 @@ pub fn render_frame(
     budget: &Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> FrameResult {
-    match render(scene, On::Cpu(statics), frame, budget, None, progress) {
+    render_frame_with(
+        scene,
+        statics,
+        &FramePoints::none(),
+        frame,
+        budget,
+        progress,
+    )
+}
+
+/// [`render_frame`] with `points`, the frame's points of the scene's point caches (as
+/// `point_cache::read_frame` reads them), among its spheres.
+pub fn render_frame_with(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    points: &FramePoints,
+    frame: u32,
+    budget: &Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> FrameResult {
+    match render(
+        scene,
+        On::Cpu(statics),
+        points,
+        frame,
+        budget,
+        Denoising::Off,
+        progress,
+    ) {
         Ok(result) => result,
         Err(_) => unreachable!("a frame on the CPU without a denoiser cannot fail"),
     }
@@ -116,9 +148,11 @@ pub fn render_frame(
 /// noise threshold, sampling stops when the *denoised* estimate meets it, and the adaptive
 /// rounds send samples where the denoised frame's estimated error is largest. The raw film
 /// and its passes are the same bits as [`render_frame`]'s at the same sample counts.
+/// `points`: the frame's points, as for [`render_frame_with`].
 pub fn render_frame_denoised(
     scene: &Scene,
     statics: &StaticGeometry,
+    points: &FramePoints,
     frame: u32,
     budget: &Budget,
     denoiser: &Denoiser,
@@ -127,18 +161,20 @@ pub fn render_frame_denoised(
     render(
         scene,
         On::Cpu(statics),
+        points,
         frame,
         budget,
-        Some(denoiser),
+        Denoising::Frame(denoiser),
         progress,
     )
-    .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
+    .map_err(|e| frame_failed(frame, e))
 }
 
 /// [`render_frame`] or [`render_frame_denoised`] on the device `geometry` was made for (the
 /// scene's `[render] device`): the same rounds, budgets and film either way, the samples
 /// traced by the CPU's threads or by the GPU. A GPU that fails mid-frame (lost, out of
 /// memory) is an [`Error::Resource`] naming the frame, and nothing of the frame is kept.
+/// The scene's point caches are not read: see [`render_shot_frame_with`].
 pub fn render_shot_frame(
     scene: &Scene,
     geometry: &ShotGeometry,
@@ -147,28 +183,96 @@ pub fn render_shot_frame(
     denoiser: Option<&Denoiser>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, Error> {
-    render(scene, geometry.on(), frame, budget, denoiser, progress)
-        .map_err(|e| Error::Resource(format!("frame {frame}: {e}")))
+    render_shot_frame_with(
+        scene,
+        geometry,
+        &FramePoints::none(),
+        frame,
+        budget,
+        denoiser,
+        progress,
+    )
 }
 
-fn render(
+/// [`render_shot_frame`] with `points`, the frame's points, as for [`render_frame_with`]. The
+/// GPU renders no point caches (a scene with `[[points]]` is refused for it when validated,
+/// and by [`ShotGeometry::new`]): on the GPU, points are an error.
+pub fn render_shot_frame_with(
     scene: &Scene,
-    on: On<'_>,
+    geometry: &ShotGeometry,
+    points: &FramePoints,
     frame: u32,
     budget: &Budget,
     denoiser: Option<&Denoiser>,
     progress: &(dyn Fn(u64) + Sync),
+) -> Result<FrameResult, Error> {
+    let denoising = match denoiser {
+        Some(d) => Denoising::Frame(d),
+        None => Denoising::Off,
+    };
+    render(
+        scene,
+        geometry.on(),
+        points,
+        frame,
+        budget,
+        denoising,
+        progress,
+    )
+    .map_err(|e| frame_failed(frame, e))
+}
+
+/// The error of a frame that failed: its denoising, or its device.
+pub(super) fn frame_failed(frame: u32, e: FrameError) -> Error {
+    Error::Resource(format!("frame {frame}: {e}"))
+}
+
+/// How a frame is denoised.
+#[derive(Clone, Copy)]
+pub(super) enum Denoising<'d> {
+    /// Not at all.
+    Off,
+    /// On its own.
+    Frame(&'d Denoiser),
+    /// With the frames before it, by the caller (`renderer::temporal`): the film keeps what
+    /// carries its pixels to earlier frames (depth, normal, motion), and the finished frame is
+    /// left undenoised (the rounds under a noise threshold still decide by the frame denoised
+    /// on its own).
+    Temporal(&'d Denoiser),
+}
+
+pub(super) fn render(
+    scene: &Scene,
+    on: On<'_>,
+    points: &FramePoints,
+    frame: u32,
+    budget: &Budget,
+    denoising: Denoising<'_>,
+    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, FrameError> {
+    let denoiser = match denoising {
+        Denoising::Off => None,
+        Denoising::Frame(d) | Denoising::Temporal(d) => Some(d),
+    };
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
     let interval = times.interval;
     let layout = match denoiser {
-        Some(_) => Layout::with_guides(scene.output.passes),
+        Some(_) => Layout::for_denoising(
+            scene.output.passes,
+            matches!(denoising, Denoising::Temporal(_)),
+        ),
         None => Layout::new(scene.output.passes),
     };
     let mut rounds = match on {
-        On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(scene, statics, req, times, layout))),
+        On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(
+            scene, statics, points, req, times, layout,
+        ))),
+        // Unreachable from a validated scene: one with `[[points]]` is refused for the GPU.
+        On::Gpu(_) if !points.is_empty() => {
+            return Err(GpuError::Failed("the GPU renders no point caches".to_string()).into());
+        }
         On::Gpu(shot) => Rounds::Gpu(Box::new(shot.frame(scene, frame, &layout)?)),
     };
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
@@ -275,7 +379,7 @@ fn render(
 
     stats.noisy_relative_error = relative_error(&film);
     stats.relative_error = stats.noisy_relative_error;
-    if let Some(d) = denoiser {
+    if let Denoising::Frame(d) = denoising {
         let made = match denoised {
             // The last round's film, denoised to decide to stop.
             Some(made) if stats.stop == StopReason::NoiseThreshold => made,
@@ -288,6 +392,9 @@ fn render(
         };
         stats.relative_error = made.relative_error;
         denoised = Some(made);
+    } else {
+        // Denoised by the caller, with the frames before it.
+        denoised = None;
     }
     let taken = film.all_pixels().iter().map(Pixel::taken);
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
@@ -305,16 +412,17 @@ fn render(
 }
 
 /// Everything about a frame on the CPU that is fixed before its first sample: its world (the
-/// spheres prepared for its interval, their hierarchies), its camera and passes.
+/// spheres and `points` prepared for its interval, their hierarchies), its camera and passes.
 fn cpu_setup<'a>(
     scene: &'a Scene,
     statics: &'a StaticGeometry,
+    points: &'a FramePoints,
     req: &'a FrameRequest,
     times: FrameTimes,
     layout: Layout,
 ) -> FrameSetup<'a> {
     let interval = times.interval;
-    let world = World::prepare(scene, statics, interval);
+    let world = World::prepare_with(scene, statics, points, interval);
     let camera_moves = scene.camera.moves_in(interval);
     let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
     let passes = (layout.stride > 0).then(|| {
@@ -327,6 +435,7 @@ fn cpu_setup<'a>(
             req.width,
             req.height,
         )
+        .with_points(points)
     });
     FrameSetup {
         scene,

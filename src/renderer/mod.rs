@@ -8,7 +8,8 @@
 //! - [`adaptive`]: which pixels take more samples in an adaptive round;
 //! - [`denoised`]: a film denoised, and the denoised frame's estimated error;
 //! - [`device`]: which device takes a frame's rounds (the CPU's tiles or the GPU), and what a
-//!   shot keeps on it ([`ShotGeometry`]).
+//!   shot keeps on it ([`ShotGeometry`]);
+//! - [`temporal`]: frames denoised with the frames before them.
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
@@ -17,6 +18,7 @@ mod budget;
 mod denoised;
 mod device;
 mod frame;
+mod temporal;
 mod tiles;
 
 pub use crate::film::TILE;
@@ -24,5 +26,7 @@ pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 pub use denoised::Denoised;
 pub use device::ShotGeometry;
 pub use frame::{
-    FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised, render_shot_frame,
+    FrameResult, FrameStats, relative_error, render_frame, render_frame_denoised,
+    render_frame_with, render_shot_frame, render_shot_frame_with,
 };
+pub use temporal::TemporalDenoiser;

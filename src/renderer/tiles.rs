@@ -7,6 +7,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::adaptive::Plan;
+use crate::bvh::PACKET;
 use crate::camera::View;
 use crate::film::{Film, FilmTile};
 use crate::passes::PassContext;
@@ -14,7 +15,7 @@ use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::shutter::{FrameTimes, Interval};
-use crate::tracer::{TraceStats, camera_radiance, radiance};
+use crate::tracer::{TraceStats, camera_radiance, radiance, radiance_packet};
 use crate::world::World;
 
 /// The settings of one frame, copied from the scene's (`[output]` size, `[render]`) so the
@@ -94,33 +95,62 @@ impl FrameSetup<'_> {
             counts.samples += target.saturating_sub(acc.taken()) as u64;
             let sums = if stride > 0 { sums.next() } else { None };
             let sums = sums.unwrap_or_default();
-            for s in acc.taken()..target {
-                sampler.start_sample(x, y, s);
-                // The pixel position, and the lens position and the time (one joint
-                // sample) where used; the bounces' numbers do not depend on which are.
-                let camera = sampler.camera(uses);
-                let time = if self.sample_time {
-                    // The row of a rolling shutter: the sample's continuous y over the
-                    // height (0 at the top edge), as the camera places it.
-                    let row = (y as f64 + camera.pixel.1) / req.height as f64;
-                    self.times.time(camera.time, row)
+            let mut s = acc.taken();
+            while s < target {
+                // Without passes, a pixel's camera rays go in packets of up to `PACKET`
+                // samples: coherent rays, one traversal (`radiance_packet`, the same values).
+                let n = if observed {
+                    1
                 } else {
-                    interval.open
+                    (target - s).min(PACKET as u32)
                 };
-                let view = if self.camera_moves {
-                    self.scene.camera.view_at(time, req.width, req.height)
-                } else {
-                    self.fixed_view
-                };
-                let ray = view.ray(x, y, camera.pixel, camera.lens, time);
-                let v = if observed {
-                    self.observed_sample(ray, &view, sampler, &mut stats, sums, s % 2 == 1)
-                } else {
-                    radiance(&self.world, ray, req.max_depth, sampler, &mut stats)
-                };
-                if !acc.add(v) {
-                    counts.non_finite += 1;
+                let mut rays = [Ray {
+                    origin: DVec3::ZERO,
+                    dir: DVec3::ZERO,
+                    time: 0.0,
+                }; PACKET];
+                let mut view = self.fixed_view;
+                for (k, ray) in rays.iter_mut().enumerate().take(n as usize) {
+                    let s = s + k as u32;
+                    sampler.start_sample(x, y, s);
+                    // The pixel position, and the lens position and the time (one joint
+                    // sample) where used; the bounces' numbers do not depend on which are.
+                    let camera = sampler.camera(uses);
+                    let time = if self.sample_time {
+                        // The row of a rolling shutter: the sample's continuous y over the
+                        // height (0 at the top edge), as the camera places it.
+                        let row = (y as f64 + camera.pixel.1) / req.height as f64;
+                        self.times.time(camera.time, row)
+                    } else {
+                        interval.open
+                    };
+                    if self.camera_moves {
+                        view = self.scene.camera.view_at(time, req.width, req.height);
+                    }
+                    *ray = view.ray(x, y, camera.pixel, camera.lens, time);
                 }
+                let mut v = [DVec3::ZERO; PACKET];
+                if observed {
+                    v[0] =
+                        self.observed_sample(rays[0], &view, sampler, &mut stats, sums, s % 2 == 1);
+                } else if n == 1 {
+                    v[0] = radiance(&self.world, rays[0], req.max_depth, sampler, &mut stats);
+                } else {
+                    v = radiance_packet(
+                        &self.world,
+                        &rays[..n as usize],
+                        (x, y, s),
+                        req.max_depth,
+                        sampler,
+                        &mut stats,
+                    );
+                }
+                for v in &v[..n as usize] {
+                    if !acc.add(*v) {
+                        counts.non_finite += 1;
+                    }
+                }
+                s += n;
             }
         }
         counts.rays = stats.rays;

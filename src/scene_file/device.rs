@@ -40,6 +40,15 @@ pub(super) fn check(scene: Scene, overrides: &Overrides) -> Result<Scene, Error>
     } else {
         format!("{file}: render.device = \"gpu\"")
     };
+    if let Unsupported::PointCaches { tables } = why {
+        let tables = match tables {
+            1 => "a [[points]] table".to_string(),
+            n => format!("{n} [[points]] tables"),
+        };
+        return Err(Error::Scene(format!(
+            "{chosen}: the GPU does not render point caches, and this scene has {tables}; render it with --device cpu"
+        )));
+    }
     Err(Error::Scene(format!(
         "{chosen}: the GPU computes in 32-bit floats and does not render this scene: {}; render it with --device cpu",
         describe(&why)
@@ -49,6 +58,7 @@ pub(super) fn check(scene: Scene, overrides: &Overrides) -> Result<Scene, Error>
 /// What is beyond the GPU's limits, in words.
 fn describe(why: &Unsupported) -> String {
     match why {
+        Unsupported::PointCaches { .. } => "its point caches".to_string(),
         Unsupported::Far { what, value } => format!(
             "{what} reaches a coordinate of {}, beyond the {} the GPU takes",
             show_approx(*value),

@@ -141,7 +141,7 @@ pub(super) fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
 }
 
 /// What kind of file system object a path is, for messages.
-fn file_kind(t: &std::fs::FileType) -> &'static str {
+pub(crate) fn file_kind(t: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

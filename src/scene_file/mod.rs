@@ -10,6 +10,9 @@
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel;
 //! - [`device`]: `[render] device`, and the refusal of a scene the GPU path does not render.
 //!
+//! [`schema_curve`] holds the shutter curve's part of the schema, and `validate::points` the
+//! `[[points]]` tables' checks.
+//!
 //! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
 //! [`generate`] writes large random test scenes as scene-file text.
 //!
@@ -23,11 +26,13 @@ mod pieces;
 mod report;
 mod scan;
 mod schema;
+mod schema_curve;
 mod show;
 mod validate;
 
 #[cfg(test)]
 mod tests;
 
+pub(crate) use load::file_kind;
 pub use load::{MAX_FILE_BYTES, SceneSource};
 pub use overrides::Overrides;

@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use raytrace::film::Film;
@@ -106,6 +107,51 @@ pub fn run(dir: &Path, args: &[&str]) -> Output {
         .current_dir(dir)
         .output()
         .expect("run raytrace")
+}
+
+/// Runs the `raytrace` binary in `dir` with `args` under a limit of `memory_kib` KiB of
+/// address space (`ulimit -v`, so an allocation proportional to a hostile count fails) and no
+/// standard input; panics if it runs longer than `seconds`.
+pub fn run_limited(dir: &Path, args: &[&str], seconds: u64, memory_kib: u64) -> Output {
+    let mut cmd = Command::new("sh");
+    cmd.arg("-c")
+        .arg(format!("ulimit -v {memory_kib} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_raytrace"))
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let mut child = cmd.spawn().expect("run raytrace");
+    let start = Instant::now();
+    let shown: Vec<String> = args.iter().map(|a| shorten(a)).collect();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(seconds) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("raytrace {shown:?} took more than {seconds} s");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let o = child.wait_with_output().unwrap();
+    println!(
+        "{shown:?}: {} in {:.2} s",
+        o.status,
+        start.elapsed().as_secs_f64()
+    );
+    o
+}
+
+/// An argument as messages quote it: a long one cut, with its length.
+pub fn shorten(a: &str) -> String {
+    if a.len() > 60 {
+        format!("{}… ({} bytes)", &a[..40], a.len())
+    } else {
+        a.to_string()
+    }
 }
 
 /// What a run printed: its standard output, then its standard error.

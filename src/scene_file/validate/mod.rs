@@ -4,6 +4,7 @@
 //! checks, solved exactly between keyframes, are in [`camera`].
 
 mod camera;
+mod points;
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -316,6 +317,7 @@ impl<'a> Check<'a> {
             materials.push(self.material(&format!("materials.{name}"), m)?);
             names.insert(name.as_str(), (materials.len() - 1) as u32);
         }
+        let points = self.points(&raw.points, source, &names, &mut materials)?;
         let scene = Scene {
             source: source.to_path_buf(),
             shot,
@@ -326,6 +328,7 @@ impl<'a> Check<'a> {
             transparent,
             materials,
             spheres: Vec::new(),
+            points,
         };
         Ok((scene, names))
     }
@@ -343,24 +346,7 @@ impl<'a> Check<'a> {
         for (i, s) in raw.iter().enumerate() {
             let field = format!("sphere[{}]", first + i);
             let material = match &s.material {
-                MaterialRef::Name(n) => match names.get(n.as_str()) {
-                    Some(&m) => m,
-                    None => {
-                        let mut known: Vec<&str> = names.keys().copied().take(10).collect();
-                        let more = format!("and {} more", names.len().saturating_sub(10));
-                        if names.len() > 10 {
-                            known.push(&more);
-                        }
-                        let known = if known.is_empty() {
-                            "none defined".to_string()
-                        } else {
-                            known.join(", ")
-                        };
-                        return self.err(format_args!(
-                            "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
-                        ));
-                    }
-                },
+                MaterialRef::Name(n) => self.named_material(&field, n, names)?,
                 MaterialRef::Inline(m) => {
                     inline.push(self.material(&format!("{field}.material"), m)?);
                     INLINE | (inline.len() - 1) as u32
@@ -373,6 +359,31 @@ impl<'a> Check<'a> {
             });
         }
         Ok((spheres, inline))
+    }
+
+    /// The index of the material named `n` in `[materials]` (for `{field}.material`).
+    fn named_material(
+        &self,
+        field: &str,
+        n: &str,
+        names: &BTreeMap<&str, u32>,
+    ) -> Result<u32, String> {
+        if let Some(&m) = names.get(n) {
+            return Ok(m);
+        }
+        let mut known: Vec<&str> = names.keys().copied().take(10).collect();
+        let more = format!("and {} more", names.len().saturating_sub(10));
+        if names.len() > 10 {
+            known.push(&more);
+        }
+        let known = if known.is_empty() {
+            "none defined".to_string()
+        } else {
+            known.join(", ")
+        };
+        self.err(format_args!(
+            "{field}.material \"{n}\" is not a material in [materials] (known: {known})"
+        ))
     }
 
     fn shot(&self, s: &RawShot) -> Result<Shot, String> {

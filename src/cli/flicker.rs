@@ -1,0 +1,207 @@
+//! `converge --flicker FRAMES`: how far a sequence is from the truth and how much it
+//! flickers, rendered raw, denoised frame by frame, and denoised with `--temporal`, against a
+//! reference of every frame (`analysis::metrics::flicker`), every render on the scene's
+//! device (`--device`).
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::args::ConvergeArgs;
+use super::frames::Selection;
+use super::progress::print_line;
+use crate::analysis::metrics;
+use crate::denoise::denoiser::Denoiser;
+use crate::error::Error;
+use crate::gpu::Gpu;
+use crate::point_cache;
+use crate::renderer::{
+    Budget, FrameResult, ShotGeometry, TemporalDenoiser, render_shot_frame_with,
+};
+use crate::rng::hash_words;
+use crate::scene::{Device, Scene};
+use crate::scene_file::{Overrides, SceneSource};
+
+/// Samples of each frame's reference, unless --reference-samples says otherwise.
+const DEFAULT_REFERENCE_SAMPLES: u32 = 1024;
+
+/// One variant's figures over the sequence.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Variant {
+    pub(crate) name: &'static str,
+    /// The mean over the frames of the true relative error (less the reference's own).
+    pub(crate) error: f64,
+    /// [`metrics::flicker`].
+    pub(crate) flicker: f64,
+    /// Wall seconds a frame, on average.
+    pub(crate) seconds: f64,
+}
+
+/// The references of the frames and their own noise.
+struct References {
+    means: Vec<Vec<DVec3>>,
+    variances: Vec<Vec<DVec3>>,
+    /// Each reference's estimated relative MSE.
+    own: Vec<f64>,
+}
+
+/// Measures the frames `spec` of the scene of `args` (see the module's notes), printing the
+/// table unless --quiet; returns raw, denoised and temporal, in that order.
+pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Variant>, Error> {
+    let source = SceneSource::read(&args.scene)?;
+    let overrides = args.scene_args.overrides();
+    let base = source.scene(&overrides)?;
+    let shot = &base.shot;
+    let selection =
+        Selection::parse(spec, shot.first_frame, shot.last_frame()).map_err(Error::Usage)?;
+    let frames: Vec<u32> = selection.iter().collect();
+    if frames.len() < 2 {
+        return Err(Error::Usage(format!(
+            "--flicker {spec}: flicker is measured between frames: give at least two"
+        )));
+    }
+    let samples = args.max_samples.unwrap_or(base.render.samples);
+    let with = |samples: u32, seed: Option<u64>| {
+        source.scene(&Overrides {
+            samples: Some(samples),
+            seed: seed.or(overrides.seed),
+            denoise: Some(true),
+            ..overrides.clone()
+        })
+    };
+    let scene = with(samples, None)?;
+    let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+    // A seed of its own, so the references' noise is independent of the measured renders'.
+    let reference_seed = hash_words(&[scene.render.seed, 0x0066_6c69_636b_6572]) >> 1;
+    let reference = with(reference_samples, Some(reference_seed))?;
+    let say = |s: &str| {
+        if !args.scene_args.quiet {
+            print_line(s);
+        }
+    };
+    super::threads::thread_pool(args.scene_args.threads)?.install(|| {
+        // The scene's device, opened before anything is measured, as the denoiser is started.
+        let gpu = match scene.render.device {
+            Device::Gpu => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+            Device::Cpu => None,
+        };
+        let denoiser = Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?;
+        say(&format!(
+            "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
+        ));
+        let refs = references(&reference, &frames, gpu.as_ref())?;
+        measure(&scene, &frames, &refs, (&denoiser, gpu.as_ref()), &say)
+    })
+}
+
+fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<References, Error> {
+    let geometry = ShotGeometry::new(scene, gpu)?;
+    let mut refs = References {
+        means: Vec::new(),
+        variances: Vec::new(),
+        own: Vec::new(),
+    };
+    for &frame in frames {
+        let points = point_cache::read_frame(scene, frame)?;
+        let r = render_shot_frame_with(
+            scene,
+            &geometry,
+            &points,
+            frame,
+            &Budget::default(),
+            None,
+            &|_| {},
+        )?;
+        refs.means.push(r.film.means());
+        refs.variances.push(r.film.variances());
+        refs.own.push(r.stats.relative_error.powi(2));
+    }
+    Ok(refs)
+}
+
+fn measure(
+    scene: &Scene,
+    frames: &[u32],
+    refs: &References,
+    (denoiser, gpu): (&Denoiser, Option<&Gpu>),
+    say: &dyn Fn(&str),
+) -> Result<Vec<Variant>, Error> {
+    let geometry = ShotGeometry::new(scene, gpu)?;
+    let budget = Budget::default();
+    let mut images: [Vec<Vec<DVec3>>; 3] = Default::default();
+    let mut seconds = [0.0; 3];
+    let mut temporal = TemporalDenoiser::new(denoiser);
+    for &frame in frames {
+        let start = Instant::now();
+        let points = point_cache::read_frame(scene, frame)?;
+        let result = render_shot_frame_with(
+            scene,
+            &geometry,
+            &points,
+            frame,
+            &budget,
+            Some(denoiser),
+            &|_| {},
+        )?;
+        let denoise_seconds = result.stats.denoise_seconds;
+        let all = start.elapsed().as_secs_f64();
+        seconds[0] += all - denoise_seconds;
+        seconds[1] += all;
+        images[0].push(result.film.means());
+        images[1].push(denoised_image(&result));
+        let start = Instant::now();
+        let result = temporal.render(
+            scene,
+            &geometry,
+            &points,
+            &|k| point_cache::read_frame(scene, k),
+            frame,
+            &budget,
+            &|_| {},
+        )?;
+        seconds[2] += start.elapsed().as_secs_f64();
+        images[2].push(denoised_image(&result));
+    }
+    let names = ["raw", "denoised", "denoised --temporal"];
+    say(&format!(
+        "{:<22} {:>11} {:>9} {:>14}",
+        "", "rel. error", "flicker", "seconds/frame"
+    ));
+    let n = frames.len() as f64;
+    let variants: Vec<Variant> = (0..3)
+        .map(|k| {
+            let error = images[k]
+                .iter()
+                .zip(&refs.means)
+                .zip(&refs.own)
+                .map(|((x, r), own)| (metrics::rel_mse(x, r) - own).max(0.0).sqrt())
+                .sum::<f64>()
+                / n;
+            Variant {
+                name: names[k],
+                error,
+                flicker: metrics::flicker(&images[k], &refs.means, &refs.variances),
+                seconds: seconds[k] / n,
+            }
+        })
+        .collect();
+    for v in &variants {
+        say(&format!(
+            "{:<22} {:>10.3}% {:>8.3}% {:>14.3}",
+            v.name,
+            100.0 * v.error,
+            100.0 * v.flicker,
+            v.seconds
+        ));
+    }
+    Ok(variants)
+}
+
+/// A denoised frame's colour as linear radiance.
+fn denoised_image(result: &FrameResult) -> Vec<DVec3> {
+    let d = result.denoised.as_ref().expect("a denoised frame");
+    d.rgb
+        .chunks_exact(3)
+        .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+        .collect()
+}

@@ -1,0 +1,351 @@
+//! Denoised frames end to end: what is written (the denoised colour, the `noisy` layer, the
+//! attributes, PNG), determinism, bad input, and the denoiser's library missing.
+
+mod common;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use common::{exr_attribute, exr_bits_and_attributes, exr_channels, exr_number, run, run_ok, text};
+
+fn quick() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml")
+}
+
+/// Renders frame 1 of scenes/quick.toml at 96x54 with `samples` (0: the scene's) and the extra
+/// `args` to `out` (in `dir`).
+fn render(dir: &Path, out: &str, samples: u32, args: &[&str]) {
+    let scene = quick();
+    let samples = samples.to_string();
+    let mut all = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--frames",
+        "1",
+        "--width",
+        "96",
+        "--height",
+        "54",
+        "--quiet",
+        "-o",
+        out,
+    ];
+    if samples != "0" {
+        all.extend(["--samples", &samples]);
+    }
+    all.extend_from_slice(args);
+    run_ok(dir, &all);
+}
+
+/// The relative MSE of `image` against `reference` (RGB channels), as `converge` measures it.
+fn rel_mse(image: &HashMap<String, Vec<f32>>, reference: &HashMap<String, Vec<f32>>) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for c in ["R", "G", "B"] {
+        for (x, r) in image[c].iter().zip(&reference[c]) {
+            let (x, r) = (*x as f64, *r as f64);
+            sum += (x - r) * (x - r) / ((r + 0.01) * (r + 0.01));
+            n += 1.0;
+        }
+    }
+    sum / n
+}
+
+#[test]
+fn a_denoised_frame_is_closer_to_the_truth_and_keeps_the_noisy_colour() {
+    let d = tempfile::tempdir().unwrap();
+    render(d.path(), "raw_####.exr", 8, &[]);
+    render(
+        d.path(),
+        "dn_####.exr",
+        8,
+        &["--denoise", "--passes", "noisy"],
+    );
+    render(d.path(), "ref_####.exr", 1024, &[]);
+    let raw = exr_channels(&d.path().join("raw_0001.exr"));
+    let dn = exr_channels(&d.path().join("dn_0001.exr"));
+    let reference = exr_channels(&d.path().join("ref_0001.exr"));
+
+    // The `noisy` layer is the plain render, bit for bit; the colour is not.
+    for c in ["R", "G", "B"] {
+        let noisy = &dn[&format!("noisy.{c}")];
+        assert!(
+            noisy
+                .iter()
+                .zip(&raw[c])
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        assert_ne!(dn[c], raw[c]);
+    }
+    let (before, after) = (rel_mse(&raw, &reference), rel_mse(&dn, &reference));
+    assert!(after < 0.5 * before, "denoised {after}, noisy {before}");
+
+    let (_, attributes) = exr_bits_and_attributes(&d.path().join("dn_0001.exr"));
+    let denoiser = format!("{:?}", exr_attribute(&attributes, "denoiser").unwrap());
+    assert!(denoiser.contains("Open Image Denoise"), "{denoiser}");
+    let estimated = exr_number(&attributes, "estimatedRelativeError");
+    let noisy = exr_number(&attributes, "noisyRelativeError");
+    assert!(estimated < noisy, "{estimated} vs {noisy}");
+    // A plain frame names no denoiser.
+    let (_, plain) = exr_bits_and_attributes(&d.path().join("raw_0001.exr"));
+    assert!(exr_attribute(&plain, "denoiser").is_none());
+}
+
+/// 8-bit sRGB of a linear value, as the PNG format defines it (IEC 61966-2-1).
+fn srgb8(v: f32) -> u8 {
+    let x = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } as f64;
+    let e = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (e * 255.0).round() as u8
+}
+
+#[test]
+fn png_frames_show_the_denoised_colour() {
+    let d = tempfile::tempdir().unwrap();
+    render(d.path(), "dn_####.exr", 8, &["--denoise"]);
+    render(d.path(), "dn_####.png", 8, &["--denoise"]);
+    let exr = exr_channels(&d.path().join("dn_0001.exr"));
+    let png = image::open(d.path().join("dn_0001.png")).unwrap().to_rgb8();
+    let mut worst = 0;
+    for (i, p) in png.pixels().enumerate() {
+        for (k, c) in ["R", "G", "B"].iter().enumerate() {
+            let want = srgb8(exr[*c][i]) as i32;
+            worst = worst.max((p.0[k] as i32 - want).abs());
+        }
+    }
+    // Rounding at the boundary between two codes may differ by one between f32 and f64.
+    assert!(
+        worst <= 1,
+        "a PNG pixel differs from the denoised EXR's by {worst} codes"
+    );
+}
+
+#[test]
+fn the_denoised_frame_is_the_same_on_any_thread_count() {
+    let d = tempfile::tempdir().unwrap();
+    render(
+        d.path(),
+        "one_####.exr",
+        16,
+        &["--denoise", "--threads", "1"],
+    );
+    render(
+        d.path(),
+        "two_####.exr",
+        16,
+        &["--denoise", "--threads", "2"],
+    );
+    let (one, _) = exr_bits_and_attributes(&d.path().join("one_0001.exr"));
+    let (two, _) = exr_bits_and_attributes(&d.path().join("two_0001.exr"));
+    assert!(one == two, "the denoised frames differ");
+}
+
+#[test]
+fn noise_threshold_stops_at_the_denoised_estimate() {
+    let d = tempfile::tempdir().unwrap();
+    render(
+        d.path(),
+        "t_####.exr",
+        0,
+        &["--denoise", "--noise-threshold", "0.03"],
+    );
+    render(d.path(), "ref_####.exr", 2048, &[]);
+    let (_, a) = exr_bits_and_attributes(&d.path().join("t_0001.exr"));
+    let estimated = exr_number(&a, "estimatedRelativeError");
+    let noisy = exr_number(&a, "noisyRelativeError");
+    assert!(estimated <= 0.03, "{estimated}");
+    // The raw frame alone would not have stopped here.
+    assert!(noisy > 0.03, "{noisy}");
+    assert_eq!(exr_number(&a, "noiseThreshold"), 0.03);
+    // The denoised frame's true error is near its estimate.
+    let frame = exr_channels(&d.path().join("t_0001.exr"));
+    let reference = exr_channels(&d.path().join("ref_0001.exr"));
+    let truth = rel_mse(&frame, &reference).sqrt();
+    assert!(
+        (truth / estimated - 1.0).abs() < 0.25,
+        "true {truth}, estimated {estimated}"
+    );
+}
+
+#[test]
+fn noisy_takes_denoising_and_an_exr_output() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = quick();
+    let scene = scene.to_str().unwrap();
+    let o = run(
+        d.path(),
+        &["render", scene, "--passes", "noisy", "-o", "a_####.exr"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("\"noisy\""), "{}", text(&o));
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            scene,
+            "--denoise",
+            "--passes",
+            "noisy",
+            "-o",
+            "a_####.png",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("PNG"), "{}", text(&o));
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+}
+
+/// The folder the `raytrace` binary loads libOpenImageDenoise from, by `ldd`.
+fn oidn_folder() -> PathBuf {
+    let o = std::process::Command::new("ldd")
+        .arg(env!("CARGO_BIN_EXE_raytrace"))
+        .output()
+        .expect("run ldd");
+    let listing = String::from_utf8_lossy(&o.stdout);
+    let line = listing
+        .lines()
+        .find(|l| l.contains("libOpenImageDenoise.so"))
+        .unwrap_or_else(|| panic!("no libOpenImageDenoise in:\n{listing}"));
+    let path = line.split("=>").nth(1).unwrap().split_whitespace().next();
+    Path::new(path.unwrap()).parent().unwrap().to_path_buf()
+}
+
+#[test]
+fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
+    // A folder with OIDN's front and core libraries but not its CPU device module (nor
+    // oneTBB, which only that module needs), put first on the library path: the program
+    // starts, but OIDN cannot make a CPU device.
+    let d = tempfile::tempdir().unwrap();
+    let lib = d.path().join("lib");
+    std::fs::create_dir(&lib).unwrap();
+    let mut copied = 0;
+    for entry in std::fs::read_dir(oidn_folder()).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("libOpenImageDenoise") && !name.contains("device") {
+            std::fs::copy(&path, lib.join(&name)).unwrap();
+            copied += 1;
+        }
+    }
+    assert!(copied >= 2, "front and core libraries");
+    let out = d.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let scene = quick();
+    let args = |denoise: bool| {
+        let mut a = vec![
+            "render".to_string(),
+            scene.to_str().unwrap().to_string(),
+            "--frames".into(),
+            "1".into(),
+            "--samples".into(),
+            "1".into(),
+            "--width".into(),
+            "16".into(),
+            "--height".into(),
+            "9".into(),
+            "-o".into(),
+            out.join("f_####.exr").to_str().unwrap().to_string(),
+        ];
+        if denoise {
+            a.push("--denoise".into());
+        }
+        a
+    };
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
+        .args(args(true))
+        .env("LD_LIBRARY_PATH", &lib)
+        .output()
+        .unwrap();
+    let message = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{message}");
+    assert!(message.contains("Open Image Denoise"), "{message}");
+    assert!(
+        message.contains("libOpenImageDenoise_device_cpu"),
+        "{message}"
+    );
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
+    // Frames that are not denoised do not need the device.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
+        .args(args(false))
+        .env("LD_LIBRARY_PATH", &lib)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(out.join("f_0001.exr").exists());
+}
+
+#[test]
+fn a_temporal_frame_is_the_same_alone_in_a_sequence_and_in_a_chunk() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = quick();
+    let scene = scene.to_str().unwrap();
+    let common = [
+        "render",
+        scene,
+        "--width",
+        "48",
+        "--height",
+        "27",
+        "--samples",
+        "4",
+        "--denoise",
+        "--temporal",
+        "--quiet",
+    ];
+    let run_with = |extra: &[&str]| {
+        let mut args = common.to_vec();
+        args.extend_from_slice(extra);
+        run_ok(d.path(), &args);
+    };
+    run_with(&["--frames", "1-4", "-o", "seq_####.exr"]);
+    // Frame 4 alone renders frames 2 and 3 first (not written).
+    run_with(&["--frames", "4", "-o", "alone_####.exr"]);
+    assert!(!d.path().join("alone_0003.exr").exists());
+    // The second chunk of two (frames 3 and 4) overlaps the first by the frames it needs.
+    run_with(&[
+        "--frames",
+        "1-4",
+        "--chunk-size",
+        "2",
+        "--chunk",
+        "1",
+        "-o",
+        "chunk_####.exr",
+    ]);
+    let bits = |name: &str| exr_bits_and_attributes(&d.path().join(name)).0;
+    assert!(bits("seq_0004.exr") == bits("alone_0004.exr"));
+    assert!(bits("seq_0003.exr") == bits("chunk_0003.exr"));
+    assert!(bits("seq_0004.exr") == bits("chunk_0004.exr"));
+    // The first frame has nothing before it; later frames average more than themselves.
+    let (_, first) = exr_bits_and_attributes(&d.path().join("seq_0001.exr"));
+    let (_, fourth) = exr_bits_and_attributes(&d.path().join("seq_0004.exr"));
+    assert_eq!(exr_number(&first, "temporalMeanFrames"), 1.0);
+    let later = exr_number(&fourth, "temporalMeanFrames");
+    assert!(later > 1.5 && later <= 3.0, "{later}");
+}
+
+#[test]
+fn temporal_takes_denoising() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = quick();
+    let o = run(
+        d.path(),
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--temporal",
+            "-o",
+            "a_####.exr",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--denoise"), "{}", text(&o));
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+}
