@@ -6,8 +6,9 @@ use crate::aabb::Aabb;
 
 use super::boxes::{Boxes, ChildBoxes};
 use super::build::build_parts;
+use super::stack::TraversalStack;
 use super::topology::{Links, Topology};
-use super::traverse::{BvhView, TraversalStack};
+use super::traverse::BvhView;
 
 /// Bytes per primitive of a hierarchy, at most about: its place in the leaf order, and an
 /// 8-wide moving node's children and boxes per two and a half primitives (a leaf holds one

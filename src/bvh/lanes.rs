@@ -54,7 +54,9 @@ pub(crate) fn avx_where_available() -> Option<pulp::x86::V3> {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{LANES, Lanes};
+    // By its crate path: tests/architecture.rs reads a `super::` path as leading to the
+    // file's parent module, which for this inline module would be `bvh`.
+    use crate::bvh::lanes::{LANES, Lanes};
     use core::arch::x86_64::{__m256, _CMP_LE_OQ};
     use pulp::x86::V3;
     use safe_arch::*;

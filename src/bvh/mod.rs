@@ -30,7 +30,8 @@
 //! - `topology`: [`Topology`], the nodes' children and the leaf order; the refit;
 //! - `build`: the binned SAH build of a binary tree and its collapse into 8-wide nodes;
 //! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
-//! - `traverse`: [`BvhView`] and [`TraversalStack`], the nearest-hit traversal;
+//! - `stack`: [`TraversalStack`], the fixed stacks of a ray's and a packet's traversal;
+//! - `traverse`: [`BvhView`], the nearest-hit traversal;
 //! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes;
 //! - `export`: a node's children and their boxes read one by one ([`Child`]), for copies of a
@@ -44,6 +45,7 @@ mod lanes;
 mod packet;
 mod rounding;
 mod slab;
+mod stack;
 mod topology;
 mod traverse;
 
@@ -54,6 +56,7 @@ pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
 pub use export::{Child, ChildKind};
 pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
-pub use packet::{PACKET, PacketRay};
+pub use packet::PacketRay;
+pub use stack::{PACKET, TraversalStack};
 pub use topology::Topology;
-pub use traverse::{BvhView, TraversalStack};
+pub use traverse::BvhView;

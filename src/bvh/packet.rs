@@ -13,11 +13,9 @@ use glam::DVec3;
 
 use super::lanes::{LANES, Lanes};
 use super::slab::{RayLanes, SlabTest, widened_limit};
-use super::topology::{COUNT_SHIFT, Links, POSITION_MASK};
-use super::traverse::{BvhView, STACK, TraversalStack};
-
-/// The most rays in a packet.
-pub const PACKET: usize = 8;
+use super::stack::{PACKET, TraversalStack};
+use super::topology::{COUNT_SHIFT, POSITION_MASK};
+use super::traverse::BvhView;
 
 /// One ray of a packet: `origin + t dir` at shutter time `s` in [0, 1] (as
 /// [`BvhView::closest_hit`] takes them).
@@ -26,27 +24,6 @@ pub struct PacketRay {
     pub origin: DVec3,
     pub dir: DVec3,
     pub s: f64,
-}
-
-/// The stack of a packet traversal: per entry, the child slot, the lanes (rays) that entered
-/// it, and their entry distances.
-#[derive(Clone, Debug)]
-pub(super) struct PacketStack {
-    entry: [u32; STACK],
-    links: [Links; STACK],
-    lanes: [u32; STACK],
-    near: [[f32; PACKET]; STACK],
-}
-
-impl Default for PacketStack {
-    fn default() -> Self {
-        PacketStack {
-            entry: [0; STACK],
-            links: [Links::default(); STACK],
-            lanes: [0; STACK],
-            near: [[0.0; PACKET]; STACK],
-        }
-    }
 }
 
 impl BvhView<'_> {
@@ -196,8 +173,8 @@ impl BvhView<'_> {
                     let lanes_k = ((by_child >> (8 * k)) & 0xff) as u32;
                     stack.lanes[sp] = lanes_k;
                     // Only the rays that entered the child (`lanes_k`) read their entry.
-                    for (r, near_r) in near.iter().enumerate() {
-                        stack.near[sp][r] = near_r[k];
+                    for (entry, near_r) in stack.near[sp].iter_mut().zip(&near) {
+                        *entry = near_r[k];
                     }
                     sp += 1;
                 }

@@ -7,7 +7,8 @@ use crate::aabb::Aabb;
 use crate::rng::Pcg32;
 
 use super::hierarchy::Bvh;
-use super::traverse::{BvhView, TraversalStack};
+use super::stack::TraversalStack;
+use super::traverse::BvhView;
 
 fn brute(centers: &[(DVec3, f64)], ray: &crate::ray::Ray) -> Option<(f64, u32)> {
     let mut best: Option<(f64, u32)> = None;
@@ -420,7 +421,8 @@ fn bytes_per_primitive_bounds_a_moving_hierarchy() {
 #[test]
 fn packets_find_what_each_ray_finds_alone() {
     use super::lanes::{Lanes, Plain};
-    use super::packet::{PACKET, PacketRay};
+    use super::packet::PacketRay;
+    use super::stack::PACKET;
     let mut r = Pcg32::new(16, 6);
     let mut stack = TraversalStack::default();
     fn check<M: Lanes + Copy>(

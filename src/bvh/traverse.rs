@@ -4,41 +4,10 @@
 use glam::DVec3;
 
 use super::boxes::Boxes;
-use super::build::MAX_SAH_DEPTH;
 use super::lanes::{LANES, Lanes};
-use super::packet::PacketStack;
 use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
-use super::topology::{COUNT_SHIFT, Links, POSITION_MASK, Topology};
-
-/// Traversal stack size: an 8-wide node pushes at most 7 entries beyond the one it replaces,
-/// and the 8-wide tree is no deeper than the binary one.
-pub(super) const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
-
-/// Scratch space for traversals. Made once per thread of work and reused for every ray:
-/// clearing a fresh stack array per ray cost about 8% of a render.
-#[derive(Clone, Debug)]
-pub struct TraversalStack {
-    /// A child slot ([`COUNT_SHIFT`]): a node index, or a leaf's first position and count.
-    entry: [u32; STACK],
-    /// For a node entry, its children, read from the topology when the entry is pushed.
-    links: [Links; STACK],
-    /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
-    /// are skipped.
-    near: [f32; STACK],
-    /// The stack of packet traversals ([`BvhView::closest_hits`]).
-    pub(super) packet: PacketStack,
-}
-
-impl Default for TraversalStack {
-    fn default() -> Self {
-        TraversalStack {
-            entry: [0; STACK],
-            links: [Links::default(); STACK],
-            near: [0.0; STACK],
-            packet: PacketStack::default(),
-        }
-    }
-}
+use super::stack::TraversalStack;
+use super::topology::{COUNT_SHIFT, POSITION_MASK, Topology};
 
 /// A topology with boxes computed for it (by its build or by [`Topology::refit_moving`]), as
 /// a traversal reads them.
