@@ -211,22 +211,29 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
 
 /// The most bytes the shot's or one frame's buffer holds (the larger), counted generously:
 /// every sphere's record, a hierarchy of at most two entries a sphere, a motion
-/// record for every animated sphere and another for the motion pass, every key twice.
+/// record for every animated sphere and another for the motion pass, every key twice. Where
+/// every sphere is in the frame's hierarchy (`upload::MERGE_LIMIT`), the still ones too are
+/// in the frame's buffer.
 fn buffer_bytes(scene: &Scene) -> u64 {
     use super::layout::{
         ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
         TABLE_WORDS,
     };
+    use super::upload::MERGE_LIMIT;
     let sphere = (SPHERE_WORDS + 2 * ENTRY_WORDS) as u64;
     let mut shot = TABLE_WORDS as u64 + MATERIAL_WORDS as u64 * scene.materials.len() as u64;
     let mut frame = HEADER_WORDS as u64 + 3 * scene.shot.curve.points().len() as u64;
     for m in [&scene.camera.look_from, &scene.camera.look_at] {
         frame += (MOTION_WORDS + KEY_WORDS * (keys(m) + 2)) as u64;
     }
+    let merged = scene.spheres.len() <= MERGE_LIMIT as usize
+        && scene.spheres.iter().any(|s| s.motion.is_animated());
     for s in &scene.spheres {
         if s.motion.is_animated() {
             let record = (MOTION_WORDS + 1 + KEY_WORDS * (keys(&s.motion) + 2)) as u64;
             frame += sphere + 2 * record;
+        } else if merged {
+            frame += sphere + 1;
         } else {
             shot += sphere;
             frame += 1;
@@ -240,5 +247,78 @@ fn keys(m: &Motion) -> u32 {
     match m {
         Motion::Keyframes(k) => k.len() as u32,
         _ => 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::gpu::upload::{FrameWords, MERGE_LIMIT, ShotWords};
+    use crate::pass::PassSet;
+    use crate::passes::Layout;
+
+    /// A scene of `still` spheres standing still and `moving` moving ones, each on `keys`
+    /// keyframes.
+    fn scene(still: usize, moving: usize, keys: usize) -> Scene {
+        let mut text = String::from(
+            "[shot]\nframes = 3\n[output]\npath = \"f_####.exr\"\nwidth = 8\nheight = 8\npasses = [\"motion\"]\n[materials]\nm = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
+        );
+        for i in 0..still {
+            let x = (i % 200) as f64 * 0.1;
+            let z = -5.0 - (i / 200) as f64 * 0.1;
+            text +=
+                &format!("[[sphere]]\ncenter = [{x}, 0.0, {z}]\nradius = 0.04\nmaterial = \"m\"\n");
+        }
+        for i in 0..moving {
+            let x = i as f64 * 0.1;
+            let path: Vec<String> = (0..keys)
+                .map(|k| {
+                    let y = 1.0 + 0.2 * (k % 2) as f64;
+                    format!(
+                        "{{ time = {}, center = [{x}, {y}, -5.0] }}",
+                        k as f64 * 0.01
+                    )
+                })
+                .collect();
+            text += &format!(
+                "[[sphere]]\nradius = 0.04\nmaterial = \"m\"\nkeyframes = [{}]\n",
+                path.join(", ")
+            );
+        }
+        Scene::parse(&text, Path::new("s.toml")).unwrap()
+    }
+
+    #[test]
+    fn the_buffers_are_never_larger_than_counted() {
+        // Still scenes, small scenes whose every sphere is in the frame's hierarchy (one of
+        // them with a path of many keys, which the frame's buffer holds besides the still
+        // spheres), and a larger one whose still spheres stay in the shot's buffer.
+        let limit = MERGE_LIMIT as usize;
+        for (still, moving, keys) in [
+            (0, 0, 0),
+            (300, 0, 0),
+            (0, 40, 3),
+            (300, 5, 3),
+            (limit - 1, 1, 20_000),
+            (limit, 3, 3),
+        ] {
+            let s = scene(still, moving, keys);
+            let counted = buffer_bytes(&s);
+            let shot = ShotWords::new(&s).unwrap();
+            assert!(
+                4 * shot.words.0.len() as u64 <= counted,
+                "{still} + {moving}: shot"
+            );
+            let layout = Layout::new(PassSet::EMPTY.with(crate::pass::Pass::Motion));
+            for frame in 1..=3 {
+                let f = FrameWords::new(&s, &shot, frame, &layout).unwrap();
+                assert!(
+                    4 * f.words.0.len() as u64 <= counted,
+                    "{still} + {moving}: frame {frame}"
+                );
+            }
+        }
     }
 }

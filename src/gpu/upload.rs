@@ -6,7 +6,8 @@
 //!
 //! A shot's words ([`ShotWords`]) hold what never changes: the materials, the Sobol tables and
 //! the spheres that never move with their hierarchy. A frame's words ([`FrameWords`]) hold its
-//! header, the shutter curve, the camera's motion and the animated spheres prepared for it.
+//! header, the shutter curve, the camera's motion and the animated spheres prepared for it;
+//! in a small scene with animated spheres ([`MERGE_LIMIT`]), every sphere.
 //! Times on the GPU are `f32` seconds since the frame's opening, so a late frame keeps its
 //! digits as on the CPU.
 
@@ -41,7 +42,7 @@ pub(super) struct ShotWords {
 /// Scenes with animated spheres and at most this many spheres in all trace one hierarchy per
 /// frame over every sphere, as `world.rs` does for scenes this small (its shared topology for
 /// larger, mostly animated scenes has no counterpart here).
-const MERGE_LIMIT: u32 = 16384;
+pub(super) const MERGE_LIMIT: u32 = 16384;
 
 /// One frame's words, and what the renderer reports of it.
 #[derive(Clone, Debug)]
