@@ -196,8 +196,8 @@ impl BvhView<'_> {
                     let lanes_k = ((by_child >> (8 * k)) & 0xff) as u32;
                     stack.lanes[sp] = lanes_k;
                     // Only the rays that entered the child (`lanes_k`) read their entry.
-                    for r in 0..PACKET {
-                        stack.near[sp][r] = near[r][k];
+                    for (r, near_r) in near.iter().enumerate() {
+                        stack.near[sp][r] = near_r[k];
                     }
                     sp += 1;
                 }
