@@ -40,7 +40,9 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
 /// velocity, radius, colour), held for the whole frame, and the larger of what the
 /// hierarchy's build holds (the boxes at the shutter's opening and closing, the build's
 /// working arrays) and what replaces it (the tracer's copy with its colour, the hierarchy).
-/// Measured: 2.79 GB at the peak of a frame of 1.009e7 points, 277 bytes a point.
+/// Measured: 3.94 GB at the peak of a frame of 1.009e7 points (docs/performance.md), 390
+/// bytes a point with the film and the process, where this estimate gives 3.31 GB (16
+/// percent low since the 8-wide nodes; the difference is not yet accounted for).
 pub const BYTES_PER_POINT: u64 = {
     use std::mem::size_of;
     let columns = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
