@@ -128,6 +128,14 @@ pub struct PreparedSphere {
 }
 
 impl SphereDesc {
+    /// The box of a sphere that never moves (its centre at time 0), padded for the rounding
+    /// of a hierarchy's `f32` boxes: what the still spheres' hierarchy is built on.
+    pub fn still_box(&self) -> Aabb {
+        Aabb::point(self.motion.at(0.0))
+            .grow(self.radius)
+            .pad_for_rounding()
+    }
+
     /// Prepares the sphere for a frame whose shutter is open over `interval`.
     pub fn prepare(&self, interval: Interval) -> PreparedSphere {
         PreparedSphere {

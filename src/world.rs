@@ -48,7 +48,7 @@ const CURVED: u32 = u32::MAX - 1;
 
 /// Scenes with animated spheres and at most this many spheres in all are built into one
 /// hierarchy per frame instead of a static one and a per-frame one.
-const MERGE_LIMIT: usize = 16384;
+pub(crate) const MERGE_LIMIT: usize = 16384;
 
 /// Larger scenes in which at least this share of the spheres is animated get one hierarchy
 /// over every sphere whose topology is built once for the shot and refitted per frame
@@ -161,12 +161,7 @@ impl StaticGeometry {
         });
         let boxes: Vec<Aabb> = still
             .par_iter()
-            .map(|&i| {
-                let s = &scene.spheres[i as usize];
-                Aabb::point(s.motion.at(0.0))
-                    .grow(s.radius)
-                    .pad_for_rounding()
-            })
+            .map(|&i| scene.spheres[i as usize].still_box())
             .collect();
         let bvh = Bvh::build(&boxes);
         drop(boxes);

@@ -212,22 +212,21 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
 /// The most bytes the shot's or one frame's buffer holds (the larger), counted generously:
 /// every sphere's record, a hierarchy of at most two entries a sphere, a motion
 /// record for every animated sphere and another for the motion pass, every key twice. Where
-/// every sphere is in the frame's hierarchy (`upload::MERGE_LIMIT`), the still ones too are
+/// every sphere is in the frame's hierarchy (`upload::one_hierarchy`), the still ones too are
 /// in the frame's buffer.
 fn buffer_bytes(scene: &Scene) -> u64 {
     use super::layout::{
         ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
         TABLE_WORDS,
     };
-    use super::upload::MERGE_LIMIT;
+    use super::upload::one_hierarchy;
     let sphere = (SPHERE_WORDS + 2 * ENTRY_WORDS) as u64;
     let mut shot = TABLE_WORDS as u64 + MATERIAL_WORDS as u64 * scene.materials.len() as u64;
     let mut frame = HEADER_WORDS as u64 + 3 * scene.shot.curve.points().len() as u64;
     for m in [&scene.camera.look_from, &scene.camera.look_at] {
         frame += (MOTION_WORDS + KEY_WORDS * (keys(m) + 2)) as u64;
     }
-    let merged = scene.spheres.len() <= MERGE_LIMIT as usize
-        && scene.spheres.iter().any(|s| s.motion.is_animated());
+    let merged = one_hierarchy(scene);
     for s in &scene.spheres {
         if s.motion.is_animated() {
             let record = (MOTION_WORDS + 1 + KEY_WORDS * (keys(&s.motion) + 2)) as u64;
@@ -255,9 +254,10 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::gpu::upload::{FrameWords, MERGE_LIMIT, ShotWords};
+    use crate::gpu::upload::{FrameWords, ShotWords};
     use crate::pass::PassSet;
     use crate::passes::Layout;
+    use crate::world::MERGE_LIMIT;
 
     /// A scene of `still` spheres standing still and `moving` moving ones, each on `keys`
     /// keyframes.
@@ -295,7 +295,7 @@ mod tests {
         // Still scenes, small scenes whose every sphere is in the frame's hierarchy (one of
         // them with a path of many keys, which the frame's buffer holds besides the still
         // spheres), and a larger one whose still spheres stay in the shot's buffer.
-        let limit = MERGE_LIMIT as usize;
+        let limit = MERGE_LIMIT;
         for (still, moving, keys) in [
             (0, 0, 0),
             (300, 0, 0),

@@ -25,6 +25,7 @@ use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::shutter::{Interval, ReadoutDirection};
+use crate::world::MERGE_LIMIT;
 
 /// What a shot keeps on the GPU for all its frames.
 #[derive(Clone, Debug)]
@@ -39,10 +40,12 @@ pub(super) struct ShotWords {
     animated: Vec<u32>,
 }
 
-/// Scenes with animated spheres and at most this many spheres in all trace one hierarchy per
-/// frame over every sphere, as `world.rs` does for scenes this small (its shared topology for
-/// larger, mostly animated scenes has no counterpart here).
-pub(super) const MERGE_LIMIT: u32 = 16384;
+/// Whether `scene` is traced through one hierarchy per frame over every sphere: it has
+/// animated spheres and at most the CPU's world's [`MERGE_LIMIT`] spheres in all (the
+/// world's shared topology for larger, mostly animated scenes has no counterpart here).
+pub(super) fn one_hierarchy(scene: &Scene) -> bool {
+    scene.spheres.len() <= MERGE_LIMIT && scene.spheres.iter().any(|s| s.motion.is_animated())
+}
 
 /// One frame's words, and what the renderer reports of it.
 #[derive(Clone, Debug)]
@@ -90,20 +93,14 @@ impl ShotWords {
         // in all is one hierarchy per frame (one walk per ray, one nearest distance pruning
         // it); a larger one keeps its still spheres apart, built once.
         let n = scene.spheres.len() as u32;
-        let any_animated = scene.spheres.iter().any(|s| s.motion.is_animated());
-        let (still, animated): (Vec<u32>, Vec<u32>) = if any_animated && n <= MERGE_LIMIT {
+        let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy(scene) {
             (Vec::new(), (0..n).collect())
         } else {
             (0..n).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
         };
         let boxes: Vec<Aabb> = still
             .iter()
-            .map(|&i| {
-                let s = &scene.spheres[i as usize];
-                Aabb::point(s.motion.at(0.0))
-                    .grow(s.radius)
-                    .pad_for_rounding()
-            })
+            .map(|&i| scene.spheres[i as usize].still_box())
             .collect();
         let bvh = Bvh::build(&boxes);
         w.align();
