@@ -14,7 +14,7 @@ use glam::DVec3;
 use super::lanes::{LANES, Lanes};
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{PACKET, TraversalStack};
-use super::topology::{COUNT_SHIFT, POSITION_MASK};
+use super::topology::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::traverse::BvhView;
 
 /// One ray of a packet: `origin + t dir` at shutter time `s` in [0, 1] (as
@@ -167,8 +167,7 @@ impl BvhView<'_> {
                 }
                 for &k in &order[..n - 1] {
                     let w = node.child[k];
-                    let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
-                    stack.links[sp] = links[at];
+                    stack.links[sp] = links_of(links, w);
                     stack.entry[sp] = w;
                     let lanes_k = ((by_child >> (8 * k)) & 0xff) as u32;
                     stack.lanes[sp] = lanes_k;
@@ -182,11 +181,7 @@ impl BvhView<'_> {
                 next = node.child[k];
                 next_lanes = ((by_child >> (8 * k)) & 0xff) as u32;
             }
-            let mut next_links = links[if next >> COUNT_SHIFT == 0 {
-                next as usize
-            } else {
-                0
-            }];
+            let mut next_links = links_of(links, next);
             // Intersect leaves until an inner node to descend into, popping the stack.
             loop {
                 let count = next >> COUNT_SHIFT;

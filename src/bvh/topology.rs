@@ -32,6 +32,14 @@ impl Links {
     }
 }
 
+/// The children of the child word `w`'s node, read ahead of descending into it; a leaf's word
+/// (or an empty slot) reads the root's, which a traversal never uses, so the read needs no
+/// branch on what the traversal does next.
+#[inline]
+pub(super) fn links_of(links: &[Links], w: u32) -> Links {
+    links[if w >> COUNT_SHIFT == 0 { w as usize } else { 0 }]
+}
+
 /// The structure of a hierarchy over primitives `0..n`, which a refit keeps: the children of
 /// every 8-wide node (nodes in depth-first order, the root first) and the primitives in leaf
 /// order.

@@ -7,7 +7,7 @@ use super::boxes::Boxes;
 use super::lanes::{LANES, Lanes};
 use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
 use super::stack::TraversalStack;
-use super::topology::{COUNT_SHIFT, POSITION_MASK, Topology};
+use super::topology::{COUNT_SHIFT, POSITION_MASK, Topology, links_of};
 
 /// A topology with boxes computed for it (by its build or by [`Topology::refit_moving`]), as
 /// a traversal reads them.
@@ -157,8 +157,7 @@ impl<'a> BvhView<'a> {
                     // of delaying the child's, which measured a few percent faster than
                     // reading them at the visit. A leaf reads the root's (always cached)
                     // without a branch.
-                    let at = if w >> COUNT_SHIFT == 0 { w as usize } else { 0 };
-                    stack.links[sp] = links[at];
+                    stack.links[sp] = links_of(links, w);
                     stack.entry[sp] = w;
                     stack.near[sp] = near[k];
                     sp += 1;
@@ -166,11 +165,7 @@ impl<'a> BvhView<'a> {
                 next = node.child[hits[n - 1]];
             }
             // Its children, if it is a node (a leaf reads the root's).
-            let mut next_links = links[if next >> COUNT_SHIFT == 0 {
-                next as usize
-            } else {
-                0
-            }];
+            let mut next_links = links_of(links, next);
             // Intersect leaves until an inner node to descend into, popping the stack.
             loop {
                 let count = next >> COUNT_SHIFT;
