@@ -234,15 +234,14 @@ fn bad_converge_arguments_exit_2_and_write_nothing() {
 #[test]
 fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
     use raytrace::analysis::metrics::rel_mse;
-    use raytrace::renderer::{Budget, render_frame};
-    use raytrace::world::StaticGeometry;
+    use raytrace::renderer::{FrameJob, ShotGeometry};
     let render = |sampler: &str, samples: u32, seed: u64| {
         let mut scene = common::scene(SCENE);
         scene.render.sampler = sampler.parse().unwrap();
         scene.render.samples = samples;
         scene.render.seed = seed;
-        let statics = StaticGeometry::new(&scene);
-        render_frame(&scene, &statics, 1, &Budget::default(), &|_| {})
+        let statics = ShotGeometry::cpu(&scene);
+        FrameJob::new(&scene, 1).sample(&statics).unwrap()
     };
     // The reference's own error (from its replicates) is taken out of the measured one:
     // E[(v - ref)^2] = E[(v - truth)^2] + E[(ref - truth)^2] for independent renders.

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::renderer::Budget;
 use crate::sampler::SamplerKind;
 use crate::scene::Device;
@@ -177,16 +178,28 @@ pub struct RenderArgs {
     /// writes colour only.
     #[arg(long, value_name = "LIST", value_parser = pass_list)]
     pub passes: Option<PassList>,
-    /// Denoise every frame with its albedo and normal (Intel Open Image Denoise), as `[output]
-    /// denoise = true`; the estimated error printed and recorded is the denoised frame's.
+    /// Denoise every frame (Intel Open Image Denoise), as `[output] denoise = true`: the frame
+    /// written blends the raw and denoised frames per pixel by their estimated errors, and
+    /// the estimated error printed and recorded is that frame's.
     #[arg(long)]
     pub denoise: bool,
-    /// With denoising: average each frame's noisy colour with the two frames before it,
-    /// followed along the motion vectors where they show the same surface, before denoising,
-    /// so that a denoised sequence does not flicker. A frame then depends on the two before
-    /// it, which are rendered first (not written) when the run does not render them.
+    /// The denoiser's quality, replacing `[output] denoise_quality`: fast (the default),
+    /// balanced or high.
+    #[arg(long, value_name = "QUALITY", value_parser = denoise_quality)]
+    pub denoise_quality: Option<DenoiseQuality>,
+    /// With denoising: keep the denoised sequence from flickering. Every frame of the shot
+    /// takes the same sample pattern (a still region has the same noise in every frame), so
+    /// a frame is the same rendered alone, in a sequence or in any chunk.
     #[arg(long)]
     pub temporal: bool,
+}
+
+/// Clap's value parser of `--denoise-quality`.
+fn denoise_quality(text: &str) -> Result<DenoiseQuality, String> {
+    DenoiseQuality::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = DenoiseQuality::ALL.iter().map(|q| q.name()).collect();
+        format!("expected one of {}", names.join(", "))
+    })
 }
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
@@ -399,6 +412,8 @@ impl RenderArgs {
             clip: self.clip.clone(),
             passes: self.passes.as_ref().map(|p| p.0.clone()),
             denoise: self.denoise.then_some(true),
+            denoise_quality: self.denoise_quality,
+            temporal: self.temporal.then_some(true),
             ..self.scene_args.overrides()
         }
     }

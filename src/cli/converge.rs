@@ -24,7 +24,7 @@ use crate::gpu::Gpu;
 use crate::io;
 use crate::output;
 use crate::points::FramePoints;
-use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame_with};
+use crate::renderer::{Budget, Finishing, FrameJob, FrameResult, ShotGeometry};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::{Device, Scene};
@@ -168,6 +168,7 @@ pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
             samples: Some(samples),
             seed: seed.or(overrides.seed),
             sampler: Some(sampler),
+            denoise: args.denoise.then_some(true),
             ..overrides.clone()
         })
     };
@@ -386,15 +387,10 @@ fn reference(
         "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
         reference.render.sampler
     ));
-    let result = render_shot_frame_with(
-        &reference,
-        geometry,
-        points,
-        frame,
-        &Budget::default(),
-        None,
-        &|_| {},
-    )?;
+    // Sampled and not finished: the reference is the raw frame.
+    let result = FrameJob::new(&reference, frame)
+        .points(points)
+        .sample(geometry)?;
     let non_finite = output::write_frame(&path, format, &reference, &result, &Budget::default())?;
     if non_finite > 0 {
         say(&format!(
@@ -426,8 +422,8 @@ fn timed_render(
     let mut result = None;
     while times.len() < MAX_REPEATS {
         let start = Instant::now();
-        let budget = Budget::default();
-        let r = render_shot_frame_with(scene, geometry, points, frame, &budget, denoiser, &|_| {})?;
+        let mut finishing = Finishing::new(scene, denoiser)?;
+        let r = finishing.render(FrameJob::new(scene, frame).points(points), geometry)?;
         times.push(start.elapsed().as_secs_f64());
         result.get_or_insert(r);
         if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {
