@@ -25,8 +25,8 @@ fn percent(rel_mse: f64) -> String {
     }
 }
 
-/// The relative error and its spread from a relative MSE figure: `sqrt`, its spread carried
-/// by the derivative.
+/// The root of a mean squared error figure (relative or not) with its spread carried by the
+/// derivative; NaN when it is not positive.
 fn relative_error(rel_mse: Figure) -> Figure {
     if rel_mse.value > 0.0 {
         rel_mse.map(f64::sqrt, |v| 0.5 / v.sqrt())
@@ -35,6 +35,17 @@ fn relative_error(rel_mse: Figure) -> Figure {
             value: f64::NAN,
             spread: f64::NAN,
         }
+    }
+}
+
+/// A point's efficiency, `1 / (MSE x seconds)`, with its spread carried from those of the
+/// MSE and of the times (relative spreads added in quadrature).
+fn efficiency(p: &Point) -> Figure {
+    let value = p.efficiency();
+    let relative = (p.mse.spread / p.mse.value).hypot(p.wall.spread / p.seconds);
+    Figure {
+        value,
+        spread: value * relative,
     }
 }
 
@@ -159,8 +170,9 @@ pub(crate) fn csv(report: &Report) -> String {
     let mut s = String::from(
         "series,sampler,sampling,finish,samples,threshold,seeds,renders,seconds,\
          wall_seconds,wall_seconds_spread,cpu_seconds,cpu_seconds_spread,mse,mse_spread,rmse,\
-         rel_mse,rel_mse_spread,rel_error,rel_error_spread,estimated_mse,estimated_mse_spread,\
-         estimated_rel_mse,estimated_rel_mse_spread,flip,flip_spread,efficiency\n",
+         rmse_spread,rel_mse,rel_mse_spread,rel_error,rel_error_spread,estimated_mse,\
+         estimated_mse_spread,estimated_rel_mse,estimated_rel_mse_spread,flip,flip_spread,\
+         efficiency,efficiency_spread\n",
     );
     let pair = |f: Figure| format!("{},{}", num(f.value), num(f.spread));
     for p in &report.points {
@@ -188,13 +200,13 @@ pub(crate) fn csv(report: &Report) -> String {
             pair(p.wall),
             pair(p.cpu),
             pair(p.mse),
-            num(p.mse.value.max(0.0).sqrt()),
+            pair(relative_error(p.mse)),
             pair(p.rel_mse),
             pair(relative_error(p.rel_mse)),
             pair(p.estimated_mse),
             pair(p.estimated_rel_mse),
             pair(p.flip),
-            num(p.efficiency()),
+            pair(efficiency(p)),
         );
     }
     s
