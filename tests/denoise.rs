@@ -356,7 +356,10 @@ fn on_a_still_shot_temporal_frames_take_their_history_and_come_closer_to_the_tru
     let reference = exr_channels(&file("r_0003.exr"));
     let temporal = rel_mse(&exr_channels(&file("t_0003.exr")), &reference);
     let alone = rel_mse(&exr_channels(&file("p_0003.exr")), &reference);
-    assert!(temporal < 0.95 * alone, "temporal {temporal}, alone {alone}");
+    assert!(
+        temporal < 0.95 * alone,
+        "temporal {temporal}, alone {alone}"
+    );
 }
 
 #[test]
