@@ -463,12 +463,16 @@ fn the_page_refines_shows_the_chosen_frame_and_follows_the_file() {
             .connect(&format!("http://127.0.0.1:{}", driver.1))
             .await
             .unwrap();
-        client.goto(&preview.url()).await.unwrap();
         let opened = now_ms();
+        client.goto(&preview.url()).await.unwrap();
 
         // The first image, then the same frame refined to the scene's 32 samples.
         let first = until(&client, "the first image", "return window.previewLog[0] || null").await;
-        println!("first image {:.0} ms after the page opened", first["at"].as_f64().unwrap() - opened);
+        println!(
+            "first image {:.0} ms after the page was asked for, {:.0} ms after its navigation started",
+            first["at"].as_f64().unwrap() - opened,
+            first["sinceOpened"].as_f64().unwrap()
+        );
         until(
             &client,
             "frame 1 at 32 samples",
@@ -542,7 +546,23 @@ fn the_page_refines_shows_the_chosen_frame_and_follows_the_file() {
             }
             until(&client, "the frame refined", "return document.getElementById('image').dataset.samples === '32'").await;
         }
-        println!("save to updated image on the page: {latencies:?} ms");
+        println!("save to updated image on the page, refined before each save: {latencies:?} ms");
+        // A save while the frame refines (its pass at 2 or more samples under way, and the
+        // other frames rendering beside it): the next pass starts on the other lane at once.
+        let mut during = Vec::new();
+        let edit = |albedo: &str| original.replace("albedo = [0.7, 0.1, 0.1]", &format!("albedo = {albedo}"));
+        for first in ["[0.1, 0.7, 0.1]", "[0.1, 0.1, 0.7]"] {
+            std::fs::write(&scene, edit(first)).unwrap();
+            let shown = until(&client, "the edited scene's image", &NEWER.replace("arguments[0]", &generation.to_string())).await;
+            generation = shown["generation"].clone();
+            let saved = now_ms();
+            std::fs::write(&scene, edit("[0.7, 0.1, 0.1]")).unwrap();
+            let shown = until(&client, "the edited scene's image", &NEWER.replace("arguments[0]", &generation.to_string())).await;
+            during.push(shown["at"].as_f64().unwrap() - saved);
+            generation = shown["generation"].clone();
+        }
+        println!("save to updated image on the page, saved during refinement: {during:?} ms");
+        until(&client, "the frame refined", "return document.getElementById('image').dataset.samples === '32'").await;
 
         // A bad edit: check's message, with its file, line and column; the image stays.
         let key = client.execute("return document.getElementById('image').dataset.key", vec![]).await.unwrap();
@@ -563,6 +583,30 @@ fn the_page_refines_shows_the_chosen_frame_and_follows_the_file() {
         // Fixed again: the message goes.
         std::fs::write(&scene, &original).unwrap();
         until(&client, "the error gone", "return document.getElementById('error').hidden").await;
+
+        // Playing: the frames rendered so far, in the shot's order, from the chosen one.
+        until(&client, "three frames rendered", "return document.querySelectorAll('#timeline .mark.done, #timeline .mark.coarse').length >= 3").await;
+        until(&client, "the fixed scene's frame refined", "return document.getElementById('status').textContent === 'done'").await;
+        let before = client.execute("return window.previewLog.length", vec![]).await.unwrap();
+        client.find(Locator::Id("play")).await.unwrap().click().await.unwrap();
+        let played = until(
+            &client,
+            "five frames played",
+            &format!("const l = window.previewLog.slice({before}); return l.length >= 5 ? l : null"),
+        )
+        .await;
+        client.find(Locator::Id("play")).await.unwrap().click().await.unwrap();
+        let played: Vec<(u64, f64)> = played.as_array().unwrap().iter()
+            .map(|e| (e["frame"].as_u64().unwrap(), e["at"].as_f64().unwrap()))
+            .collect();
+        for w in played.windows(2) {
+            // Each next frame is a later one, or the loop starting over (a frame whose time
+            // passed between two of the browser's paints is skipped, as playing in real time
+            // does).
+            assert!(w[1].0 > w[0].0 || w[1].0 <= 2, "{played:?}");
+        }
+        let steps: Vec<f64> = played.windows(2).map(|w| w[1].1 - w[0].1).collect();
+        println!("played {:?}, {steps:?} ms apart (a frame is 41.7 ms at 24 fps)", played.iter().map(|p| p.0).collect::<Vec<_>>());
         client.close().await.unwrap();
     });
 }

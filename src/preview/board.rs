@@ -409,15 +409,15 @@ mod tests {
         // The shot, the (empty) error, the choice (frame 1, chosen for the new shot) and
         // frame 2's colour.
         assert_eq!(all.len(), 4);
-        assert_eq!(all[3], Bytes::from(vec![b'c'; 8]));
+        assert_eq!(all[3], Bytes::from(vec![b'c'; 4]));
         assert!(board.catch_up(seen).0.is_empty());
         board.lock().set_frame(3, images(1, 4));
-        assert_eq!(board.catch_up(seen).0, [Bytes::from(vec![b'c'; 8])]);
+        assert_eq!(board.catch_up(seen).0, [Bytes::from(vec![b'c'; 4])]);
         // Another view: every frame again, in it.
         board.choose(None, Some("depth")).unwrap();
         let (again, _) = board.catch_up(seen);
         assert_eq!(again.len(), 3);
-        assert_eq!(again[1], Bytes::from(vec![b'd'; 8]));
+        assert_eq!(again[1], Bytes::from(vec![b'd'; 4]));
         assert!(board.choose(Some(4), None).is_err());
         assert!(board.choose(None, Some("normal")).is_err());
     }

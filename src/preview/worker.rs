@@ -47,13 +47,16 @@ const SETTLE: Duration = Duration::from_millis(20);
 /// and how many are selected.
 pub(crate) type Frames = (Vec<u32>, u64);
 
+/// The frames a validated scene shows, or why it cannot show them.
+pub(crate) type Select = Box<dyn Fn(&Scene) -> Result<Frames, Error> + Send>;
+
 /// What the command gives the worker.
 pub(crate) struct Setup {
     pub(crate) path: PathBuf,
     /// The command line's values in place of the file's (`--device`).
     pub(crate) overrides: Overrides,
     /// The frames shown of a validated scene (`--frames`), or why they cannot be.
-    pub(crate) select: Box<dyn Fn(&Scene) -> Result<Frames, Error> + Send>,
+    pub(crate) select: Select,
     /// Threads of each lane.
     pub(crate) threads: usize,
 }
