@@ -345,13 +345,38 @@ fn browser_programs() -> Option<(PathBuf, PathBuf)> {
     }
 }
 
-/// A running chromedriver, killed when dropped.
-struct Driver(Child, u16);
+/// A running chromedriver and the profile folder of the browser it starts: when dropped,
+/// chromedriver is asked to end (SIGTERM, on which it quits its browser), and any process
+/// still running with that profile (a browser left by a failed test) is killed.
+struct Driver {
+    child: Child,
+    port: u16,
+    profile: tempfile::TempDir,
+}
 
 impl Drop for Driver {
     fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
+        let _ = Command::new("kill")
+            .args(["-s", "TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if !matches!(self.child.try_wait(), Ok(None)) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let marker = format!("--user-data-dir={}", self.profile.path().display());
+        for entry in std::fs::read_dir("/proc").into_iter().flatten().flatten() {
+            let cmdline = std::fs::read(entry.path().join("cmdline")).unwrap_or_default();
+            let args = String::from_utf8_lossy(&cmdline);
+            if args.split('\0').any(|a| a == marker) {
+                let pid = entry.file_name().to_string_lossy().to_string();
+                let _ = Command::new("kill").args(["-s", "KILL", &pid]).status();
+            }
+        }
     }
 }
 
@@ -368,6 +393,11 @@ fn start_driver(program: &Path) -> Driver {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
+    let driver = Driver {
+        child,
+        port,
+        profile: tempfile::tempdir().unwrap(),
+    };
     let start = Instant::now();
     while TcpStream::connect(("127.0.0.1", port)).is_err() {
         assert!(
@@ -376,7 +406,7 @@ fn start_driver(program: &Path) -> Driver {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    Driver(child, port)
+    driver
 }
 
 /// Milliseconds since the epoch, as the page's `Date.now()` counts them.
@@ -444,7 +474,6 @@ fn the_page_refines_shows_the_chosen_frame_and_follows_the_file() {
         .build()
         .unwrap();
     runtime.block_on(async {
-        let profile = tempfile::tempdir().unwrap();
         let mut caps = serde_json::Map::new();
         caps.insert(
             "goog:chromeOptions".to_string(),
@@ -454,13 +483,13 @@ fn the_page_refines_shows_the_chosen_frame_and_follows_the_file() {
                          "--no-first-run", "--disable-background-networking",
                          "--disable-component-update", "--disable-sync",
                          "--window-size=900,640", "--force-device-scale-factor=1",
-                         format!("--user-data-dir={}", profile.path().display())],
+                         format!("--user-data-dir={}", driver.profile.path().display())],
             }),
         );
         let connector = hyper_util::client::legacy::connect::HttpConnector::new();
         let client = ClientBuilder::new(connector)
             .capabilities(caps)
-            .connect(&format!("http://127.0.0.1:{}", driver.1))
+            .connect(&format!("http://127.0.0.1:{}", driver.port))
             .await
             .unwrap();
         let opened = now_ms();
