@@ -72,6 +72,54 @@ pub fn write_frame(
     )
 }
 
+/// `result`, a frame of `scene`, as the 8-bit sRGB PNG that [`write_frame`] writes to a
+/// `.png` path (the same pixels), in memory; with its passes' images, made once, for the
+/// caller to show.
+pub fn frame_png(
+    scene: &Scene,
+    result: &FrameResult,
+) -> Result<(Vec<u8>, Option<PassImages>), Error> {
+    let passes = result.pass_images();
+    let colour = result.denoised.as_ref().map(|d| &d.rgb[..]);
+    let mut png = Vec::new();
+    film_image(
+        &result.film,
+        colour,
+        passes.as_ref(),
+        scene.transparent,
+        |image| io::encode_png(&mut png, image),
+    )
+    .map_err(|e| Error::Output {
+        path: scene.source.clone(),
+        message: format!("PNG encoder: {e}"),
+    })?;
+    Ok((png, passes))
+}
+
+/// Calls `f` with the image of `film` (with `passes`, the colour premultiplied by their alpha
+/// when `premultiplied`): its colour `colour` (interleaved RGB, row-major: the denoised frame)
+/// when given, else the film's means.
+fn film_image<R>(
+    film: &Film,
+    colour: Option<&[f32]>,
+    passes: Option<&PassImages>,
+    premultiplied: bool,
+    f: impl FnOnce(&Image) -> R,
+) -> R {
+    let width = film.width as usize;
+    let rgb = |i: usize| match colour {
+        Some(c) => [c[3 * i], c[3 * i + 1], c[3 * i + 2]],
+        None => film.rgb_f32((i % width) as u32, (i / width) as u32),
+    };
+    f(&Image {
+        width: film.width,
+        height: film.height,
+        rgb: &rgb,
+        channels: passes.map_or(&[][..], |p| &p.channels[..]),
+        premultiplied: passes.is_some() && premultiplied,
+    })
+}
+
 /// How a denoised frame's file names its denoiser (the `denoiser` attribute).
 pub const DENOISER: &str =
     "Intel Open Image Denoise 2.5 RT filter, HDR, colour only, each replicate";
@@ -113,19 +161,9 @@ fn write_film(
         info.extra
             .push(("nonFinitePixels".to_string(), non_finite as f64));
     }
-    let width = film.width as usize;
-    let rgb = |i: usize| match colour {
-        Some(c) => [c[3 * i], c[3 * i + 1], c[3 * i + 2]],
-        None => film.rgb_f32((i % width) as u32, (i / width) as u32),
-    };
-    let image = Image {
-        width: film.width,
-        height: film.height,
-        rgb: &rgb,
-        channels: passes.map_or(&[][..], |p| &p.channels[..]),
-        premultiplied: passes.is_some() && premultiplied,
-    };
-    io::write_frame_from(path, format, &image, &info)?;
+    film_image(film, colour, passes, premultiplied, |image| {
+        io::write_frame_from(path, format, image, &info)
+    })?;
     Ok(non_finite)
 }
 

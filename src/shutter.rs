@@ -207,6 +207,24 @@ impl Shot {
         }
     }
 
+    /// How a shot that is not a plain global box shutter exposes its frames, as `check` and
+    /// `preview` say it: `curve triangle, rolling, readout 0.01 s top-to-bottom, exposure
+    /// 0.03 s per frame`; `None` for a global shutter with a box curve (each frame's interval
+    /// then says all).
+    pub fn exposure_note(&self) -> Option<String> {
+        if self.curve == ShutterCurve::Box && self.rolling.is_none() {
+            return None;
+        }
+        let rolling = self.rolling.map_or("global".to_string(), |r| {
+            format!("rolling, readout {} s {}", r.readout, r.direction.name())
+        });
+        Some(format!(
+            "curve {}, {rolling}, exposure {} s per frame",
+            self.curve.describe(),
+            self.exposure()
+        ))
+    }
+
     /// The interval from the first frame's shutter opening to the last frame's closing.
     pub fn whole_interval(&self) -> Interval {
         Interval {

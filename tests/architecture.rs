@@ -1,7 +1,8 @@
 //! The house's rules, checked on the source itself (docs/architecture.md states them):
 //! - the imports between the files of `src/` form no circle;
 //! - no file holds more than 700 lines outside its tests;
-//! - no command module (`cli/render`, `check`, `clip`, `converge`, `generate`) imports another;
+//! - no command module (`cli/render`, `check`, `clip`, `converge`, `generate`, `preview`)
+//!   imports another;
 //! - no file imports one on a higher floor ([`FLOORS`]): nothing points back up.
 //!
 //! A file imports another when it names an item through a path that resolves into that
@@ -17,18 +18,19 @@ use std::path::{Path, PathBuf};
 const MAX_LINES: usize = 700;
 
 /// The command modules, which must not import one another.
-const COMMANDS: [&str; 5] = [
+const COMMANDS: [&str; 6] = [
     "cli/render.rs",
     "cli/check.rs",
     "cli/clip.rs",
     "cli/converge.rs",
     "cli/generate.rs",
+    "cli/preview.rs",
 ];
 
 /// The floors of the house, lowest first, as docs/architecture.md draws them: each file is on
 /// the floor of the longest prefix of its path listed here, and imports only from its own
 /// floor or those below.
-const FLOORS: [(&str, u32); 42] = [
+const FLOORS: [(&str, u32); 44] = [
     // 0. leaves
     ("error.rs", 0),
     ("format.rs", 0),
@@ -54,6 +56,7 @@ const FLOORS: [(&str, u32); 42] = [
     ("rng.rs", 1),
     ("trig.rs", 1),
     ("pass.rs", 1),
+    ("replicates.rs", 1),
     ("denoise/", 1),
     ("points.rs", 1),
     // 2. the description
@@ -75,6 +78,7 @@ const FLOORS: [(&str, u32); 42] = [
     ("ply/", 4),
     ("point_cache.rs", 4),
     ("fountain.rs", 4),
+    ("preview/", 4),
     // 5. commands
     ("cli/", 5),
 ];

@@ -28,6 +28,7 @@ use crate::scene_file::Overrides;
   raytrace clip shot.toml shot.mp4                  # the rendered frames as a clip
   raytrace converge shot.toml --plot error.png      # error against time, per sampler
   raytrace generate --spheres 100000 -o big.toml    # a large random test scene
+  raytrace preview scenes/quick.toml                # a live page that renders on save
 
 Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
@@ -93,6 +94,23 @@ Exit status: 0 success, 2 bad arguments, bad scene or a missing frame (nothing w
 1 any other failure (ffmpeg missing or failing; nothing written)."
     )]
     Clip(ClipArgs),
+    /// Serve a live page of a shot that renders the chosen frame progressively, shows the
+    /// shot's timeline and renders again when the scene file changes.
+    #[command(
+        after_help = "Prints `preview: http://ADDR:PORT/` and serves the page there until Ctrl-C.
+Only this machine can open it unless --bind says otherwise; from another machine, forward
+the port over SSH: `ssh -L 8765:localhost:8765 node`, then open http://localhost:8765/.
+
+Examples:
+  raytrace preview scenes/quick.toml
+  raytrace preview shot.toml --frames 1-48:4 --port 0   # a free port
+  raytrace preview shot.toml --bind 0.0.0.0             # share it on the network
+
+Exit status: 130 on SIGINT (Ctrl-C), 143 on SIGTERM; 2 for bad arguments or a scene file that
+cannot be read (a scene that does not validate is shown on the page); 1 when the port cannot
+be had."
+    )]
+    Preview(PreviewArgs),
     /// Write a large test scene: random spheres in a cube, some of them moving.
     #[command(after_help = "Examples:
   raytrace generate --spheres 1000000 --moving 0.5 --seed 1 -o big.toml
@@ -329,6 +347,28 @@ pub struct CheckArgs {
     /// Check the scenes for this device, `cpu` or `gpu`, replacing `[render] device` (the
     /// GPU refuses scenes its 32-bit floats cannot carry, and point caches); no GPU is needed
     /// to check.
+    #[arg(long)]
+    pub device: Option<Device>,
+}
+
+/// Arguments of `raytrace preview`.
+#[derive(Args, Clone, Debug)]
+pub struct PreviewArgs {
+    /// The scene file (TOML), watched: saving it renders again.
+    #[arg(value_name = "SCENE")]
+    pub scene: PathBuf,
+    /// The port to serve on; 0 picks a free one (printed).
+    #[arg(long, default_value_t = 8765, allow_negative_numbers = true, value_parser = whole::<u16>)]
+    pub port: u16,
+    /// The address to serve on: loopback (only this machine) unless another is given here,
+    /// `0.0.0.0` for every network.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1")]
+    pub bind: std::net::IpAddr,
+    /// Frames on the timeline: `12`, `1-48`, `1-48:4` or a comma list of those (default: every
+    /// frame of the shot).
+    #[arg(long, num_args = 0..=1, value_name = "SPEC", allow_negative_numbers = true)]
+    pub frames: Option<Option<String>>,
+    /// Where paths are traced: `cpu` (default) or `gpu`, replacing `[render] device`.
     #[arg(long)]
     pub device: Option<Device>,
 }

@@ -11,7 +11,6 @@ use crate::memory::{check_memory, memory_estimate, mib};
 use crate::motion::Motion;
 use crate::point_cache::{self, FrameSurvey};
 use crate::scene_file::Overrides;
-use crate::shutter::ShutterCurve;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
 /// rendering (their frames and files, with the same code), and describes each. With several
@@ -67,17 +66,9 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         shot.position.name(),
         shot.start_time
     );
-    if shot.curve != ShutterCurve::Box || shot.rolling.is_some() {
+    if let Some(note) = shot.exposure_note() {
         // The frames' intervals below are then each frame's whole exposure.
-        let rolling = shot.rolling.map_or("global".to_string(), |r| {
-            format!("rolling, readout {} s {}", r.readout, r.direction.name())
-        });
-        let _ = writeln!(
-            s,
-            "shutter: curve {}, {rolling}, exposure {} s per frame",
-            shot.curve.describe(),
-            shot.exposure()
-        );
+        let _ = writeln!(s, "shutter: {note}");
     }
     let moving = scene
         .spheres

@@ -139,6 +139,7 @@ fn measure(
         let start = Instant::now();
         let raw = FrameJob::new(temporal, frame)
             .points(&points)
+            .reading(history.passes_read())
             .sample(&geometry)?;
         let sampled = start.elapsed().as_secs_f64();
         seconds[0] += sampled;

@@ -1,5 +1,5 @@
 //! The command line: its arguments ([`args`], clap) and one module per command (`render`,
-//! `check`, `clip`, `converge`, `generate`). `main.rs` parses the arguments into [`Cli`] and
+//! `check`, `clip`, `converge`, `generate`, `preview`). `main.rs` parses the arguments into [`Cli`] and
 //! calls [`run`]; the commands use the parsed argument structs as they are.
 //!
 //! A command module parses nothing more, calls the library and prints; no command imports
@@ -17,13 +17,14 @@ mod frames;
 mod generate;
 mod interrupt;
 mod jobs;
+mod preview;
 mod progress;
 mod render;
 mod threads;
 
 pub use args::{
     BudgetArgs, CheckArgs, Cli, ClipArgs, Command, ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD,
-    GenerateArgs, MAX_THREADS, PassList, PlyEncoding, RenderArgs, SceneArgs,
+    GenerateArgs, MAX_THREADS, PassList, PlyEncoding, PreviewArgs, RenderArgs, SceneArgs,
 };
 pub use threads::thread_pool;
 
@@ -40,6 +41,7 @@ pub fn run(cli: &Cli) -> Result<(), Error> {
         },
         Command::Check(args) => check::check(args).map(|s| progress::print_line(s.trim_end())),
         Command::Clip(args) => clip::clip(args),
+        Command::Preview(args) => preview::preview(args),
         Command::Generate(args) => generate::generate(args).map(|s| {
             if !s.is_empty() {
                 progress::print_line(&s)

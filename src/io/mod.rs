@@ -20,4 +20,4 @@ pub use exr::{FrameInfo, read_exr_number, read_exr_rgb};
 pub(crate) use frame::check_frame_file;
 pub use frame::{write_frame, write_frame_from, write_frame_with_passes};
 pub use image::{Image, RgbSource};
-pub use png::linear_to_srgb8;
+pub use png::{encode as encode_png, linear_to_srgb8};

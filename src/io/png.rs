@@ -24,6 +24,19 @@ pub fn linear_to_srgb8(v: f32) -> u8 {
 
 /// Writes the frame as 8-bit sRGB PNG into `writer`.
 pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) -> Result<(), Error> {
+    encode(&mut *writer, image).map_err(|e| match e {
+        ::image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::Output {
+            path: path.to_path_buf(),
+            message: format!("PNG encoder: {other}"),
+        },
+    })?;
+    writer.flush().map_err(|e| Error::io(path, e))
+}
+
+/// Encodes the frame as the 8-bit sRGB PNG a frame file holds (RGB, or RGBA with straight
+/// alpha when `image` has an `A` channel) into `writer`.
+pub fn encode(writer: impl Write, image: &Image) -> Result<(), ::image::ImageError> {
     use ::image::ImageEncoder;
     use ::image::codecs::png::PngEncoder;
 
@@ -41,16 +54,7 @@ pub(super) fn write(writer: &mut BufWriter<File>, path: &Path, image: &Image) ->
             ::image::ExtendedColorType::Rgba8,
         ),
     };
-    PngEncoder::new(&mut *writer)
-        .write_image(&bytes, image.width, image.height, kind)
-        .map_err(|e| match e {
-            ::image::ImageError::IoError(e) => Error::io(path, e),
-            other => Error::Output {
-                path: path.to_path_buf(),
-                message: format!("PNG encoder: {other}"),
-            },
-        })?;
-    writer.flush().map_err(|e| Error::io(path, e))
+    PngEncoder::new(writer).write_image(&bytes, image.width, image.height, kind)
 }
 
 /// 8-bit RGBA with straight alpha, as PNG requires: the colour sRGB encoded, divided by the

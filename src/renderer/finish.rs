@@ -30,7 +30,7 @@ use std::time::Instant;
 
 use super::adaptive::Weights;
 use super::device::{FrameError, ShotGeometry};
-use super::frame::{FrameJob, FrameResult, frame_failed};
+use super::frame::{Denoised, FrameJob, FrameResult, frame_failed};
 use super::stop::{RawStop, StopRule, relative_error};
 use crate::denoise::denoiser::{DenoiseQuality, Denoiser, Filter};
 use crate::denoise::estimate::{Blend, Snapshot, WrittenPixel};
@@ -48,32 +48,6 @@ pub const MAX_DENOISES: u32 = 2;
 /// The exponent of the mean samples by which the written frame's error over the raw frame's
 /// (as squares) grows between denoises: see the module's notes.
 const RATIO_GROWTH: f64 = 1.0 / 3.0;
-
-/// A finished frame's written colour when the scene asks for denoising.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Denoised {
-    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
-    /// row-major, every value finite).
-    pub rgb: Vec<f32>,
-    /// Its estimated relative error, bias included.
-    pub relative_error: f64,
-    /// The mean weight of the denoised frame in the written one, in [0, 1].
-    pub denoised_share: f64,
-    /// With `--temporal`: the mean weight of the earlier frames in the written one, in
-    /// [0, 1].
-    pub history_share: Option<f64>,
-    /// The filter's quality.
-    pub quality: DenoiseQuality,
-}
-
-/// The passes the finishing stages of `scene` read from the film, written or not: with
-/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
-pub fn passes_read(scene: &Scene) -> PassSet {
-    match scene.output.denoise {
-        Some(d) if d.temporal => history_passes(),
-        _ => PassSet::EMPTY,
-    }
-}
 
 /// The stages that finish a shot's frames.
 pub struct Finishing<'d> {
@@ -132,8 +106,19 @@ impl<'d> Finishing<'d> {
         job: FrameJob<'_>,
         geometry: &ShotGeometry,
     ) -> Result<FrameResult, Error> {
-        let raw = job.sample_with(geometry, self.stop_rule())?;
+        let raw = job
+            .reading(self.passes_read())
+            .sample_with(geometry, self.stop_rule())?;
         self.finish(raw)
+    }
+
+    /// The passes these stages read from the film, written or not: with history, the depth,
+    /// normal and motion that carry a pixel to earlier frames.
+    pub fn passes_read(&self) -> PassSet {
+        match self.history {
+            Some(_) => history_passes(),
+            None => PassSet::EMPTY,
+        }
     }
 
     /// The frames that must be finished before `frame`, in order, that have not been: with
@@ -217,7 +202,7 @@ impl History {
 
 /// What a later frame's history reads of a finished frame: its written colour (before its
 /// own history) and its first hits' depth, normal and backward motion (the film keeps them:
-/// [`passes_read`]).
+/// [`Finishing::passes_read`]).
 fn temporal_frame(result: &FrameResult, pixels: &[WrittenPixel]) -> TemporalFrame {
     let film = &result.film;
     let images = PassImages::of(history_passes(), &result.layout, film);

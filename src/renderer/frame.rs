@@ -6,12 +6,13 @@ use std::time::Instant;
 use super::adaptive::{Plan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
-use super::finish::{Denoised, passes_read};
 use super::stop::{RawStop, StopRule, relative_error};
 use super::tiles::{FrameRequest, FrameSetup};
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
 use crate::gpu::GpuError;
+use crate::pass::PassSet;
 use crate::passes::{Layout, PassContext, PassImages};
 use crate::points::FramePoints;
 use crate::scene::Scene;
@@ -103,6 +104,23 @@ impl FrameResult {
 /// plain sum of its samples over their count: a pixel that stopped at N samples is
 /// bit-identical to the same pixel rendered with exactly N samples.
 ///
+/// A finished frame's written colour when the scene asks for denoising.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Denoised {
+    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
+    /// row-major, every value finite).
+    pub rgb: Vec<f32>,
+    /// Its estimated relative error, bias included.
+    pub relative_error: f64,
+    /// The mean weight of the denoised frame in the written one, in [0, 1].
+    pub denoised_share: f64,
+    /// With `--temporal`: the mean weight of the earlier frames in the written one, in
+    /// [0, 1].
+    pub history_share: Option<f64>,
+    /// The filter's quality.
+    pub quality: DenoiseQuality,
+}
+
 /// The frame comes out raw: finishing it (denoising, history) is [`Finishing`](super::Finishing)'s.
 /// The scene's point caches are not read here (reading files is not the frame's business):
 /// the frame's points are given ([`FrameJob::points`]).
@@ -112,6 +130,7 @@ pub struct FrameJob<'a> {
     points: &'a FramePoints,
     budget: Budget,
     progress: &'a (dyn Fn(u64) + Sync),
+    read: PassSet,
 }
 
 /// The points of a frame without point caches.
@@ -126,7 +145,14 @@ impl<'a> FrameJob<'a> {
             points: &NO_POINTS,
             budget: Budget::default(),
             progress: &|_| {},
+            read: PassSet::EMPTY,
         }
+    }
+
+    /// Also samples `read`, the passes the frame's finishing reads without writing them
+    /// ([`Finishing::passes_read`](super::Finishing::passes_read)).
+    pub fn reading(self, read: PassSet) -> FrameJob<'a> {
+        FrameJob { read, ..self }
     }
 
     /// The frame's points of the scene's point caches (as `point_cache::read_frame` reads
@@ -165,15 +191,8 @@ impl<'a> FrameJob<'a> {
         geometry: &ShotGeometry,
         stop: &mut dyn StopRule,
     ) -> Result<FrameResult, Error> {
-        let FrameJob {
-            scene,
-            frame,
-            points,
-            budget,
-            progress,
-        } = self;
-        sample(scene, geometry.on(), points, frame, &budget, stop, progress)
-            .map_err(|e| frame_failed(frame, e))
+        let frame = self.frame;
+        sample(self, geometry.on(), stop).map_err(|e| frame_failed(frame, e))
     }
 }
 
@@ -183,19 +202,24 @@ pub(super) fn frame_failed(frame: u32, e: FrameError) -> Error {
 }
 
 fn sample(
-    scene: &Scene,
+    job: FrameJob<'_>,
     on: On<'_>,
-    points: &FramePoints,
-    frame: u32,
-    budget: &Budget,
     stop: &mut dyn StopRule,
-    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, FrameError> {
+    let FrameJob {
+        scene,
+        frame,
+        points,
+        budget,
+        progress,
+        read,
+    } = job;
+    let budget = &budget;
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene, frame);
     let times = scene.shot.frame_times(req.frame);
     let interval = times.interval;
-    let layout = Layout::keeping(scene.output.passes, passes_read(scene));
+    let layout = Layout::keeping(scene.output.passes, read);
     let mut rounds = match on {
         On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(
             scene, statics, points, req, times, layout,

@@ -1,0 +1,158 @@
+//! What the page shows of a rendered frame: its colour, as the PNG a frame file holds (the
+//! same pixels as `render` writes), and each of the scene's passes as a picture to look at.
+//!
+//! The passes' pictures are for the eye only (the frame files keep the values): depth as
+//! grey from near (white) to far (dark) over the frame's own range, misses black; normals as
+//! `0.5 + 0.5 n`; albedo and the noisy colour sRGB encoded; motion as the forward
+//! displacement (`0.5 + u / 2m`, `0.5 + v / 2m`, 0.5, with `m` the frame's largest); variance
+//! as grey on a log scale over the frame's range; samples and alpha as grey over [0, most].
+
+use ::image::ImageEncoder;
+use ::image::codecs::png::PngEncoder;
+
+use crate::error::Error;
+use crate::io::linear_to_srgb8;
+use crate::output;
+use crate::pass::Pass;
+use crate::passes::{NO_DEPTH, PassImages};
+use crate::renderer::FrameResult;
+use crate::scene::Scene;
+
+/// One view of a frame: its name (`colour` or a pass's) and its PNG.
+pub(crate) struct View {
+    pub(crate) name: &'static str,
+    pub(crate) png: Vec<u8>,
+}
+
+/// Every view of `result`, a frame of `scene`: the colour first, then the scene's passes.
+pub(crate) fn encode_views(scene: &Scene, result: &FrameResult) -> Result<Vec<View>, Error> {
+    let (colour, passes) = output::frame_png(scene, result)?;
+    let mut views = vec![View {
+        name: "colour",
+        png: colour,
+    }];
+    if let Some(p) = &passes {
+        for pass in scene.output.passes.iter() {
+            let rgb = pass_picture(p, pass);
+            views.push(View {
+                name: pass.name(),
+                png: encode_rgb(&rgb, p.width, p.height, scene)?,
+            });
+        }
+    }
+    Ok(views)
+}
+
+/// 8-bit RGB of a picture as a PNG.
+fn encode_rgb(rgb: &[u8], width: u32, height: u32, scene: &Scene) -> Result<Vec<u8>, Error> {
+    let mut png = Vec::new();
+    PngEncoder::new(&mut png)
+        .write_image(rgb, width, height, ::image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::Output {
+            path: scene.source.clone(),
+            message: format!("PNG encoder: {e}"),
+        })?;
+    Ok(png)
+}
+
+/// The picture of `pass` (which `images` holds), 8-bit RGB, row-major.
+fn pass_picture(images: &PassImages, pass: Pass) -> Vec<u8> {
+    let channel = |name: &str| images.channel(name).unwrap_or(&[]);
+    let grey = |v: f32| {
+        let g = (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+        [g, g, g]
+    };
+    let unit = |v: f32| ((0.5 + 0.5 * v).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let n = images.width as usize * images.height as usize;
+    let pixels: Vec<[u8; 3]> = match pass {
+        Pass::Alpha => channel("A").iter().map(|&a| grey(a)).collect(),
+        Pass::Samples => {
+            let s = channel("samples");
+            let most = s.iter().copied().fold(0.0f32, f32::max).max(1.0);
+            s.iter().map(|&v| grey(v / most)).collect()
+        }
+        Pass::Depth => {
+            let z = channel("Z");
+            let hit = |v: f32| v.is_finite() && v < NO_DEPTH;
+            let (near, far) = range(z.iter().copied().filter(|&v| hit(v)));
+            z.iter()
+                .map(|&v| match hit(v) {
+                    true => grey(1.0 - 0.9 * (v - near) / (far - near).max(f32::MIN_POSITIVE)),
+                    false => [0, 0, 0],
+                })
+                .collect()
+        }
+        Pass::Normal => {
+            let (x, y, z) = (channel("N.X"), channel("N.Y"), channel("N.Z"));
+            (0..n)
+                .map(|i| [unit(x[i]), unit(y[i]), unit(z[i])])
+                .collect()
+        }
+        Pass::Albedo | Pass::Noisy => {
+            let names = pass.channels();
+            let (r, g, b) = (channel(names[0]), channel(names[1]), channel(names[2]));
+            (0..n)
+                .map(|i| [r[i], g[i], b[i]].map(linear_to_srgb8))
+                .collect()
+        }
+        Pass::Motion => {
+            let (u, v) = (channel("forward.u"), channel("forward.v"));
+            let most = u.iter().chain(v).map(|x| x.abs()).fold(0.0f32, f32::max);
+            let scale = if most > 0.0 { 1.0 / most } else { 0.0 };
+            (0..n)
+                .map(|i| [unit(u[i] * scale), unit(v[i] * scale), 128])
+                .collect()
+        }
+        Pass::Variance => {
+            let (r, g, b) = (
+                channel("variance.R"),
+                channel("variance.G"),
+                channel("variance.B"),
+            );
+            let log = |i: usize| ((r[i] + g[i] + b[i]) / 3.0).max(1e-12).log10();
+            let (low, high) = range((0..n).map(log));
+            (0..n)
+                .map(|i| grey((log(i) - low) / (high - low).max(f32::MIN_POSITIVE)))
+                .collect()
+        }
+    };
+    pixels.into_iter().flatten().collect()
+}
+
+/// The least and greatest of finite `values` (0 and 1 when there are none).
+fn range(values: impl Iterator<Item = f32>) -> (f32, f32) {
+    let (low, high) = values
+        .filter(|v| v.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| {
+            (l.min(v), h.max(v))
+        });
+    if low <= high { (low, high) } else { (0.0, 1.0) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pass::PassSet;
+
+    #[test]
+    fn depth_runs_from_white_near_to_dark_far_and_misses_are_black() {
+        let passes = PassSet::EMPTY.with(Pass::Depth);
+        let mut images = PassImages::new(passes, 3, 1);
+        images.channels[0].values = vec![2.0, 4.0, NO_DEPTH];
+        let rgb = pass_picture(&images, Pass::Depth);
+        assert_eq!(&rgb[0..3], &[255, 255, 255]);
+        // 1 - 0.9 = 0.1 of white.
+        assert_eq!(&rgb[3..6], &[26, 26, 26]);
+        assert_eq!(&rgb[6..9], &[0, 0, 0]);
+    }
+
+    #[test]
+    fn normals_map_minus_one_to_black_and_one_to_white() {
+        let passes = PassSet::EMPTY.with(Pass::Normal);
+        let mut images = PassImages::new(passes, 1, 1);
+        for (c, v) in images.channels.iter_mut().zip([-1.0, 0.0, 1.0]) {
+            c.values = vec![v];
+        }
+        assert_eq!(pass_picture(&images, Pass::Normal), [0, 128, 255]);
+    }
+}
