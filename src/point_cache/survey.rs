@@ -298,6 +298,9 @@ fn index_file(
             Some(want) => {
                 let cell = super::frame::cell_of(snap, desc)?;
                 let values = read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
+                if desc.motion == Some(PointMotion::Interpolate) && want.ids {
+                    super::motion::sorted_ids(&values.ids).map_err(ReadError::Bad)?;
+                }
                 figures_of(&values, snap.count)
             }
             None => Figures {
