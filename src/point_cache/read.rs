@@ -101,7 +101,8 @@ pub(super) fn read_values(
             "positions are fractions of the box (xs ys zs), and the snapshot gives no box".into(),
         ));
     }
-    let with = |on: Option<usize>| if on.is_some() { n } else { 0 };
+    let believed = rows.believed(count);
+    let with = |on: Option<usize>| if on.is_some() { believed } else { 0 };
     let mut out = Read {
         centers: Vec::with_capacity(with(position)),
         images: Vec::with_capacity(with(images)),
@@ -210,6 +211,16 @@ pub(super) fn read_values(
     })?;
     if kind.is_some() {
         (out.kinds, out.kind_names) = kinds_of(&kind_values, &labels);
+    }
+    if believed < n {
+        // Columns grown as lines were read hold no more than their points.
+        out.centers.shrink_to_fit();
+        out.images.shrink_to_fit();
+        out.velocities.shrink_to_fit();
+        out.radii.shrink_to_fit();
+        out.colors.shrink_to_fit();
+        out.ids.shrink_to_fit();
+        out.values.shrink_to_fit();
     }
     Ok(out)
 }

@@ -67,6 +67,16 @@ pub(super) enum Rows<'a> {
 }
 
 impl Rows<'_> {
+    /// How many rows of the `count` a header declares may be allocated for before reading:
+    /// all of them where the count was held against the file's size (PLY, VTK); a text
+    /// format's count is believed only as its lines are read (the columns then grow).
+    pub(super) fn believed(&self, count: u64) -> usize {
+        match self {
+            Rows::Ply(_) | Rows::Vtk(_) => count as usize,
+            Rows::Text { .. } => count.min(1 << 16) as usize,
+        }
+    }
+
     /// Reads the rows, calling `row(i, values)` with the values of columns `wanted` in that
     /// order; returns the labels of text columns (an XYZ species), by their index.
     pub(super) fn read(

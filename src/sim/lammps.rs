@@ -187,16 +187,34 @@ fn box_bounds(lines: &mut Lines, item_line: u64, flags: &str) -> Result<Cell, Re
 }
 
 /// Skips the atom lines of `snap` (`lines` at its first); an error when the file ends first.
+/// The last line is read: its fields must be as many as the columns, and it must end with a
+/// line end (a file cut inside its last line is truncated).
 pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
-    let skipped = lines.skip_lines(snap.count)?;
-    if skipped < snap.count {
+    let before = snap.count.saturating_sub(1);
+    let skipped = lines.skip_lines(before)?;
+    let line = lines.position().line;
+    let last = match snap.count {
+        0 => None,
+        _ if skipped < before => None,
+        _ => lines.next_line()?.map(|l| l.split_ascii_whitespace().count()),
+    };
+    if snap.count > 0 && last.is_none() {
         return bad(
-            lines.position().line,
+            line,
             format_args!(
-                "the file ends after atom {skipped} of the {} its snapshot (timestep {}) declares (truncated, or a wrong count)",
+                "the file ends after {skipped} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                 snap.count,
                 snap.timestep.unwrap_or(0)
             ),
+        );
+    }
+    if snap.count > 0 && !lines.line_ended() {
+        return bad(line, format_args!("the file ends inside atom {before}'s line (truncated)"));
+    }
+    if let Some(n) = last.filter(|&n| n != snap.columns.len()) {
+        return bad(
+            line,
+            format_args!("atom {before}: {n} fields for the {} columns of ITEM: ATOMS", snap.columns.len()),
         );
     }
     Ok(())
@@ -224,12 +242,22 @@ pub fn read_rows(
             return bad(
                 line,
                 format_args!(
-                    "the file ends in atom {i} of the {} its snapshot (timestep {}) declares (truncated, or a wrong count)",
+                    "the file ends after {i} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                     snap.count,
                     snap.timestep.unwrap_or(0)
                 ),
             );
         };
+        if text.trim_start().starts_with("ITEM:") {
+            return bad(
+                line,
+                format_args!(
+                    "an ITEM: line where atom {i} of the {} atoms its snapshot (timestep {}) declares should be (a wrong count)",
+                    snap.count,
+                    snap.timestep.unwrap_or(0)
+                ),
+            );
+        }
         let mut n = 0;
         for field in text.split_ascii_whitespace() {
             if n < columns && slot[n] != usize::MAX {
@@ -248,6 +276,9 @@ pub fn read_rows(
                 };
             }
             n += 1;
+        }
+        if !lines.line_ended() {
+            return bad(line, format_args!("the file ends inside atom {i}'s line (truncated)"));
         }
         if n != columns {
             return bad(
@@ -326,7 +357,7 @@ mod tests {
     #[test]
     fn bad_dumps_are_errors_naming_the_line() {
         let cut = &DUMP[..DUMP.len() - 16];
-        assert!(error_of(cut).starts_with("line 21: the file ends in atom 0 of the 1"), "{}", error_of(cut));
+        assert!(error_of(cut).starts_with("line 21: the file ends after 0 of the 1 atoms"), "{}", error_of(cut));
         let nan = DUMP.replace("1 1 0.5 0.5 0", "1 1 abc 0.5 0");
         assert_eq!(error_of(&nan), "line 10: atom 0: x is \"abc\", not a number");
         let short = DUMP.replace("2 2 1.5 1.5 0.25", "2 2 1.5 1.5");

@@ -43,6 +43,8 @@ pub struct Lines {
     /// The position of the next line.
     next: Position,
     buffer: Vec<u8>,
+    /// Whether the last line read ended with a line end (only a file's last line may not).
+    ended: bool,
 }
 
 /// Opens `path`, a regular file, refusing anything else (a named pipe would block).
@@ -86,7 +88,14 @@ impl Lines {
                 offset: 0,
             },
             buffer: Vec::new(),
+            ended: true,
         })
+    }
+
+    /// Whether the last line [`Lines::next_line`] gave ended with a line end: a file whose last
+    /// line has none was cut inside it (the tools that write these files end every line).
+    pub fn line_ended(&self) -> bool {
+        self.ended
     }
 
     /// Whether the file is gzip-compressed.
@@ -145,7 +154,8 @@ impl Lines {
         self.next.line += 1;
         self.next.offset += n as u64;
         let mut end = self.buffer.len();
-        if self.buffer.last() == Some(&b'\n') {
+        self.ended = self.buffer.last() == Some(&b'\n');
+        if self.ended {
             end -= 1;
             if end > 0 && self.buffer[end - 1] == b'\r' {
                 end -= 1;

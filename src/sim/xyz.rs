@@ -219,19 +219,40 @@ pub fn next_snapshot(
     }))
 }
 
-/// Skips the atom lines of `snap`; an error when the file ends first.
+/// Skips the atom lines of `snap`; an error when the file ends first. The last line is read:
+/// its fields must be as many as the columns, and it must end with a line end.
 pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
-    let skipped = lines.skip_lines(snap.count)?;
-    if skipped < snap.count {
+    let before = snap.count.saturating_sub(1);
+    let skipped = lines.skip_lines(before)?;
+    let line = lines.position().line;
+    let last = match snap.count {
+        0 => None,
+        _ if skipped < before => None,
+        _ => lines.next_line()?.map(|l| l.split_ascii_whitespace().count()),
+    };
+    if snap.count > 0 && last.is_none() {
         return bad(
-            lines.position().line,
+            line,
             format_args!(
-                "the file ends after atom {skipped} of the {} its count line (line {}) declares (the count line lies, or the file is truncated)",
+                "the file ends after {skipped} of the {} atoms its count line (line {}) declares (the count line lies, or the file is truncated)",
                 snap.count, snap.line
             ),
         );
     }
+    if snap.count > 0 && !lines.line_ended() {
+        return bad(line, format_args!("the file ends inside atom {before}'s line (truncated)"));
+    }
+    if let Some(n) = last.filter(|&n| n != snap.columns.len()) {
+        return bad(line, mismatch(before, n, snap.columns.len()));
+    }
     Ok(())
+}
+
+/// A line of `n` fields for `columns` columns: a count line read as an atom (one field)
+/// says the count before it lies.
+fn mismatch(i: u64, n: usize, columns: usize) -> String {
+    let hint = if n == 1 { " (the count line of its frame lies?)" } else { "" };
+    format!("atom {i}: {n} fields for the {columns} columns Properties= declares{hint}")
 }
 
 /// Reads the atom lines of `snap`, calling `row(i, values)` with the values of the columns
@@ -256,7 +277,7 @@ pub fn read_rows(
             return bad(
                 line,
                 format_args!(
-                    "the file ends in atom {i} of the {} its count line (line {}) declares (the count line lies, or the file is truncated)",
+                    "the file ends after {i} of the {} atoms its count line (line {}) declares (the count line lies, or the file is truncated)",
                     snap.count, snap.line
                 ),
             );
@@ -300,11 +321,11 @@ pub fn read_rows(
             }
             n += 1;
         }
+        if !lines.line_ended() {
+            return bad(line, format_args!("the file ends inside atom {i}'s line (truncated)"));
+        }
         if n != columns {
-            return bad(
-                line,
-                format_args!("atom {i}: {n} fields for the {columns} columns Properties= declares"),
-            );
+            return bad(line, mismatch(i, n, columns));
         }
         row(i, &values).or_else(|m| bad(line, m))?;
     }
