@@ -106,8 +106,17 @@ mod tests {
         // 0.5 linear encodes to 188 (0.7354); 188 decodes to 0.5029.
         assert!((srgb_to_linear(188) - 0.5029).abs() < 1e-4);
         let r = [2.0, 4.0];
-        assert_eq!(Colormap::Magma.color_of(3.0, r), Colormap::Magma.linear(0.5));
-        assert_eq!(Colormap::Magma.color_of(9.0, r), Colormap::Magma.linear(1.0));
-        assert_eq!(Colormap::Magma.color_of(1.0, [1.0, 1.0]), Colormap::Magma.linear(0.5));
+        assert_eq!(
+            Colormap::Magma.color_of(3.0, r),
+            Colormap::Magma.linear(0.5)
+        );
+        assert_eq!(
+            Colormap::Magma.color_of(9.0, r),
+            Colormap::Magma.linear(1.0)
+        );
+        assert_eq!(
+            Colormap::Magma.color_of(1.0, [1.0, 1.0]),
+            Colormap::Magma.linear(0.5)
+        );
     }
 }

@@ -31,7 +31,11 @@ const SIDE: f64 = 8.0;
 
 /// Whether `lmp` runs; without it a test is skipped with a note, except under CI=true.
 fn have_lammps() -> bool {
-    if Command::new("lmp").arg("-h").output().is_ok_and(|o| o.status.success()) {
+    if Command::new("lmp")
+        .arg("-h")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
         return true;
     }
     let msg = "LAMMPS's lmp is needed (Debian: apt-get install lammps)";
@@ -52,7 +56,11 @@ fn simulate() -> tempfile::TempDir {
         .current_dir(dir.path())
         .output()
         .unwrap();
-    assert!(o.status.success(), "lmp: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "lmp: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     dir
 }
 
@@ -117,15 +125,23 @@ fn snapshot(path: &Path, k: usize) -> Atoms {
             lines.next();
         }
         let header = lines.next().unwrap();
-        assert!(header.starts_with("ITEM: ATOMS id type x y z vx vy vz"), "{header}");
+        assert!(
+            header.starts_with("ITEM: ATOMS id type x y z vx vy vz"),
+            "{header}"
+        );
         let mut atoms = Atoms {
             centers: Vec::new(),
             velocities: Vec::new(),
         };
         for line in lines.take(n) {
-            let f: Vec<f64> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            let f: Vec<f64> = line
+                .split_whitespace()
+                .map(|x| x.parse().unwrap())
+                .collect();
             atoms.centers.push(DVec3::new(f[2], f[3], f[4]));
-            atoms.velocities.push(DVec3::new(f[5], f[6], f[7]) * (SNAPSHOT_TAU * FPS));
+            atoms
+                .velocities
+                .push(DVec3::new(f[5], f[6], f[7]) * (SNAPSHOT_TAU * FPS));
         }
         return atoms;
     }
@@ -172,10 +188,20 @@ fn a_snapshot_renders_as_the_same_points_written_as_ply() {
     }
     let d = simulate();
     let dir = d.path();
-    write_ply(&dir.join("first.ply"), &snapshot(&dir.join("dump.x.lammpstrj"), 0));
-    write(dir, "dump.toml", &scene(&dump("dump.x.lammpstrj", "periodic = false\n")));
+    write_ply(
+        &dir.join("first.ply"),
+        &snapshot(&dir.join("dump.x.lammpstrj"), 0),
+    );
+    write(
+        dir,
+        "dump.toml",
+        &scene(&dump("dump.x.lammpstrj", "periodic = false\n")),
+    );
     write(dir, "ply.toml", &scene("file = \"first.ply\"\n"));
-    assert_same_bits(&render_bits(dir, "dump.toml", 1..=1), &render_bits(dir, "ply.toml", 1..=1));
+    assert_same_bits(
+        &render_bits(dir, "dump.toml", 1..=1),
+        &render_bits(dir, "ply.toml", 1..=1),
+    );
 }
 
 /// Scaled positions, image flags, gzip and a series of one file a snapshot render as the
@@ -223,7 +249,13 @@ fn placed_by_hand(atoms: &Atoms, time: f64, open: f64, close: f64) -> (Atoms, us
         // One face crossed per direction at most in this simulation; two at once: a copy
         // across both as well.
         for mask in 1..8u32 {
-            let pick = |k: usize| if mask & (1 << k) != 0 { crossed[k] } else { 0.0 };
+            let pick = |k: usize| {
+                if mask & (1 << k) != 0 {
+                    crossed[k]
+                } else {
+                    0.0
+                }
+            };
             let through = DVec3::new(pick(0), pick(1), pick(2));
             let used = (0..3).all(|k| mask & (1 << k) == 0 || crossed[k] != 0.0);
             if used {
@@ -253,11 +285,18 @@ fn atoms_crossing_the_box_render_as_their_images_placed_by_hand() {
     for frame in 1..=3u32 {
         let time = (frame - 1) as f64 / FPS;
         let atoms = snapshot(&dir.join("dump.x.lammpstrj"), frame as usize - 1);
-        let (drawn, copies) = placed_by_hand(&atoms, time, time - shutter / 2.0, time + shutter / 2.0);
+        let (drawn, copies) =
+            placed_by_hand(&atoms, time, time - shutter / 2.0, time + shutter / 2.0);
         crossing += copies;
         write_ply(&dir.join(format!("hand_{frame:04}.ply")), &drawn);
     }
-    assert!(crossing > 0, "no atom crosses a face in frames 1 to 3: nothing is tested");
+    assert!(
+        crossing > 0,
+        "no atom crosses a face in frames 1 to 3: nothing is tested"
+    );
     write(dir, "hand.toml", &scene("file = \"hand_####.ply\"\n"));
-    assert_same_bits(&render_bits(dir, "dump.toml", 1..=3), &render_bits(dir, "hand.toml", 1..=3));
+    assert_same_bits(
+        &render_bits(dir, "dump.toml", 1..=3),
+        &render_bits(dir, "hand.toml", 1..=3),
+    );
 }

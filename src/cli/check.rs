@@ -243,8 +243,14 @@ fn looks(p: &PointCacheDesc) -> String {
     if let Some(c) = &p.color_by {
         let range = c
             .range
-            .map_or("range from the frames".to_string(), |[a, b]| format!("range {a} to {b}"));
-        parts.push(format!("color_by {} ({}, {range})", elide(&c.column), c.map.name()));
+            .map_or("range from the frames".to_string(), |[a, b]| {
+                format!("range {a} to {b}")
+            });
+        parts.push(format!(
+            "color_by {} ({}, {range})",
+            elide(&c.column),
+            c.map.name()
+        ));
     }
     if let Some(r) = &p.radius_by {
         parts.push(format!("radius_by {}", elide(r)));

@@ -97,11 +97,14 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
 /// The point caches of `frames` surveyed once, so every frame is coloured over one range.
 fn caches(scene: &Scene, frames: &[u32]) -> Result<point_cache::ShotPoints, Error> {
     let span = |frames: &[u32]| {
-        frames.first().zip(frames.last()).map(|(&first, &last)| point_cache::Frames {
-            first,
-            last,
-            each: Box::new(frames.to_vec().into_iter()),
-        })
+        frames
+            .first()
+            .zip(frames.last())
+            .map(|(&first, &last)| point_cache::Frames {
+                first,
+                last,
+                each: Box::new(frames.to_vec().into_iter()),
+            })
     };
     point_cache::ShotPoints::survey(scene, span(frames), span(frames), point_cache::Depth::Files)
 }

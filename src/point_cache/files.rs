@@ -68,12 +68,8 @@ pub(super) fn series(pattern: &str) -> Result<Vec<PathBuf>, String> {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let entries = std::fs::read_dir(&dir).map_err(|e| {
-        format!(
-            "the series' folder {}: {e}",
-            crate::error::elide_path(&dir)
-        )
-    })?;
+    let entries = std::fs::read_dir(&dir)
+        .map_err(|e| format!("the series' folder {}: {e}", crate::error::elide_path(&dir)))?;
     let mut found: Vec<(u128, PathBuf)> = Vec::new();
     for entry in entries {
         let entry = entry.map_err(|e| e.to_string())?;
@@ -112,7 +108,12 @@ pub(super) fn timestep_time(shot: &Shot, snap: &Snapshot, dt: f64) -> f64 {
 
 impl Files {
     /// What frame `frame` shows of cache `desc`; an error says why there is nothing.
-    pub(super) fn place(&self, desc: &PointCacheDesc, shot: &Shot, frame: u32) -> Result<Placed, String> {
+    pub(super) fn place(
+        &self,
+        desc: &PointCacheDesc,
+        shot: &Shot,
+        frame: u32,
+    ) -> Result<Placed, String> {
         let interpolate = desc.motion == Some(PointMotion::Interpolate);
         let snaps = match self {
             Files::PerFrame => {
@@ -154,7 +155,8 @@ impl Files {
                 // A snapshot and a frame at the same time in exact arithmetic may round
                 // apart: a snapshot within 1e-9 of the frame's time counts as at it.
                 let slack = 1e-9 * t.abs().max(1.0);
-                let after = snaps.partition_point(|s| timestep_time(shot, &s.snap, dt) <= t + slack);
+                let after =
+                    snaps.partition_point(|s| timestep_time(shot, &s.snap, dt) <= t + slack);
                 if after == 0 {
                     let first = &snaps[0].snap;
                     return Err(format!(
@@ -206,7 +208,14 @@ mod tests {
     #[test]
     fn a_series_is_its_files_in_the_order_of_their_numbers() {
         let dir = tempfile::tempdir().unwrap();
-        for name in ["d.100.txt", "d.20.txt", "d.3.txt", "d.x.txt", "e.5.txt", "d..txt"] {
+        for name in [
+            "d.100.txt",
+            "d.20.txt",
+            "d.3.txt",
+            "d.x.txt",
+            "e.5.txt",
+            "d..txt",
+        ] {
             std::fs::write(dir.path().join(name), "").unwrap();
         }
         let pattern = dir.path().join("d.*.txt");
@@ -217,8 +226,16 @@ mod tests {
             .collect();
         assert_eq!(names, ["d.3.txt", "d.20.txt", "d.100.txt"]);
         std::fs::write(dir.path().join("d.020.txt"), "").unwrap();
-        assert!(series(&pattern.to_string_lossy()).unwrap_err().contains("the same number"));
+        assert!(
+            series(&pattern.to_string_lossy())
+                .unwrap_err()
+                .contains("the same number")
+        );
         let none = dir.path().join("q*.txt");
-        assert!(series(&none.to_string_lossy()).unwrap_err().contains("no file matches"));
+        assert!(
+            series(&none.to_string_lossy())
+                .unwrap_err()
+                .contains("no file matches")
+        );
     }
 }

@@ -44,7 +44,12 @@ struct Values {
     cell: Option<Cell>,
 }
 
-fn values_of(rows: &mut Rows, snap: &Snapshot, desc: &PointCacheDesc, want: Wanted) -> Result<Values, ReadError> {
+fn values_of(
+    rows: &mut Rows,
+    snap: &Snapshot,
+    desc: &PointCacheDesc,
+    want: Wanted,
+) -> Result<Values, ReadError> {
     let layout = layout(&snap.columns, desc).map_err(ReadError::Bad)?;
     let cell = cell_of(snap, desc)?;
     let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
@@ -119,7 +124,12 @@ impl ShotPoints {
 }
 
 /// One cache's points in `frame`, one set per material.
-fn read_cache(scene: &Scene, index: usize, cache: &CacheShot, frame: u32) -> Result<Vec<PointSet>, Error> {
+fn read_cache(
+    scene: &Scene,
+    index: usize,
+    cache: &CacheShot,
+    frame: u32,
+) -> Result<Vec<PointSet>, Error> {
     let desc = &scene.points[index];
     let placed = cache
         .files
@@ -168,7 +178,8 @@ fn read_cache(scene: &Scene, index: usize, cache: &CacheShot, frame: u32) -> Res
             None => Crossing::Direct,
         };
         let dt = next_time - placed.time;
-        velocities = interpolate(&own.read, &next.read, &next_ids, dt, crossing).map_err(own_error)?;
+        velocities =
+            interpolate(&own.read, &next.read, &next_ids, dt, crossing).map_err(own_error)?;
     }
     if velocities.iter().all(|v| *v == DVec3::ZERO) {
         velocities = Vec::new();
@@ -179,7 +190,11 @@ fn read_cache(scene: &Scene, index: usize, cache: &CacheShot, frame: u32) -> Res
     let mut points = Columns {
         radii,
         colors: match (&desc.color_by, cache.range) {
-            (Some(c), Some(range)) => read.values.iter().map(|&v| c.map.color_of(v, range)).collect(),
+            (Some(c), Some(range)) => read
+                .values
+                .iter()
+                .map(|&v| c.map.color_of(v, range))
+                .collect(),
             _ => read.colors,
         },
         materials,
@@ -188,8 +203,14 @@ fn read_cache(scene: &Scene, index: usize, cache: &CacheShot, frame: u32) -> Res
     };
     if let Some(cell) = cell.filter(Cell::any_periodic) {
         let interval = scene.shot.interval(frame);
-        let (moved, copies) =
-            images(&points.centers, &points.velocities, placed.time, interval, &cell).map_err(own_error)?;
+        let (moved, copies) = images(
+            &points.centers,
+            &points.velocities,
+            placed.time,
+            interval,
+            &cell,
+        )
+        .map_err(own_error)?;
         points.add_copies(&copies);
         for (i, shift) in moved {
             points.centers[i] += shift;
@@ -254,16 +275,28 @@ impl Columns {
                 let pick = |i: &usize| self.materials[*i] == m;
                 let all: Vec<usize> = (0..self.centers.len()).filter(pick).collect();
                 let take = |col: &[DVec3]| -> Vec<DVec3> {
-                    if col.is_empty() { Vec::new() } else { all.iter().map(|&i| col[i]).collect() }
+                    if col.is_empty() {
+                        Vec::new()
+                    } else {
+                        all.iter().map(|&i| col[i]).collect()
+                    }
                 };
                 PointSet {
                     material: m,
                     time,
                     centers: take(&self.centers),
                     velocities: take(&self.velocities),
-                    radii: if self.radii.is_empty() { Vec::new() } else { all.iter().map(|&i| self.radii[i]).collect() },
+                    radii: if self.radii.is_empty() {
+                        Vec::new()
+                    } else {
+                        all.iter().map(|&i| self.radii[i]).collect()
+                    },
                     radius,
-                    colors: if self.colors.is_empty() { Vec::new() } else { all.iter().map(|&i| self.colors[i]).collect() },
+                    colors: if self.colors.is_empty() {
+                        Vec::new()
+                    } else {
+                        all.iter().map(|&i| self.colors[i]).collect()
+                    },
                 }
             })
             .filter(|s| !s.is_empty())
@@ -285,7 +318,10 @@ fn radii(desc: &PointCacheDesc, read: &Read) -> Result<Vec<f64>, String> {
     let by_type = looks(desc, read);
     if desc.radius_by.is_some() || by_type.iter().all(|t| t.is_none_or(|t| t.radius.is_none())) {
         if read.radii.is_empty() && desc.radius.is_none() && !read.centers.is_empty() {
-            return Err("no radius column and no radius for the points' types or in the [[points]] table".into());
+            return Err(
+                "no radius column and no radius for the points' types or in the [[points]] table"
+                    .into(),
+            );
         }
         return Ok(read.radii.clone());
     }
@@ -310,11 +346,18 @@ fn radii(desc: &PointCacheDesc, read: &Read) -> Result<Vec<f64>, String> {
 /// Each point's material where types give some; else none.
 fn materials(desc: &PointCacheDesc, read: &Read) -> Vec<u32> {
     let by_type = looks(desc, read);
-    if by_type.iter().all(|t| t.is_none_or(|t| t.material.is_none())) {
+    if by_type
+        .iter()
+        .all(|t| t.is_none_or(|t| t.material.is_none()))
+    {
         return Vec::new();
     }
     read.kinds
         .iter()
-        .map(|&k| by_type[k as usize].and_then(|t| t.material).unwrap_or(desc.material))
+        .map(|&k| {
+            by_type[k as usize]
+                .and_then(|t| t.material)
+                .unwrap_or(desc.material)
+        })
         .collect()
 }

@@ -166,7 +166,10 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
         _ => None,
     };
     let velocities: &[&[&str]] = match f {
-        CacheFormat::Ply => &[&["vx", "vy", "vz"], &["velocity_x", "velocity_y", "velocity_z"]],
+        CacheFormat::Ply => &[
+            &["vx", "vy", "vz"],
+            &["velocity_x", "velocity_y", "velocity_z"],
+        ],
         CacheFormat::Lammps => &[&["vx", "vy", "vz"]],
         CacheFormat::Xyz => &[&["velo"], &["vel"]],
         CacheFormat::Vtk => &[&["velocity"], &["velocities"], &["vel"], &["velo"], &["v"]],
@@ -175,7 +178,9 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
     let radius = match &desc.radius_by {
         Some(name) => {
             let Some(k) = find(columns, f, name, 0).filter(|&k| columns[k].components == 1) else {
-                return Err(format!("radius_by names the column {name}, which the file does not have (as one number a point)"));
+                return Err(format!(
+                    "radius_by names the column {name}, which the file does not have (as one number a point)"
+                ));
             };
             Some((k, if name == "diameter" { 0.5 } else { 1.0 }))
         }
@@ -207,10 +212,18 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
     let kind = match desc.types.is_empty() {
         true => None,
         false => {
-            let name = if f == CacheFormat::Xyz { "species" } else { "type" };
+            let name = if f == CacheFormat::Xyz {
+                "species"
+            } else {
+                "type"
+            };
             match single(columns, f, &[name]) {
                 Some((k, _)) => Some(k),
-                None => return Err(format!("types gives looks per {name}, and the file has no {name} column")),
+                None => {
+                    return Err(format!(
+                        "types gives looks per {name}, and the file has no {name} column"
+                    ));
+                }
             }
         }
     };
@@ -219,7 +232,10 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
         Some(c) => {
             let q = quantity(columns, f, &c.column);
             if q.is_empty() {
-                return Err(format!("color_by names the column {}, which the file does not have", c.column));
+                return Err(format!(
+                    "color_by names the column {}, which the file does not have",
+                    c.column
+                ));
             }
             q
         }
@@ -233,9 +249,10 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
         ));
     }
     if desc.motion == Some(PointMotion::Interpolate) && id.is_none() {
-        return Err(
-            format!("motion = \"interpolate\" matches points by id, and {} has no id column", holder(f)),
-        );
+        return Err(format!(
+            "motion = \"interpolate\" matches points by id, and {} has no id column",
+            holder(f)
+        ));
     }
     let layout = Layout {
         position,
@@ -255,7 +272,11 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
             return Err(format!(
                 "property {} is {}; a single number was expected",
                 c.label(),
-                if c.kind == ColumnKind::List { "a list" } else { "text" }
+                if c.kind == ColumnKind::List {
+                    "a list"
+                } else {
+                    "text"
+                }
             ));
         }
     }

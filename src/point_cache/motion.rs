@@ -106,7 +106,11 @@ pub(super) fn images(
         let start = p + v * (interval.open - time);
         let end = p + v * (interval.close - time);
         let n = cell.into_box(start);
-        let shift = if n == DVec3::ZERO { DVec3::ZERO } else { cell.shift(n) };
+        let shift = if n == DVec3::ZERO {
+            DVec3::ZERO
+        } else {
+            cell.shift(n)
+        };
         if shift != DVec3::ZERO {
             moved.push((i, shift));
         }
@@ -150,13 +154,21 @@ mod tests {
     use glam::DMat3;
 
     fn cube(periodic: [bool; 3]) -> Cell {
-        Cell::new(DVec3::ZERO, DMat3::from_diagonal(DVec3::splat(10.0)), periodic).unwrap()
+        Cell::new(
+            DVec3::ZERO,
+            DMat3::from_diagonal(DVec3::splat(10.0)),
+            periodic,
+        )
+        .unwrap()
     }
 
     #[test]
     fn a_path_across_a_face_is_drawn_on_both_sides() {
         let cell = cube([true; 3]);
-        let interval = Interval { open: 0.0, close: 1.0 };
+        let interval = Interval {
+            open: 0.0,
+            close: 1.0,
+        };
         // Starts at x = 9.5 moving +1 a second: crosses x = 10; a copy 10 back.
         let (moved, copies) = images(
             &[DVec3::new(9.5, 5.0, 5.0)],
@@ -192,7 +204,11 @@ mod tests {
         let shifts: Vec<DVec3> = copies.iter().map(|c| c.1).collect();
         assert_eq!(
             shifts,
-            [DVec3::new(-10.0, 0.0, 0.0), DVec3::new(0.0, 10.0, 0.0), DVec3::new(-10.0, 10.0, 0.0)]
+            [
+                DVec3::new(-10.0, 0.0, 0.0),
+                DVec3::new(0.0, 10.0, 0.0),
+                DVec3::new(-10.0, 10.0, 0.0)
+            ]
         );
         // Not periodic along x: no copy.
         let (_, copies) = images(
@@ -205,7 +221,13 @@ mod tests {
         .unwrap();
         assert!(copies.is_empty());
         // Faster than a box a frame: refused.
-        let e = images(&[DVec3::splat(5.0)], &[DVec3::new(16.0, 0.0, 0.0)], 0.0, interval, &cell);
+        let e = images(
+            &[DVec3::splat(5.0)],
+            &[DVec3::new(16.0, 0.0, 0.0)],
+            0.0,
+            interval,
+            &cell,
+        );
         assert!(e.unwrap_err().contains("crosses 2 boxes along edge a"));
     }
 
@@ -229,6 +251,10 @@ mod tests {
         let ids = sorted_ids(&c.ids).unwrap();
         let w = interpolate(&a, &c, &ids, 0.5, Crossing::Images(&cell)).unwrap()[0];
         assert!((w - DVec3::new(20.8, 0.0, 0.0)).length() < 1e-12);
-        assert!(sorted_ids(&[3, 1, 3]).unwrap_err().contains("id 3 is held by two points"));
+        assert!(
+            sorted_ids(&[3, 1, 3])
+                .unwrap_err()
+                .contains("id 3 is held by two points")
+        );
     }
 }

@@ -87,8 +87,12 @@ pub(super) fn read_values(
     let position = add(want.positions, &layout.position);
     let images = layout.images.and_then(|k| add(want.images, &k));
     let velocity = layout.velocity.and_then(|k| add(want.velocities, &k));
-    let radius = layout.radius.and_then(|(k, f)| add(want.looks, &[k]).map(|s| (s, f)));
-    let color = layout.color.and_then(|(k, int)| add(want.looks, &k).map(|s| (s, int)));
+    let radius = layout
+        .radius
+        .and_then(|(k, f)| add(want.looks, &[k]).map(|s| (s, f)));
+    let color = layout
+        .color
+        .and_then(|(k, int)| add(want.looks, &k).map(|s| (s, int)));
     let id = layout.id.and_then(|k| add(want.ids, &[k]));
     let kind = layout.kind.and_then(|k| add(want.looks, &[k]));
     let values = (!layout.color_by.is_empty())
@@ -172,7 +176,10 @@ pub(super) fn read_values(
                     (x, "0 to 1")
                 };
                 if !(0.0..=1.0).contains(&scaled) {
-                    return Err(format!("point {i}: {} is {x}, outside {range}", name(k + j)));
+                    return Err(format!(
+                        "point {i}: {} is {x}, outside {range}",
+                        name(k + j)
+                    ));
                 }
                 c[j] = scaled as f32;
             }
@@ -197,7 +204,11 @@ pub(super) fn read_values(
             let x = if value_count == 1 {
                 v[k]
             } else {
-                v[k..k + value_count].iter().map(|x| x * x).sum::<f64>().sqrt()
+                v[k..k + value_count]
+                    .iter()
+                    .map(|x| x * x)
+                    .sum::<f64>()
+                    .sqrt()
             };
             if !x.is_finite() {
                 return Err(format!(

@@ -83,7 +83,11 @@ pub struct FrameSurvey {
 
 /// The figures of a snapshot from its values.
 fn figures_of(read: &super::read::Read, count: u64) -> Figures {
-    let moving = read.velocities.iter().filter(|v| **v != DVec3::ZERO).count() as u64;
+    let moving = read
+        .velocities
+        .iter()
+        .filter(|v| **v != DVec3::ZERO)
+        .count() as u64;
     let range = read.values.iter().fold(None, |r: Option<[f64; 2]>, &x| {
         Some(r.map_or([x, x], |[lo, hi]| [lo.min(x), hi.max(x)]))
     });
@@ -124,7 +128,11 @@ impl ShotPoints {
             false => Vec::new(),
         };
         let colour_frames: Vec<u32> = match &mut colour {
-            Some(c) if scene.points.iter().any(|p| p.is_sequence() && p.color_by.as_ref().is_some_and(|c| c.range.is_none())) => {
+            Some(c)
+                if scene.points.iter().any(|p| {
+                    p.is_sequence() && p.color_by.as_ref().is_some_and(|c| c.range.is_none())
+                }) =>
+            {
                 c.each.by_ref().collect()
             }
             _ => Vec::new(),
@@ -158,7 +166,10 @@ impl ShotPoints {
         for (index, c) in shot.caches.iter().enumerate() {
             if let Files::Snapshots { .. } = c.files {
                 let desc = &scene.points[index];
-                let (a, b) = (place_key(c, scene, index, span.0)?, place_key(c, scene, index, span.1)?);
+                let (a, b) = (
+                    place_key(c, scene, index, span.0)?,
+                    place_key(c, scene, index, span.1)?,
+                );
                 for (key, f) in c.figures.range(a..=b) {
                     let next = next_count(c, desc, *key);
                     most.points = most.points.max(f.count);
@@ -185,7 +196,10 @@ impl ShotPoints {
     pub fn count_range(&self, scene: &Scene, first: u32, last: u32) -> Result<(u64, u64), Error> {
         let (mut least, mut most) = (0, 0);
         for (index, c) in self.caches.iter().enumerate() {
-            let (a, b) = (place_key(c, scene, index, first)?, place_key(c, scene, index, last)?);
+            let (a, b) = (
+                place_key(c, scene, index, first)?,
+                place_key(c, scene, index, last)?,
+            );
             let counts = c.figures.range(a..=b).map(|(_, f)| f.count);
             least += counts.clone().min().unwrap_or(0);
             most += counts.max().unwrap_or(0);
@@ -284,7 +298,8 @@ fn index_file(
                 snap.count
             )));
         }
-        if let (SnapshotTime::Timestep { .. }, Some(t), Some(last)) = (desc.snapshots, snap.timestep, last_timestep)
+        if let (SnapshotTime::Timestep { .. }, Some(t), Some(last)) =
+            (desc.snapshots, snap.timestep, last_timestep)
             && t <= last
         {
             return Err(ReadError::Bad(format!(
@@ -297,7 +312,8 @@ fn index_file(
         let f = match read(first + ordinal - 1, snap) {
             Some(want) => {
                 let cell = super::frame::cell_of(snap, desc)?;
-                let values = read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
+                let values =
+                    read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
                 if desc.motion == Some(PointMotion::Interpolate) && want.ids {
                     super::motion::sorted_ids(&values.ids).map_err(ReadError::Bad)?;
                 }
@@ -358,7 +374,12 @@ fn survey_sequence(
     };
     for &frame in frames {
         survey(frame, wanted(depth, needs_range), &mut cache)?;
-        if let Some((Key::Frame(next), _)) = cache.files.place(desc, &scene.shot, frame).ok().and_then(|p| p.next) {
+        if let Some((Key::Frame(next), _)) = cache
+            .files
+            .place(desc, &scene.shot, frame)
+            .ok()
+            .and_then(|p| p.next)
+        {
             survey(next, wanted(depth, false), &mut cache)?;
         }
     }
@@ -367,7 +388,9 @@ fn survey_sequence(
             survey(frame, wanted(Depth::Files, true), &mut cache)?;
         }
         cache.range = range_over(
-            colour_frames.iter().map(|&f| (f, cache.figures.get(&Key::Frame(f)))),
+            colour_frames
+                .iter()
+                .map(|&f| (f, cache.figures.get(&Key::Frame(f)))),
             scene,
             index,
         )?;
@@ -394,7 +417,13 @@ fn range_over<'a>(
         None => {
             let desc = &scene.points[index];
             let m = "no point to take the colour range from: give color_range";
-            Err(Error::Scene(about(scene, index, last_frame, Path::new(&desc.file), m)))
+            Err(Error::Scene(about(
+                scene,
+                index,
+                last_frame,
+                Path::new(&desc.file),
+                m,
+            )))
         }
     }
 }
@@ -425,7 +454,8 @@ fn survey_snapshots(
             (frame >= a as u64 && frame <= b as u64) || k == 0
         }
         SnapshotTime::Timestep { dt } => {
-            timestep_time(shot, snap, dt) <= shot.frame_time(b) + 1e-9 * shot.frame_time(b).abs().max(1.0)
+            timestep_time(shot, snap, dt)
+                <= shot.frame_time(b) + 1e-9 * shot.frame_time(b).abs().max(1.0)
         }
     };
     let read = |k: usize, snap: &crate::sim::Snapshot| -> Option<Wanted> {
@@ -453,13 +483,22 @@ fn survey_snapshots(
     }
     if let (SnapshotTime::Timestep { .. }, true) = (desc.snapshots, desc.is_series()) {
         // Timesteps in order across the series' files too.
-        if let Some(w) = snaps.windows(2).find(|w| w[1].snap.timestep <= w[0].snap.timestep) {
+        if let Some(w) = snaps
+            .windows(2)
+            .find(|w| w[1].snap.timestep <= w[0].snap.timestep)
+        {
             let m = format!(
                 "timestep {} follows timestep {}: the series' snapshots must be in the order of their timesteps",
                 w[1].snap.timestep.unwrap_or(0),
                 w[0].snap.timestep.unwrap_or(0)
             );
-            return Err(Error::Scene(about(scene, index, span.0, &paths[w[1].file], &m)));
+            return Err(Error::Scene(about(
+                scene,
+                index,
+                span.0,
+                &paths[w[1].file],
+                &m,
+            )));
         }
     }
     let mut cache = CacheShot {
@@ -475,7 +514,10 @@ fn survey_snapshots(
     if needs_range {
         let a = place_key(&cache, scene, index, colour_span.0)?;
         let b = place_key(&cache, scene, index, colour_span.1)?;
-        let snaps = cache.figures.range(a..=b).map(|(_, f)| (colour_span.1, Some(f)));
+        let snaps = cache
+            .figures
+            .range(a..=b)
+            .map(|(_, f)| (colour_span.1, Some(f)));
         cache.range = range_over(snaps, scene, index)?;
     }
     Ok(cache)

@@ -174,7 +174,9 @@ pub(super) fn index(
                 out.push(snap);
             }
             if out.is_empty() {
-                return Err(ReadError::Bad(format!("holds no snapshot (an empty {what})")));
+                return Err(ReadError::Bad(format!(
+                    "holds no snapshot (an empty {what})"
+                )));
             }
             Ok(out)
         }
@@ -246,7 +248,13 @@ pub(super) fn read_snapshot<T>(
                 *open = None;
             }
             let several = format.has_snapshots();
-            result.map_err(|e| if several { about_snapshot(e, ordinal, snap) } else { e })
+            result.map_err(|e| {
+                if several {
+                    about_snapshot(e, ordinal, snap)
+                } else {
+                    e
+                }
+            })
         }
     }
 }

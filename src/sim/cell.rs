@@ -24,11 +24,18 @@ impl Cell {
     /// triclinic box, `lo hi tilt` with tilts `xy`, `xz`, `yz`) and the boundary flags
     /// (`pp` is periodic). Errors name what is wrong: non-finite numbers, a box of no or
     /// negative size.
-    pub fn from_lammps(bounds: [[f64; 3]; 3], triclinic: bool, periodic: [bool; 3]) -> Result<Cell, String> {
+    pub fn from_lammps(
+        bounds: [[f64; 3]; 3],
+        triclinic: bool,
+        periodic: [bool; 3],
+    ) -> Result<Cell, String> {
         for (k, b) in bounds.iter().enumerate() {
             let n = if triclinic { 3 } else { 2 };
             if let Some(x) = b[..n].iter().find(|x| !x.is_finite()) {
-                return Err(format!("box bound line {} holds {x}, not a finite number", k + 1));
+                return Err(format!(
+                    "box bound line {} holds {x}, not a finite number",
+                    k + 1
+                ));
             }
         }
         let (xy, xz, yz) = if triclinic {
@@ -117,7 +124,11 @@ impl Cell {
         let n = DVec3::from_array(std::array::from_fn(|k| {
             if self.periodic[k] { -f[k].round() } else { 0.0 }
         }));
-        if n == DVec3::ZERO { d } else { d + self.shift(n) }
+        if n == DVec3::ZERO {
+            d
+        } else {
+            d + self.shift(n)
+        }
     }
 }
 
@@ -152,9 +163,17 @@ mod tests {
     #[test]
     fn inverted_non_finite_and_flat_boxes_are_refused() {
         let flags = [true; 3];
-        let e = Cell::from_lammps([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]], false, flags);
+        let e = Cell::from_lammps(
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            false,
+            flags,
+        );
         assert!(e.unwrap_err().contains("x bounds are 1 to 0"));
-        let e = Cell::from_lammps([[0.0, f64::NAN, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]], false, flags);
+        let e = Cell::from_lammps(
+            [[0.0, f64::NAN, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            false,
+            flags,
+        );
         assert!(e.unwrap_err().contains("NaN, not a finite number"));
         let flat = DMat3::from_cols(DVec3::X, DVec3::X * 2.0, DVec3::Z);
         assert!(Cell::new(DVec3::ZERO, flat, flags).is_err());
@@ -162,8 +181,19 @@ mod tests {
 
     #[test]
     fn only_periodic_directions_wrap() {
-        let c = Cell::new(DVec3::ZERO, DMat3::from_diagonal(DVec3::splat(2.0)), [true, false, true]).unwrap();
-        assert_eq!(c.into_box(DVec3::new(-0.5, -0.5, 4.5)), DVec3::new(1.0, 0.0, -2.0));
-        assert_eq!(c.nearest_image(DVec3::new(1.5, 1.5, -1.5)), DVec3::new(-0.5, 1.5, 0.5));
+        let c = Cell::new(
+            DVec3::ZERO,
+            DMat3::from_diagonal(DVec3::splat(2.0)),
+            [true, false, true],
+        )
+        .unwrap();
+        assert_eq!(
+            c.into_box(DVec3::new(-0.5, -0.5, 4.5)),
+            DVec3::new(1.0, 0.0, -2.0)
+        );
+        assert_eq!(
+            c.nearest_image(DVec3::new(1.5, 1.5, -1.5)),
+            DVec3::new(-0.5, 1.5, 0.5)
+        );
     }
 }

@@ -35,7 +35,10 @@ fn required<'a>(lines: &'a mut Lines, what: &str) -> Result<&'a str, ReadError> 
     let line = lines.position().line;
     match lines.next_line()? {
         Some(l) => Ok(l),
-        None => bad(line, format_args!("the file ends inside {what} (truncated)")),
+        None => bad(
+            line,
+            format_args!("the file ends inside {what} (truncated)"),
+        ),
     }
 }
 
@@ -108,13 +111,23 @@ pub fn next_snapshot(
                 return bad(line, "ITEM: ATOMS names no columns");
             }
             let columns: Arc<[Column]> = match last {
-                Some(c) if c.len() == names.len() && c.iter().zip(&names).all(|(c, n)| c.name == *n) => {
+                Some(c)
+                    if c.len() == names.len()
+                        && c.iter().zip(&names).all(|(c, n)| c.name == *n) =>
+                {
                     c.clone()
                 }
                 _ => names.iter().map(|n| Column::scalar(n)).collect(),
             };
-            if let Some(dup) = names.iter().enumerate().find(|(i, n)| names[..*i].contains(n)) {
-                return bad(line, format_args!("ITEM: ATOMS names column {} twice", dup.1));
+            if let Some(dup) = names
+                .iter()
+                .enumerate()
+                .find(|(i, n)| names[..*i].contains(n))
+            {
+                return bad(
+                    line,
+                    format_args!("ITEM: ATOMS names column {} twice", dup.1),
+                );
             }
             return Ok(Some(Snapshot {
                 line: start,
@@ -127,7 +140,10 @@ pub fn next_snapshot(
         } else if rest == "UNITS" || rest == "TIME" {
             required(lines, rest)?;
         } else if rest == "TIMESTEP" {
-            return bad(line, "ITEM: TIMESTEP again before this snapshot's ITEM: ATOMS");
+            return bad(
+                line,
+                "ITEM: TIMESTEP again before this snapshot's ITEM: ATOMS",
+            );
         } else {
             // An item of unknown length: skip to the next ITEM line.
             skip_item(lines)?;
@@ -196,7 +212,9 @@ pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
     let last = match snap.count {
         0 => None,
         _ if skipped < before => None,
-        _ => lines.next_line()?.map(|l| l.split_ascii_whitespace().count()),
+        _ => lines
+            .next_line()?
+            .map(|l| l.split_ascii_whitespace().count()),
     };
     if snap.count > 0 && last.is_none() {
         return bad(
@@ -209,12 +227,18 @@ pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
         );
     }
     if snap.count > 0 && !lines.line_ended() {
-        return bad(line, format_args!("the file ends inside atom {before}'s line (truncated)"));
+        return bad(
+            line,
+            format_args!("the file ends inside atom {before}'s line (truncated)"),
+        );
     }
     if let Some(n) = last.filter(|&n| n != snap.columns.len()) {
         return bad(
             line,
-            format_args!("atom {before}: {n} fields for the {} columns of ITEM: ATOMS", snap.columns.len()),
+            format_args!(
+                "atom {before}: {n} fields for the {} columns of ITEM: ATOMS",
+                snap.columns.len()
+            ),
         );
     }
     Ok(())
@@ -278,7 +302,10 @@ pub fn read_rows(
             n += 1;
         }
         if !lines.line_ended() {
-            return bad(line, format_args!("the file ends inside atom {i}'s line (truncated)"));
+            return bad(
+                line,
+                format_args!("the file ends inside atom {i}'s line (truncated)"),
+            );
         }
         if n != columns {
             return bad(
@@ -357,13 +384,27 @@ mod tests {
     #[test]
     fn bad_dumps_are_errors_naming_the_line() {
         let cut = &DUMP[..DUMP.len() - 16];
-        assert!(error_of(cut).starts_with("line 21: the file ends after 0 of the 1 atoms"), "{}", error_of(cut));
+        assert!(
+            error_of(cut).starts_with("line 21: the file ends after 0 of the 1 atoms"),
+            "{}",
+            error_of(cut)
+        );
         let nan = DUMP.replace("1 1 0.5 0.5 0", "1 1 abc 0.5 0");
-        assert_eq!(error_of(&nan), "line 10: atom 0: x is \"abc\", not a number");
+        assert_eq!(
+            error_of(&nan),
+            "line 10: atom 0: x is \"abc\", not a number"
+        );
         let short = DUMP.replace("2 2 1.5 1.5 0.25", "2 2 1.5 1.5");
-        assert_eq!(error_of(&short), "line 11: atom 1: 4 fields for the 5 columns of ITEM: ATOMS");
+        assert_eq!(
+            error_of(&short),
+            "line 11: atom 1: 4 fields for the 5 columns of ITEM: ATOMS"
+        );
         let inverted = DUMP.replace("0 4\n0 4\n-1 1", "0 4\n4 0\n-1 1");
-        assert!(error_of(&inverted).contains("y bounds are 4 to 0"), "{}", error_of(&inverted));
+        assert!(
+            error_of(&inverted).contains("y bounds are 4 to 0"),
+            "{}",
+            error_of(&inverted)
+        );
         let count = DUMP.replace("ITEM: NUMBER OF ATOMS\n2", "ITEM: NUMBER OF ATOMS\n-2");
         assert!(error_of(&count).contains("NUMBER OF ATOMS is \"-2\", not a whole number"));
         let text = DUMP.replace("ITEM: TIMESTEP\n0", "hello\n0");

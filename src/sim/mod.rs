@@ -11,6 +11,8 @@ pub mod cell;
 pub mod lammps;
 pub mod text;
 pub mod vtk;
+mod vtk_legacy;
+mod vtk_xml;
 pub mod xyz;
 
 use std::sync::Arc;

@@ -83,10 +83,7 @@ impl Lines {
         Ok(Lines {
             path: path.to_path_buf(),
             stream,
-            next: Position {
-                line: 1,
-                offset: 0,
-            },
+            next: Position { line: 1, offset: 0 },
             buffer: Vec::new(),
             ended: true,
         })
@@ -206,7 +203,11 @@ impl Lines {
             self.next.offset += used as u64;
             self.next.line += ends;
             left -= ends;
-            pending = if ends > 0 { tail as u64 } else { pending + tail as u64 };
+            pending = if ends > 0 {
+                tail as u64
+            } else {
+                pending + tail as u64
+            };
             if pending > MAX_LINE as u64 {
                 return Err(ReadError::Bad(format!(
                     "line {}: longer than {} bytes (not a text file of lines?)",
@@ -276,7 +277,9 @@ mod tests {
     /// the text split by hand.
     #[test]
     fn plain_and_gzip_give_the_same_lines_and_positions() {
-        let text: String = (0..5000).map(|i| format!("line {i} {}\r\n", "x".repeat(i % 97))).collect();
+        let text: String = (0..5000)
+            .map(|i| format!("line {i} {}\r\n", "x".repeat(i % 97)))
+            .collect();
         let dir = tempfile::tempdir().unwrap();
         let plain = dir.path().join("a.txt");
         let zipped = dir.path().join("a.txt.gz");

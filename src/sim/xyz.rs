@@ -153,7 +153,10 @@ pub fn next_snapshot(
     };
     let comment_line = lines.position().line;
     let Some(comment) = lines.next_line()? else {
-        return bad(comment_line, "the file ends before the frame's comment line (truncated)");
+        return bad(
+            comment_line,
+            "the file ends before the frame's comment line (truncated)",
+        );
     };
     let keys = pairs(comment).or_else(|m| bad(comment_line, m))?;
     let columns: Vec<Column> = match keys.get("properties") {
@@ -172,9 +175,17 @@ pub fn next_snapshot(
                     .split_whitespace()
                     .map(str::parse)
                     .collect::<Result<_, _>>()
-                    .or_else(|_| bad(comment_line, format_args!("{key}= holds a field that is not a number")))?;
+                    .or_else(|_| {
+                        bad(
+                            comment_line,
+                            format_args!("{key}= holds a field that is not a number"),
+                        )
+                    })?;
                 if v.len() != n {
-                    return bad(comment_line, format_args!("{key}= holds {} numbers, not {n}", v.len()));
+                    return bad(
+                        comment_line,
+                        format_args!("{key}= holds {} numbers, not {n}", v.len()),
+                    );
                 }
                 Ok(v)
             };
@@ -206,7 +217,10 @@ pub fn next_snapshot(
                 DVec3::from_slice(&l[3..6]),
                 DVec3::from_slice(&l[6..9]),
             );
-            Some(Cell::new(origin, edges, periodic).or_else(|m| bad(comment_line, format_args!("Lattice=: {m}")))?)
+            Some(
+                Cell::new(origin, edges, periodic)
+                    .or_else(|m| bad(comment_line, format_args!("Lattice=: {m}")))?,
+            )
         }
     };
     Ok(Some(Snapshot {
@@ -228,7 +242,9 @@ pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
     let last = match snap.count {
         0 => None,
         _ if skipped < before => None,
-        _ => lines.next_line()?.map(|l| l.split_ascii_whitespace().count()),
+        _ => lines
+            .next_line()?
+            .map(|l| l.split_ascii_whitespace().count()),
     };
     if snap.count > 0 && last.is_none() {
         return bad(
@@ -240,7 +256,10 @@ pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
         );
     }
     if snap.count > 0 && !lines.line_ended() {
-        return bad(line, format_args!("the file ends inside atom {before}'s line (truncated)"));
+        return bad(
+            line,
+            format_args!("the file ends inside atom {before}'s line (truncated)"),
+        );
     }
     if let Some(n) = last.filter(|&n| n != snap.columns.len()) {
         return bad(line, mismatch(before, n, snap.columns.len()));
@@ -251,7 +270,11 @@ pub fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadError> {
 /// A line of `n` fields for `columns` columns: a count line read as an atom (one field)
 /// says the count before it lies.
 fn mismatch(i: u64, n: usize, columns: usize) -> String {
-    let hint = if n == 1 { " (the count line of its frame lies?)" } else { "" };
+    let hint = if n == 1 {
+        " (the count line of its frame lies?)"
+    } else {
+        ""
+    };
     format!("atom {i}: {n} fields for the {columns} columns Properties= declares{hint}")
 }
 
@@ -294,7 +317,15 @@ pub fn read_rows(
                             labels.push(field.to_string());
                             Some((labels.len() - 1) as f64)
                         }
-                        None => return bad(line, format_args!("atom {i}: more than 65536 different {} values", c.name)),
+                        None => {
+                            return bad(
+                                line,
+                                format_args!(
+                                    "atom {i}: more than 65536 different {} values",
+                                    c.name
+                                ),
+                            );
+                        }
                     },
                     ColumnKind::Logical => match field {
                         "T" | "True" | "true" => Some(1.0),
@@ -322,7 +353,10 @@ pub fn read_rows(
             n += 1;
         }
         if !lines.line_ended() {
-            return bad(line, format_args!("the file ends inside atom {i}'s line (truncated)"));
+            return bad(
+                line,
+                format_args!("the file ends inside atom {i}'s line (truncated)"),
+            );
         }
         if n != columns {
             return bad(line, mismatch(i, n, columns));
@@ -346,7 +380,10 @@ mod tests {
         assert_eq!(p["note"], "a b");
         let c = properties("species:S:1:pos:R:3:id:I:1").unwrap();
         assert_eq!(c.len(), 5);
-        assert_eq!((c[2].name.as_str(), c[2].component, c[2].components), ("pos", 1, 3));
+        assert_eq!(
+            (c[2].name.as_str(), c[2].component, c[2].components),
+            ("pos", 1, 3)
+        );
         assert!(properties("pos:R").is_err());
         assert!(properties("pos:Q:3").unwrap_err().contains("type \"Q\""));
         assert!(pairs("a=\"b").is_err());
@@ -385,8 +422,14 @@ mod tests {
         let mut l = Lines::open(&path, "xyz").unwrap();
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         let e = read_rows(&mut l, &a, &[1], |_, _| Ok(())).unwrap_err();
-        assert!(matches!(e, ReadError::Bad(m) if m == "line 5: atom 2: 1 fields for the 4 columns Properties= declares"));
-        std::fs::write(&path, "1\nProperties=species:S:1:pos:R:3:id:I:1\nAr 0 0 0\n").unwrap();
+        assert!(
+            matches!(e, ReadError::Bad(m) if m == "line 5: atom 2: 1 fields for the 4 columns Properties= declares")
+        );
+        std::fs::write(
+            &path,
+            "1\nProperties=species:S:1:pos:R:3:id:I:1\nAr 0 0 0\n",
+        )
+        .unwrap();
         let mut l = Lines::open(&path, "xyz").unwrap();
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         let e = read_rows(&mut l, &a, &[1], |_, _| Ok(())).unwrap_err();
@@ -395,6 +438,8 @@ mod tests {
         let mut l = Lines::open(&path, "xyz").unwrap();
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         let e = read_rows(&mut l, &a, &[2], |_, _| Ok(())).unwrap_err();
-        assert!(matches!(e, ReadError::Bad(m) if m == "line 3: atom 0: pos[1] is \"x\", not a number"), );
+        assert!(
+            matches!(e, ReadError::Bad(m) if m == "line 3: atom 0: pos[1] is \"x\", not a number"),
+        );
     }
 }

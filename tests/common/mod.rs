@@ -263,7 +263,17 @@ pub fn render_bits(dir: &Path, scene: &str, frames: std::ops::RangeInclusive<u32
     let spec = format!("{}-{}", frames.start(), frames.end());
     ok(
         dir,
-        &["render", scene, "-q", "--threads", "2", "-o", &out, "--frames", &spec],
+        &[
+            "render",
+            scene,
+            "-q",
+            "--threads",
+            "2",
+            "-o",
+            &out,
+            "--frames",
+            &spec,
+        ],
     );
     frames
         .map(|frame| {

@@ -12,9 +12,7 @@ use std::path::Path;
 
 use super::Check;
 use crate::material::Material;
-use crate::points::{
-    CacheFormat, ColorBy, PointCacheDesc, PointMotion, SnapshotTime, TypeLook,
-};
+use crate::points::{CacheFormat, ColorBy, PointCacheDesc, PointMotion, SnapshotTime, TypeLook};
 use crate::scene_file::schema::{MaterialRef, RawPointMotion, RawPoints, RawSnapshots};
 
 /// Most entries of a `types` table.
