@@ -191,10 +191,7 @@ fn missing_positions_non_numeric_fields_and_bad_boxes_are_refused() {
 
 #[test]
 fn a_cut_gzip_stream_is_refused() {
-    let text: String = (0..40)
-        .map(|_| dump())
-        .collect::<String>()
-        .replace("ITEM: TIMESTEP\n10\n", "ITEM: TIMESTEP\n10\n");
+    let text: String = (0..40).map(|_| dump()).collect();
     let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     e.write_all(text.as_bytes()).unwrap();
     let mut bytes = e.finish().unwrap();

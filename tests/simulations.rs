@@ -137,8 +137,8 @@ fn xyz_lammps_and_ply_give_the_same_image() {
         "p.lammpstrj",
         &lammps_snapshot(0, &c, &v, &r, &values, "ff ff ff"),
     );
-    let mut xyz = format!(
-        "5\nLattice=\"16 0 0 0 16 0 0 0 16\" Origin=\"-8 -8 -8\" Properties=species:S:1:pos:R:3:velo:R:3:radius:R:1 pbc=\"F F F\"\n"
+    let mut xyz = String::from(
+        "5\nLattice=\"16 0 0 0 16 0 0 0 16\" Origin=\"-8 -8 -8\" Properties=species:S:1:pos:R:3:velo:R:3:radius:R:1 pbc=\"F F F\"\n",
     );
     for i in 0..5 {
         xyz += &format!(
@@ -419,7 +419,7 @@ fn interpolation_through_a_periodic_box_takes_the_short_way() {
         ),
     ];
     for (name, columns, a, b, v) in cases {
-        let interpolated = snap(0, columns, &[a.clone()]) + &snap(1, columns, &[b]);
+        let interpolated = snap(0, columns, std::slice::from_ref(&a)) + &snap(1, columns, &[b]);
         write(dir, &format!("{name}.lammpstrj"), &interpolated);
         let with_v = snap(
             0,

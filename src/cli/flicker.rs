@@ -96,17 +96,17 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
 
 /// The point caches of `frames` surveyed once, so every frame is coloured over one range.
 fn caches(scene: &Scene, frames: &[u32]) -> Result<point_cache::ShotPoints, Error> {
-    let span = |frames: &[u32]| {
+    let span = || {
         frames
             .first()
             .zip(frames.last())
             .map(|(&first, &last)| point_cache::Frames {
                 first,
                 last,
-                each: Box::new(frames.to_vec().into_iter()),
+                each: Box::new(frames.iter().copied()),
             })
     };
-    point_cache::ShotPoints::survey(scene, span(frames), span(frames), point_cache::Depth::Files)
+    point_cache::ShotPoints::survey(scene, span(), span(), point_cache::Depth::Files)
 }
 
 fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<References, Error> {

@@ -84,6 +84,9 @@ pub(super) fn interpolate(
     Ok(out)
 }
 
+/// Points (by index) with a shift.
+pub(super) type Shifts = Vec<(usize, DVec3)>;
+
 /// Where each point of a periodic box is drawn during `interval`: its path over the interval
 /// is moved by whole box edges (along periodic directions) so that it starts inside the box,
 /// and for each periodic face the path crosses, a copy shifted by the edge through that face
@@ -97,7 +100,7 @@ pub(super) fn images(
     time: f64,
     interval: Interval,
     cell: &Cell,
-) -> Result<(Vec<(usize, DVec3)>, Vec<(usize, DVec3)>), String> {
+) -> Result<(Shifts, Shifts), String> {
     let mut moved = Vec::new();
     let mut copies = Vec::new();
     let inverse = cell.edges.inverse();

@@ -51,7 +51,7 @@ impl Cell {
         let yhi = bounds[1][1] - yz.max(0.0);
         let (zlo, zhi) = (bounds[2][0], bounds[2][1]);
         for (name, lo, hi) in [("x", xlo, xhi), ("y", ylo, yhi), ("z", zlo, zhi)] {
-            if !(hi > lo) || !(hi - lo).is_finite() {
+            if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) || !(hi - lo).is_finite() {
                 return Err(format!(
                     "the box's {name} bounds are {lo} to {hi}: the upper must be greater than the lower"
                 ));
@@ -77,7 +77,9 @@ impl Cell {
         let volume = edges.determinant();
         let scale = edges.x_axis.length() * edges.y_axis.length() * edges.z_axis.length();
         // Edges within 1e-12 of lying in a plane have no usable inverse.
-        if !(volume.abs() > 1e-12 * scale) || !volume.is_finite() {
+        if volume.abs().partial_cmp(&(1e-12 * scale)) != Some(std::cmp::Ordering::Greater)
+            || !volume.is_finite()
+        {
             return Err("the box's edges span no volume (two are parallel, or one is zero)".into());
         }
         Ok(Cell {

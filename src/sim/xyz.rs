@@ -79,7 +79,7 @@ fn pairs(comment: &str) -> Result<HashMap<String, String>, String> {
 /// The columns a `Properties=` value declares.
 fn properties(spec: &str) -> Result<Vec<Column>, String> {
     let parts: Vec<&str> = spec.split(':').collect();
-    if parts.len() % 3 != 0 || parts.is_empty() {
+    if !parts.len().is_multiple_of(3) || parts.is_empty() {
         return Err(format!(
             "Properties=\"{}\" is not name:type:count triples",
             crate::error::elide(spec)

@@ -198,7 +198,7 @@ impl Check<'_> {
             Some(r) => {
                 let lo = self.num(&format!("{field}.color_range[0]"), r.0[0])?;
                 let hi = self.num(&format!("{field}.color_range[1]"), r.0[1])?;
-                if !(hi > lo) {
+                if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
                     return self.err(format_args!(
                         "{field}.color_range must run from a smaller to a greater value, got [{lo}, {hi}]"
                     ));
