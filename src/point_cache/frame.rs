@@ -10,32 +10,17 @@ use glam::DVec3;
 
 use super::files::{Files, Key};
 use super::layout::{Layout, layout};
+use super::message::{about, check_total, error};
 use super::motion::{Crossing, images, interpolate, sorted_ids};
+use super::read::cell_of;
 use super::read::{Read, Wanted, read_values};
-use super::survey::{CacheShot, ShotPoints};
+use super::survey::{CacheShot, Depth, ShotPoints, frame_range};
 use super::table::{self, Rows, read_snapshot};
-use super::{about, check_total, error};
 use crate::error::Error;
 use crate::points::{FramePoints, PointCacheDesc, PointMotion, PointSet};
 use crate::scene::Scene;
 use crate::sim::cell::Cell;
 use crate::sim::{ReadError, Snapshot};
-
-/// The box of a snapshot as cache `desc` takes it: the file's, periodic where the file says,
-/// unless `periodic` says otherwise (`false`: nowhere; `true`: along every edge, which needs
-/// a box).
-pub(super) fn cell_of(snap: &Snapshot, desc: &PointCacheDesc) -> Result<Option<Cell>, ReadError> {
-    match (snap.cell, desc.periodic) {
-        (None, Some(true)) => Err(ReadError::Bad(
-            "periodic = true, and the file gives no box (LAMMPS BOX BOUNDS, XYZ Lattice=)".into(),
-        )),
-        (Some(c), Some(p)) => Ok(Some(Cell {
-            periodic: [p; 3],
-            ..c
-        })),
-        (c, _) => Ok(c),
-    }
-}
 
 /// A snapshot's values, with the layout and box they were read with.
 struct Values {
@@ -360,4 +345,20 @@ fn materials(desc: &PointCacheDesc, read: &Read) -> Vec<u32> {
                 .unwrap_or(desc.material)
         })
         .collect()
+}
+
+/// Reads frame `frame`'s points of every cache of `scene`, surveying that frame alone first
+/// (its colour range, where not given, is the frame's own): for commands that render a
+/// frame by itself.
+pub fn read_frame(scene: &Scene, frame: u32) -> Result<FramePoints, Error> {
+    if scene.points.is_empty() {
+        return Ok(FramePoints::none());
+    }
+    let shot = ShotPoints::survey(
+        scene,
+        Some(frame_range(frame, frame)),
+        Some(frame_range(frame, frame)),
+        Depth::Files,
+    )?;
+    shot.read_frame(scene, frame)
 }

@@ -8,8 +8,8 @@ use glam::DVec3;
 use super::layout::Layout;
 use super::table::Rows;
 use crate::points::PointCacheDesc;
-use crate::sim::ReadError;
 use crate::sim::cell::Cell;
+use crate::sim::{ReadError, Snapshot};
 
 /// Largest magnitude of a coordinate, radius or velocity: the range of the 32-bit floats
 /// frames are stored in, as for the scene file's numbers.
@@ -50,6 +50,22 @@ pub(super) struct Read {
     pub(super) kind_names: Vec<String>,
     /// The `color_by` values.
     pub(super) values: Vec<f64>,
+}
+
+/// The box of a snapshot as cache `desc` takes it: the file's, periodic where the file says,
+/// unless `periodic` says otherwise (`false`: nowhere; `true`: along every edge, which needs
+/// a box).
+pub(super) fn cell_of(snap: &Snapshot, desc: &PointCacheDesc) -> Result<Option<Cell>, ReadError> {
+    match (snap.cell, desc.periodic) {
+        (None, Some(true)) => Err(ReadError::Bad(
+            "periodic = true, and the file gives no box (LAMMPS BOX BOUNDS, XYZ Lattice=)".into(),
+        )),
+        (Some(c), Some(p)) => Ok(Some(Cell {
+            periodic: [p; 3],
+            ..c
+        })),
+        (c, _) => Ok(c),
+    }
 }
 
 /// A value's check: finite and within the range of 32-bit floats.

@@ -13,14 +13,23 @@ use glam::DVec3;
 
 use super::files::{Files, Key, Located, series, timestep_time};
 use super::layout::layout;
+use super::message::{MAX_FRAME_SPHERES, about, error};
 use super::read::{Wanted, read_values};
 use super::table::{self, OpenText};
-use super::{MAX_FRAME_SPHERES, about, error};
 use crate::error::Error;
 use crate::memory::PointLoad;
 use crate::points::{PointCacheDesc, PointMotion, SnapshotTime};
 use crate::scene::Scene;
 use crate::sim::ReadError;
+
+/// The frames `first..=last`, each.
+pub fn frame_range<'a>(first: u32, last: u32) -> Frames<'a> {
+    Frames {
+        first,
+        last,
+        each: Box::new(first..=last),
+    }
+}
 
 /// How much of each file a survey reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -311,7 +320,7 @@ fn index_file(
         let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
         let f = match read(first + ordinal - 1, snap) {
             Some(want) => {
-                let cell = super::frame::cell_of(snap, desc)?;
+                let cell = super::read::cell_of(snap, desc)?;
                 let values =
                     read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
                 if desc.motion == Some(PointMotion::Interpolate) && want.ids {

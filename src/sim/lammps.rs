@@ -23,8 +23,9 @@
 use std::sync::Arc;
 
 use super::cell::Cell;
+use super::read_error::ReadError;
+use super::snapshot::{Column, Snapshot};
 use super::text::Lines;
-use super::{Column, ReadError, Snapshot};
 
 fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
     Err(ReadError::Bad(format!("line {line}: {what}")))

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use flate2::read::MultiGzDecoder;
 
-use super::ReadError;
+use super::read_error::ReadError;
 
 /// Longest line read, in bytes (a LAMMPS line of a few hundred columns is a few kB).
 pub const MAX_LINE: usize = 1 << 20;

@@ -19,129 +19,15 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use super::read_error::ReadError;
+use super::snapshot::{Column, ColumnKind};
 use super::text::open_regular;
-use super::{Column, ColumnKind, ReadError};
+use super::vtk_data::Array;
 
-/// The name the points' positions go by among a VTK file's columns.
-pub const POINTS: &str = "Points";
+pub use super::vtk_data::POINTS;
 
 /// Largest VTK file read (bytes): it is held whole while it is read.
 pub const MAX_FILE: u64 = 16 << 30;
-
-/// A number type of VTK arrays.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Ty {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Ty {
-    /// The type of a legacy name (`float`, `unsigned_char`, `vtktypeint64`...).
-    pub(super) fn legacy(name: &str) -> Option<Ty> {
-        Some(match name.to_ascii_lowercase().as_str() {
-            "char" => Ty::I8,
-            "unsigned_char" => Ty::U8,
-            "short" => Ty::I16,
-            "unsigned_short" => Ty::U16,
-            "int" => Ty::I32,
-            "unsigned_int" => Ty::U32,
-            "long" | "vtktypeint64" | "vtkidtype" => Ty::I64,
-            "unsigned_long" | "vtktypeuint64" => Ty::U64,
-            "float" => Ty::F32,
-            "double" => Ty::F64,
-            _ => return None,
-        })
-    }
-
-    /// The type of an XML name (`Float32`, `Int64`...).
-    pub(super) fn xml(name: &str) -> Option<Ty> {
-        Some(match name {
-            "Int8" | "Char" => Ty::I8,
-            "UInt8" | "UChar" => Ty::U8,
-            "Int16" => Ty::I16,
-            "UInt16" => Ty::U16,
-            "Int32" => Ty::I32,
-            "UInt32" => Ty::U32,
-            "Int64" => Ty::I64,
-            "UInt64" => Ty::U64,
-            "Float32" => Ty::F32,
-            "Float64" => Ty::F64,
-            _ => return None,
-        })
-    }
-
-    pub(super) fn size(self) -> usize {
-        match self {
-            Ty::I8 | Ty::U8 => 1,
-            Ty::I16 | Ty::U16 => 2,
-            Ty::I32 | Ty::U32 | Ty::F32 => 4,
-            Ty::I64 | Ty::U64 | Ty::F64 => 8,
-        }
-    }
-
-    fn is_integer(self) -> bool {
-        !matches!(self, Ty::F32 | Ty::F64)
-    }
-
-    /// A value from its bytes (`b.len() == size`).
-    pub(super) fn value(self, b: &[u8], big: bool) -> f64 {
-        macro_rules! get {
-            ($t:ty) => {{
-                let a = b.try_into().expect("the type's size");
-                (if big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as f64
-            }};
-        }
-        match self {
-            Ty::I8 => b[0] as i8 as f64,
-            Ty::U8 => b[0] as f64,
-            Ty::I16 => get!(i16),
-            Ty::U16 => get!(u16),
-            Ty::I32 => get!(i32),
-            Ty::U32 => get!(u32),
-            Ty::I64 => get!(i64),
-            Ty::U64 => get!(u64),
-            Ty::F32 => get!(f32),
-            Ty::F64 => get!(f64),
-        }
-    }
-
-    /// A value of this type written as text: floats `f32` rounded as a binary file holds
-    /// them (as PLY's reader does), integers whole.
-    pub(super) fn parse(self, text: &str) -> Option<f64> {
-        match self {
-            Ty::F32 => text.parse::<f32>().ok().map(f64::from),
-            Ty::F64 => text.parse::<f64>().ok(),
-            _ => text
-                .parse::<i64>()
-                .ok()
-                .map(|x| x as f64)
-                .or_else(|| text.parse::<u64>().ok().map(|x| x as f64)),
-        }
-    }
-}
-
-/// Where an array's values are, and how to decode them: the source's business
-/// (`vtk_legacy`, `vtk_xml`).
-#[derive(Clone, Debug)]
-pub(super) struct Array {
-    pub(super) name: String,
-    pub(super) components: u8,
-    pub(super) ty: Ty,
-    /// Per piece, where its values are.
-    pub(super) pieces: Vec<super::vtk_xml::Place>,
-}
 
 /// A VTK file's points and point data.
 pub struct VtkFile {
@@ -154,7 +40,7 @@ pub struct VtkFile {
     arrays: Vec<Array>,
     /// The array and component of each column.
     of_column: Vec<(usize, u8)>,
-    format: super::vtk_xml::Encoding,
+    format: super::vtk_data::Encoding,
 }
 
 impl VtkFile {
@@ -180,7 +66,7 @@ impl VtkFile {
             for (place, &n) in array.pieces.iter().zip(&structure.piece_counts) {
                 let values = usize::try_from(n.saturating_mul(array.components as u64))
                     .unwrap_or(usize::MAX);
-                super::vtk_xml::room(&bytes, structure.encoding, array, place, values)?;
+                super::vtk_data::room(&bytes, structure.encoding, array, place, values)?;
             }
         }
         let mut columns = Vec::new();
@@ -243,7 +129,7 @@ impl VtkFile {
                 let mut pieces = Vec::with_capacity(array.pieces.len());
                 for (place, &n) in array.pieces.iter().zip(&self.piece_counts) {
                     let values = n as usize * array.components as usize;
-                    pieces.push(super::vtk_xml::decode(
+                    pieces.push(super::vtk_data::decode(
                         &self.bytes,
                         self.format,
                         array,
@@ -269,12 +155,4 @@ impl VtkFile {
         }
         Ok(())
     }
-}
-
-/// A file's structure as a source finds it.
-pub(super) struct Structure {
-    pub(super) piece_counts: Vec<u64>,
-    /// The points' array first.
-    pub(super) arrays: Vec<Array>,
-    pub(super) encoding: super::vtk_xml::Encoding,
 }

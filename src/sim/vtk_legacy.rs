@@ -5,9 +5,8 @@
 //! past; `POINT_DATA` attributes (`SCALARS`, `VECTORS`, `NORMALS`, `TENSORS`,
 //! `TEXTURE_COORDINATES`, `COLOR_SCALARS`, `FIELD` arrays) kept as the file's arrays.
 
-use super::ReadError;
-use super::vtk::{Array, POINTS, Structure, Ty};
-use super::vtk_xml::{Encoding, Place, line_of};
+use super::read_error::ReadError;
+use super::vtk_data::{Array, Encoding, POINTS, Place, Structure, Ty, line_of};
 
 /// A cursor over a legacy file's words and its binary blocks.
 struct Words<'a> {

@@ -20,8 +20,9 @@ use std::sync::Arc;
 use glam::{DMat3, DVec3};
 
 use super::cell::Cell;
+use super::read_error::ReadError;
+use super::snapshot::{Column, ColumnKind, Snapshot};
 use super::text::Lines;
-use super::{Column, ColumnKind, ReadError, Snapshot};
 
 fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
     Err(ReadError::Bad(format!("line {line}: {what}")))
