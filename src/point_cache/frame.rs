@@ -133,11 +133,13 @@ fn read_cache(
         images: interpolated,
         values: desc.color_by.is_some(),
     };
-    let own = read_key(scene, index, cache, placed.key, frame, 0, want)?;
+    let mut own = read_key(scene, index, cache, placed.key, frame, 0, want)?;
     let motion = own.layout.motion(desc);
+    // The file's velocities, unless the next snapshot gives them (below).
     let mut velocities = match motion {
         PointMotion::Still => Vec::new(),
-        _ => own.read.velocities.clone(),
+        PointMotion::Interpolate if placed.next.is_some() => Vec::new(),
+        _ => std::mem::take(&mut own.read.velocities),
     };
     if motion == PointMotion::Interpolate
         && let Some((next_key, next_time)) = placed.next
