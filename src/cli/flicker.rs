@@ -95,15 +95,22 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     })
 }
 
+/// The point caches of `frames` surveyed once, so every frame is coloured over one range.
+fn caches(scene: &Scene, frames: &[u32]) -> Result<point_cache::ShotPoints, Error> {
+    let span = || point_cache::frame_list(frames);
+    point_cache::ShotPoints::survey(scene, span(), span(), point_cache::Depth::Files)
+}
+
 fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<References, Error> {
     let geometry = ShotGeometry::new(scene, gpu)?;
+    let caches = caches(scene, frames)?;
     let mut refs = References {
         means: Vec::new(),
         variances: Vec::new(),
         own: Vec::new(),
     };
     for &frame in frames {
-        let points = point_cache::read_frame(scene, frame)?;
+        let points = caches.read_frame(scene, frame)?;
         // Sampled and not finished: a reference is the raw frame.
         let r = FrameJob::new(scene, frame)
             .points(&points)
@@ -129,13 +136,14 @@ fn measure(
     let mut seconds = [0.0; 3];
     let mut denoised = Finishing::new(scene, Some(denoiser))?;
     let mut history = Finishing::new(temporal, Some(denoiser))?;
+    let caches = caches(temporal, frames)?;
     for &frame in frames {
         // The frames before the first that its history reads: rendered, not measured.
         for earlier in history.needs(frame) {
-            let points = point_cache::read_frame(temporal, earlier)?;
+            let points = caches.read_frame(temporal, earlier)?;
             history.render(FrameJob::new(temporal, earlier).points(&points), &geometry)?;
         }
-        let points = point_cache::read_frame(temporal, frame)?;
+        let points = caches.read_frame(temporal, frame)?;
         let start = Instant::now();
         let raw = FrameJob::new(temporal, frame)
             .points(&points)

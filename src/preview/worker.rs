@@ -306,13 +306,11 @@ fn read(
     let scene = source.scene(&setup.overrides)?;
     let (frames, total) = (setup.select)(&scene)?;
     let mut files = vec![setup.path.clone()];
+    let span = || point_cache::frame_list(&frames);
+    let caches =
+        point_cache::ShotPoints::survey(&scene, span(), span(), point_cache::Depth::Files)?;
     for &f in &frames {
-        point_cache::survey_frame(&scene, f)?;
-        // A frame's points may move towards the next frame's.
-        for p in &scene.points {
-            files.push(point_cache::frame_file(p, f));
-            files.push(point_cache::frame_file(p, f + 1));
-        }
+        files.extend(caches.frame_files(&scene, f)?);
     }
     if scene.render.device == Device::Gpu && devices.gpu.is_none() {
         devices.gpu = Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?);
