@@ -44,6 +44,7 @@ pub mod scene_file;
 pub mod shutter;
 pub mod shutter_curve;
 pub mod sphere;
+pub mod traced_points;
 pub mod tracer;
 pub mod trig;
 pub mod world;

@@ -15,7 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::error::{Error, elide_path};
@@ -257,11 +257,12 @@ pub fn read_frame(scene: &Scene, frame: u32) -> Result<FramePoints, Error> {
     Ok(FramePoints { sets })
 }
 
-/// One file's points, as read.
+/// One file's points, as read: positions, velocities and radii rounded to the `f32` the
+/// columns keep (see [`crate::points`]).
 struct Read {
-    centers: Vec<DVec3>,
-    velocities: Vec<DVec3>,
-    radii: Vec<f64>,
+    centers: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    radii: Vec<f32>,
     colors: Vec<[f32; 3]>,
     ids: Vec<i64>,
 }
@@ -307,7 +308,7 @@ fn read_set(scene: &Scene, index: usize, frame: u32) -> Result<PointSet, Error> 
         )?;
     }
     // A set where nothing moves keeps no velocities.
-    if velocities.iter().all(|v| *v == DVec3::ZERO) {
+    if velocities.iter().all(|v| *v == Vec3::ZERO) {
         velocities = Vec::new();
     }
     Ok(PointSet {
@@ -316,7 +317,7 @@ fn read_set(scene: &Scene, index: usize, frame: u32) -> Result<PointSet, Error> 
         centers: read.centers,
         velocities,
         radii: read.radii,
-        radius: desc.radius.unwrap_or(0.0),
+        radius: desc.radius.unwrap_or(0.0) as f32,
         colors: read.colors,
     })
 }
@@ -326,12 +327,12 @@ fn read_set(scene: &Scene, index: usize, frame: u32) -> Result<PointSet, Error> 
 /// `velocities` (still if there are none). Errors: `(true, ..)` about the later file,
 /// `(false, ..)` about this one.
 fn interpolate(
-    centers: &[DVec3],
+    centers: &[Vec3],
     ids: &[i64],
-    velocities: Vec<DVec3>,
+    velocities: Vec<Vec3>,
     later: &Read,
     dt: f64,
-) -> Result<Vec<DVec3>, (bool, String)> {
+) -> Result<Vec<Vec3>, (bool, String)> {
     let sorted = |ids: &[i64]| -> Result<Vec<(i64, u32)>, String> {
         let mut s: Vec<(i64, u32)> = ids
             .iter()
@@ -349,25 +350,25 @@ fn interpolate(
     };
     sorted(ids).map_err(|m| (false, m))?;
     let next = sorted(&later.ids).map_err(|m| (true, m))?;
-    let mut out: Vec<DVec3> = vec![DVec3::ZERO; centers.len()];
+    let mut out: Vec<Vec3> = vec![Vec3::ZERO; centers.len()];
     out.par_iter_mut().enumerate().try_for_each(|(i, v)| {
         *v = match next.binary_search_by_key(&ids[i], |e| e.0) {
             Ok(k) => {
-                let q = later.centers[next[k].1 as usize];
-                // As a keyframed sphere's velocity between its keys.
-                let u = (q - centers[i]) / dt;
+                let (p, q) = (centers[i].as_dvec3(), later.centers[next[k].1 as usize].as_dvec3());
+                // As a keyframed sphere's velocity between its keys, kept as `f32`.
+                let u = (q - p) / dt;
                 if !u.is_finite() || u.abs().max_element() > MAX_VALUE {
                     return Err((
                         false,
                         format!(
                             "point {i} (id {}) moves from {} to {} in {dt} s: its velocity is out of range",
-                            ids[i], centers[i], q
+                            ids[i], p, q
                         ),
                     ));
                 }
-                u
+                u.as_vec3()
             }
-            Err(_) => velocities.get(i).copied().unwrap_or(DVec3::ZERO),
+            Err(_) => velocities.get(i).copied().unwrap_or(Vec3::ZERO),
         };
         Ok(())
     })?;
@@ -427,17 +428,24 @@ fn read_points(
                 Ok(x)
             }
         };
-        read.centers.push(DVec3::new(
-            finite(0, names[0])?,
-            finite(1, names[1])?,
-            finite(2, names[2])?,
-        ));
+        // Within the `f32` range, so rounded to a finite `f32`.
+        read.centers.push(
+            DVec3::new(
+                finite(0, names[0])?,
+                finite(1, names[1])?,
+                finite(2, names[2])?,
+            )
+            .as_vec3(),
+        );
         if let Some(k) = velocity {
-            read.velocities.push(DVec3::new(
-                finite(k, names[k])?,
-                finite(k + 1, names[k + 1])?,
-                finite(k + 2, names[k + 2])?,
-            ));
+            read.velocities.push(
+                DVec3::new(
+                    finite(k, names[k])?,
+                    finite(k + 1, names[k + 1])?,
+                    finite(k + 2, names[k + 2])?,
+                )
+                .as_vec3(),
+            );
         }
         if let Some(k) = radius {
             let r = finite(k, names[k])?;
@@ -447,7 +455,7 @@ fn read_points(
                     names[k]
                 ));
             }
-            read.radii.push(r);
+            read.radii.push(r as f32);
         }
         if let Some((k, integer)) = color {
             let mut c = [0f32; 3];

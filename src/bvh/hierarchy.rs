@@ -5,9 +5,9 @@ use glam::DVec3;
 use crate::aabb::Aabb;
 
 use super::boxes::{Boxes, ChildBoxes};
-use super::build::build_parts;
+use super::links::Links;
 use super::stack::TraversalStack;
-use super::topology::{Links, Topology};
+use super::topology::Topology;
 use super::traverse::BvhView;
 
 /// Bytes per primitive of a hierarchy, at most about: its place in the leaf order, and an
@@ -28,7 +28,8 @@ impl Bvh {
     /// Builds the hierarchy over `boxes`; primitive `i` has box `boxes[i]`. At most 2^28
     /// primitives.
     pub fn build(boxes: &[Aabb]) -> Bvh {
-        let (topology, boxes) = build_parts(boxes, None);
+        let topology = Topology::build(boxes.len(), &|i| (boxes[i], boxes[i]));
+        let boxes = topology.refit_still_with(&|pos| boxes[topology.order[pos as usize] as usize]);
         Bvh { topology, boxes }
     }
 
@@ -38,7 +39,8 @@ impl Bvh {
     /// [`Aabb::pad_for_rounding`]).
     pub fn build_moving(open: &[Aabb], close: &[Aabb]) -> Bvh {
         assert_eq!(open.len(), close.len());
-        let (topology, boxes) = build_parts(open, Some(close));
+        let topology = Topology::build(open.len(), &|i| (open[i], close[i]));
+        let boxes = topology.refit_moving(open, close);
         Bvh { topology, boxes }
     }
 
