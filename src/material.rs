@@ -88,6 +88,15 @@ pub fn schlick(cosine: f64, eta_ratio: f64) -> f64 {
 }
 
 impl Material {
+    /// The material with its albedo replaced by `albedo` (glass, which has none, unchanged).
+    pub fn with_albedo(self, albedo: DVec3) -> Material {
+        match self {
+            Material::Lambertian { .. } => Material::Lambertian { albedo },
+            Material::Metal { fuzz, .. } => Material::Metal { albedo, fuzz },
+            glass @ Material::Dielectric { .. } => glass,
+        }
+    }
+
     /// The material with its albedo multiplied by `color` (a point's colour attribute);
     /// glass, which has no albedo, is unchanged.
     #[inline]

@@ -37,32 +37,52 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
         + (2 * pass_channels * size_of::<f32>()) as u64
 }
 
-/// Bytes per point of a point cache in a frame at the peak: its columns as read (position,
-/// velocity, radius, colour), held for the whole frame, and the larger of what the
-/// hierarchy's build holds (the boxes at the shutter's opening and closing, the build's
-/// working arrays) and what replaces it (the tracer's copy with its colour, the hierarchy).
-/// Measured: 3.94 GB at the peak of a frame of 1.009e7 points (docs/performance.md), 390
-/// bytes a point with the film and the process, where this estimate gives 3.31 GB (16
-/// percent low since the 8-wide nodes; the difference is not yet accounted for).
+/// Bytes per point of a point cache in a frame at the peak: the larger of what reading holds
+/// (the file's values as read, position, velocity and radius in `f64` and colour, beside
+/// the sets' `f32` columns made from them) and what tracing holds (the sets' columns, `f32`
+/// position, velocity and radius and colour, with the tracer's records and hierarchy,
+/// [`crate::traced_points::BYTES_PER_POINT`]). Measured: 1.16 GB at the peak of a frame of
+/// 1.009e7 points (docs/performance.md), film and process included.
 pub const BYTES_PER_POINT: u64 = {
     use std::mem::size_of;
-    let columns = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
-    let building = 2 * size_of::<crate::aabb::Aabb>() + crate::bvh::BUILD_BYTES_PER_PRIMITIVE;
-    let built = crate::world::PRIM_BYTES + size_of::<[f32; 3]>() + crate::bvh::BYTES_PER_PRIMITIVE;
-    (columns + if building > built { building } else { built }) as u64
+    let columns = 2 * size_of::<glam::Vec3>() + size_of::<f32>() + size_of::<[f32; 3]>();
+    let read = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
+    let reading = (read + columns) as u64;
+    let tracing = columns as u64 + crate::traced_points::BYTES_PER_POINT;
+    if reading > tracing { reading } else { tracing }
 };
 
-/// What interpolating a point to the next frame's file adds, per point: that file's position
-/// and id, this file's id, and both sets of ids sorted with their indices.
-pub const INTERPOLATE_BYTES_PER_POINT: u64 = 24 + 8 + 8 + 2 * 16;
+/// What interpolating adds per point of the frame's own snapshot: its id, and the ids sorted
+/// with their indices.
+pub const INTERPOLATE_BYTES_PER_POINT: u64 = 8 + 16;
+
+/// What interpolating holds per point of the next snapshot, read beside the frame's own: its
+/// position and id, and its ids sorted with their indices.
+pub const NEXT_BYTES_PER_POINT: u64 = 24 + 8 + 16;
+
+/// The points a frame of a shot with point caches holds: its own, and those of the next
+/// snapshots read beside them to interpolate towards.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PointLoad {
+    pub points: u64,
+    pub next: u64,
+}
+
+impl From<u64> for PointLoad {
+    fn from(points: u64) -> PointLoad {
+        PointLoad { points, next: 0 }
+    }
+}
 
 /// An estimate of the most memory a render of one frame of `scene` at a time holds, in
 /// bytes: the process's floor; per pixel, [`bytes_per_pixel`]; per sphere, the scene's
 /// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
 /// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
-/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`]. It grows linearly
+/// per point of the frame's point caches (`load.points`), [`BYTES_PER_POINT`] (and with
+/// `interpolate` [`INTERPOLATE_BYTES_PER_POINT`]), per point of the next snapshots
+/// (`load.next`), [`NEXT_BYTES_PER_POINT`]. It grows linearly
 /// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
-pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
+pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
     let per_pixel = bytes_per_pixel(scene);
@@ -98,14 +118,16 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
         + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
-        + points * per_point
+        + load.points * per_point
+        + load.next * NEXT_BYTES_PER_POINT
 }
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
 /// ([`memory_estimate`]), or, if that is more than the machine has available (Linux:
 /// `MemAvailable`; elsewhere not checked), a usage error that says what to lower.
-pub fn check_memory(scene: &Scene, points: u64) -> Result<u64, Error> {
-    let estimate = memory_estimate(scene, points);
+pub fn check_memory(scene: &Scene, load: PointLoad) -> Result<u64, Error> {
+    let estimate = memory_estimate(scene, load);
+    let points = load.points + load.next;
     let with_points = if points > 0 {
         format!(" and {points} points")
     } else {
@@ -162,7 +184,7 @@ mod tests {
             }
             memory_estimate(
                 &Scene::parse(&text, std::path::Path::new("m.toml")).unwrap(),
-                0,
+                0.into(),
             )
         };
         let base = scene(100, 100, 10);
@@ -198,11 +220,11 @@ mod tests {
         // Alpha: one sum and one channel (and its copy as written) per pixel, and the
         // colour's copy as written beside it.
         assert_eq!(
-            memory_estimate(&alpha, 0) - memory_estimate(&none, 0),
+            memory_estimate(&alpha, 0.into()) - memory_estimate(&none, 0.into()),
             pixels * (8 + 2 * 4 + 12)
         );
         assert_eq!(
-            memory_estimate(&all, 0) - memory_estimate(&none, 0),
+            memory_estimate(&all, 0.into()) - memory_estimate(&none, 0.into()),
             pixels * (12 * 8 + 2 * 15 * 4 + 12)
         );
         let statics = crate::world::StaticGeometry::new(&none);

@@ -42,24 +42,123 @@ impl PointMotion {
     }
 }
 
+/// How a cache's file is read (`[[points]] format`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CacheFormat {
+    Ply,
+    /// LAMMPS text dumps, gzip or not.
+    Lammps,
+    /// VTK point data: legacy `.vtk`, XML `.vtu` and `.vtp`.
+    Vtk,
+    /// Extended XYZ.
+    Xyz,
+}
+
+impl CacheFormat {
+    /// Every format with its name in scene files.
+    pub const ALL: [(&'static str, CacheFormat); 4] = [
+        ("ply", CacheFormat::Ply),
+        ("lammps", CacheFormat::Lammps),
+        ("vtk", CacheFormat::Vtk),
+        ("xyz", CacheFormat::Xyz),
+    ];
+
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        CacheFormat::ALL
+            .iter()
+            .find(|(_, f)| *f == self)
+            .map_or("ply", |(n, _)| n)
+    }
+
+    /// The format of a file by its extension (a `.gz` after it is looked through): `.ply`,
+    /// `.vtk`/`.vtu`/`.vtp`, `.xyz`/`.extxyz`; anything else is a LAMMPS dump.
+    pub fn from_name(file: &str) -> CacheFormat {
+        let lower = file.to_ascii_lowercase();
+        let name = lower.strip_suffix(".gz").unwrap_or(&lower);
+        let ext = name.rsplit_once('.').map_or("", |(_, e)| e);
+        match ext {
+            "ply" => CacheFormat::Ply,
+            "vtk" | "vtu" | "vtp" => CacheFormat::Vtk,
+            "xyz" | "extxyz" => CacheFormat::Xyz,
+            _ => CacheFormat::Lammps,
+        }
+    }
+
+    /// Whether a file of this format may hold several snapshots.
+    pub fn has_snapshots(self) -> bool {
+        matches!(self, CacheFormat::Lammps | CacheFormat::Xyz)
+    }
+}
+
+/// When a file's snapshots are (`[[points]] snapshots`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SnapshotTime {
+    /// The n-th snapshot is the shot's n-th frame, at its nominal time.
+    Frames,
+    /// A snapshot is at `start_time + TIMESTEP * dt` seconds.
+    Timestep { dt: f64 },
+}
+
+/// Points coloured by a column through a colour map (`color_by`, `colormap`,
+/// `color_range`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColorBy {
+    /// The column's name (a vector's magnitude where it has several components).
+    pub column: String,
+    pub map: crate::colormap::Colormap,
+    /// The values at the map's ends; `None`: the least and greatest over the shot's
+    /// selected frames, found before any frame renders.
+    pub range: Option<[f64; 2]>,
+}
+
+/// What a `types` entry gives the points of one type (or species).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TypeLook {
+    /// The value of the `type` (or `species`) column, as written (`"1"`, `"Ar"`).
+    pub key: String,
+    pub radius: Option<f64>,
+    /// Index into [`crate::scene::Scene::materials`].
+    pub material: Option<u32>,
+}
+
 /// A `[[points]]` table, validated: where the cache is and how its points are drawn.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointCacheDesc {
-    /// The file, or a sequence: each run of `#` is the zero-padded frame number. Relative
-    /// paths have been joined to the scene file's folder.
+    /// The file, or a sequence: each run of `#` is the zero-padded frame number; or a series
+    /// of one file a snapshot, a `*` standing for any number (the timestep, as LAMMPS names
+    /// them). Relative paths have been joined to the scene file's folder.
     pub file: String,
-    /// Index into [`crate::scene::Scene::materials`].
+    pub format: CacheFormat,
+    /// Index into [`crate::scene::Scene::materials`]. With `color_by`, a copy of the table's
+    /// material with a white albedo, which the map's colour multiplies.
     pub material: u32,
     /// Radius of points without a radius attribute (> 0); `None`: the cache must have one.
     pub radius: Option<f64>,
     /// `None`: velocity where the cache has velocities, else still.
     pub motion: Option<PointMotion>,
+    pub snapshots: SnapshotTime,
+    /// Multiplies the file's velocities into units per second of shot time.
+    pub velocity_scale: f64,
+    /// `None`: periodic as the file says; `Some(false)`: the box is ignored; `Some(true)`:
+    /// every direction of the file's box is periodic.
+    pub periodic: Option<bool>,
+    pub color_by: Option<ColorBy>,
+    /// A column holding radii (halved when it is named `diameter`).
+    pub radius_by: Option<String>,
+    /// Per type (or species): radius and material (materials white with `color_by`).
+    pub types: Vec<TypeLook>,
 }
 
 impl PointCacheDesc {
     /// Whether the file is a sequence, one file per frame (its name has a `#`).
     pub fn is_sequence(&self) -> bool {
         self.file.contains('#')
+    }
+
+    /// Whether the file is a series of one file a snapshot (its name has a `*`).
+    pub fn is_series(&self) -> bool {
+        self.file.contains('*')
     }
 }
 

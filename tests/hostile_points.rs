@@ -280,7 +280,7 @@ fn colours_out_of_range_duplicate_ids_and_missing_velocities_are_refused() {
         d.path(),
         &[
             "v.ply",
-            "motion = \"velocity\", but the vertex element has no vx",
+            "motion = \"velocity\", but the vertex element has no velocity columns (vx vy vz",
         ],
     );
 }

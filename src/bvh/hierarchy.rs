@@ -10,12 +10,16 @@ use super::stack::TraversalStack;
 use super::topology::Topology;
 use super::traverse::BvhView;
 
+/// Bytes of an 8-wide moving node: its children's links and their boxes at the shutter's
+/// opening and their change until its closing.
+pub const MOVING_NODE_BYTES: usize =
+    std::mem::size_of::<Links>() + std::mem::size_of::<[ChildBoxes; 2]>();
+
 /// Bytes per primitive of a hierarchy, at most about: its place in the leaf order, and an
 /// 8-wide moving node's children and boxes per two and a half primitives (a leaf holds one
 /// to four and a node about four children: 0.38 nodes a primitive over 100 random spheres,
 /// 0.27 over 30,000; a test checks the bound).
-pub const BYTES_PER_PRIMITIVE: usize =
-    4 + (std::mem::size_of::<Links>() + std::mem::size_of::<[ChildBoxes; 2]>()) * 2 / 5;
+pub const BYTES_PER_PRIMITIVE: usize = 4 + MOVING_NODE_BYTES * 2 / 5;
 
 /// A hierarchy over primitives `0..n` given by their boxes: its topology and its boxes.
 #[derive(Clone, Debug, Default)]

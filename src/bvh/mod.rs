@@ -63,7 +63,7 @@ pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
 pub(crate) use build::BuildBox;
 pub use export::{Child, ChildKind};
-pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh, MOVING_NODE_BYTES};
 pub use packet::PacketRay;
 pub use stack::{PACKET, TraversalStack};
 pub use topology::Topology;

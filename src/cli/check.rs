@@ -9,7 +9,8 @@ use super::jobs::{Job, load_shots};
 use crate::error::{Error, elide, elide_path};
 use crate::memory::{check_memory, memory_estimate, mib};
 use crate::motion::Motion;
-use crate::point_cache::{self, FrameSurvey};
+use crate::point_cache::{Depth, FrameSurvey};
+use crate::points::PointCacheDesc;
 use crate::scene_file::Overrides;
 use crate::shutter::ShutterCurve;
 
@@ -21,7 +22,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         device: args.device,
         ..Overrides::default()
     };
-    let shots = load_shots(&args.scenes, &overrides, None, None)?;
+    let shots = load_shots(&args.scenes, &overrides, None, None, Depth::Values)?;
     if let [shot] = &shots[..] {
         return describe(shot, args.chunk_size);
     }
@@ -46,13 +47,9 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
     let (scene_path, scene) = (&shot.path, &shot.scene);
     let selected = &shot.targets.frames;
     let memory = check_memory(scene, shot.points)?;
-    // Every file of every selected frame read and checked, value by value.
-    let mut surveys = std::collections::BTreeMap::new();
-    if !scene.points.is_empty() {
-        for f in selected.iter() {
-            surveys.insert(f, point_cache::check_frame(scene, f)?);
-        }
-    }
+    // Every file of every selected frame was read and checked, value by value, once, by the
+    // survey.
+    let caches = &shot.caches;
     let shot = &scene.shot;
     let mut s = String::new();
     let _ = writeln!(s, "{}: ok", elide_path(scene_path));
@@ -103,18 +100,22 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         let radius = p
             .radius
             .map_or("from the file".to_string(), |r| r.to_string());
-        let counts = surveys.values().map(|s: &FrameSurvey| s.points);
-        let (least, most) = (counts.clone().min().unwrap_or(0), counts.max().unwrap_or(0));
         let _ = writeln!(
             s,
-            "points[{i}]: {} ({kind}), motion {motion}, radius {radius}",
-            elide(&p.file)
+            "points[{i}]: {} ({kind}, {}), motion {motion}, radius {radius}{}",
+            elide(&p.file),
+            p.format.name(),
+            looks(p)
         );
-        if i + 1 == scene.points.len() {
+        if i + 1 == scene.points.len()
+            && let (Some(first), Some(last)) = (selected.first(), selected.last())
+        {
+            let (least, most) = caches.count_range(scene, first, last)?;
             let _ = writeln!(
                 s,
-                "points: {least} to {most} a frame over {} frames, every file checked",
-                surveys.len()
+                "points: {least} to {most} a frame over {} frames, every file checked ({} files read once each)",
+                selected.len(),
+                caches.files_read()
             );
         }
     }
@@ -195,14 +196,20 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
                     .iter()
                     .filter(|s| s.prepare(i).motion.is_moving())
                     .count();
-                let points = match surveys.get(&f) {
-                    Some(p) => format!(
-                        ", {} points ({} moving), memory about {}",
-                        p.points,
-                        p.moving,
-                        mib(memory_estimate(scene, p.points))
-                    ),
-                    None => String::new(),
+                let points = match scene.points.is_empty() {
+                    true => String::new(),
+                    false => {
+                        let p: FrameSurvey = caches.frame_survey(scene, f)?;
+                        let moving = match p.moving {
+                            Some(m) => format!("{m} moving"),
+                            None => "moving to their next snapshot".to_string(),
+                        };
+                        format!(
+                            ", {} points ({moving}), memory about {}",
+                            p.points,
+                            mib(memory_estimate(scene, p.load))
+                        )
+                    }
                 };
                 let _ = writeln!(
                     s,
@@ -216,4 +223,40 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         }
     }
     Ok(s)
+}
+
+/// A cache's looks and time, as `check` lists them after its motion: `, color_by c_speed
+/// (viridis, range from the frames)`, `, periodic`, ...; nothing for a plain cache.
+fn looks(p: &PointCacheDesc) -> String {
+    let mut parts = Vec::new();
+    if let crate::points::SnapshotTime::Timestep { dt } = p.snapshots {
+        parts.push(format!("snapshots at TIMESTEP * {dt} s"));
+    }
+    if p.velocity_scale != 1.0 {
+        parts.push(format!("velocity scale {}", p.velocity_scale));
+    }
+    match p.periodic {
+        Some(true) => parts.push("periodic".into()),
+        Some(false) => parts.push("box ignored".into()),
+        None => {}
+    }
+    if let Some(c) = &p.color_by {
+        let range = c
+            .range
+            .map_or("range from the frames".to_string(), |[a, b]| {
+                format!("range {a} to {b}")
+            });
+        parts.push(format!(
+            "color_by {} ({}, {range})",
+            elide(&c.column),
+            c.map.name()
+        ));
+    }
+    if let Some(r) = &p.radius_by {
+        parts.push(format!("radius_by {}", elide(r)));
+    }
+    if !p.types.is_empty() {
+        parts.push(format!("{} types", p.types.len()));
+    }
+    parts.iter().map(|x| format!(", {x}")).collect()
 }

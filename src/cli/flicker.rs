@@ -94,15 +94,31 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     })
 }
 
+/// The point caches of `frames` surveyed once, so every frame is coloured over one range.
+fn caches(scene: &Scene, frames: &[u32]) -> Result<point_cache::ShotPoints, Error> {
+    let span = || {
+        frames
+            .first()
+            .zip(frames.last())
+            .map(|(&first, &last)| point_cache::Frames {
+                first,
+                last,
+                each: Box::new(frames.iter().copied()),
+            })
+    };
+    point_cache::ShotPoints::survey(scene, span(), span(), point_cache::Depth::Files)
+}
+
 fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<References, Error> {
     let geometry = ShotGeometry::new(scene, gpu)?;
+    let caches = caches(scene, frames)?;
     let mut refs = References {
         means: Vec::new(),
         variances: Vec::new(),
         own: Vec::new(),
     };
     for &frame in frames {
-        let points = point_cache::read_frame(scene, frame)?;
+        let points = caches.read_frame(scene, frame)?;
         let r = render_shot_frame_with(
             scene,
             &geometry,
@@ -131,9 +147,10 @@ fn measure(
     let mut images: [Vec<Vec<DVec3>>; 3] = Default::default();
     let mut seconds = [0.0; 3];
     let mut temporal = TemporalDenoiser::new(denoiser);
+    let caches = caches(scene, frames)?;
     for &frame in frames {
         let start = Instant::now();
-        let points = point_cache::read_frame(scene, frame)?;
+        let points = caches.read_frame(scene, frame)?;
         let result = render_shot_frame_with(
             scene,
             &geometry,
@@ -154,7 +171,7 @@ fn measure(
             scene,
             &geometry,
             &points,
-            &|k| point_cache::read_frame(scene, k),
+            &|k| caches.read_frame(scene, k),
             frame,
             &budget,
             &|_| {},

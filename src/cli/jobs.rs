@@ -7,8 +7,9 @@ use std::path::PathBuf;
 use super::frames::{Selection, batch_chunk};
 use crate::error::{Error, elide_path};
 use crate::io;
+use crate::memory::PointLoad;
 use crate::path_pattern;
-use crate::point_cache;
+use crate::point_cache::{Depth, Frames, ShotPoints};
 use crate::scene::Scene;
 use crate::scene_file::Overrides;
 
@@ -74,21 +75,31 @@ pub(crate) struct Job {
     pub(crate) path: PathBuf,
     pub(crate) scene: Scene,
     pub(crate) targets: Targets,
-    /// The most points one of the frames holds, over the scene's point caches (0 without).
-    pub(crate) points: u64,
+    /// The most points one of the frames holds, over the scene's point caches (0 without),
+    /// and the most of the next snapshots read beside them.
+    pub(crate) points: PointLoad,
+    /// The shot's point caches, surveyed for the frames the run renders: what frames read.
+    pub(crate) caches: ShotPoints,
 }
 
-/// Surveys the point-cache files of every frame `targets` renders (each exists, is a PLY
-/// file with the attributes its cache needs and the bytes its header declares: see
-/// [`point_cache::survey_frame`]); returns the most points a frame holds.
-fn survey_points(scene: &Scene, targets: &Targets) -> Result<u64, Error> {
-    let mut most = 0;
-    if !scene.points.is_empty() {
-        for frame in targets.frames.iter() {
-            most = most.max(point_cache::survey_frame(scene, frame)?);
-        }
+/// Surveys the point caches of the frames `targets` renders (each file exists, is a file of
+/// its format with the columns its cache needs and the data its header declares: see
+/// [`ShotPoints::survey`]), with the colour range found over `selected` (the frames before a
+/// chunk is taken, so that every chunk colours alike) at `depth`.
+fn survey_points(
+    scene: &Scene,
+    targets: &Targets,
+    selected: &Selection,
+    depth: Depth,
+) -> Result<ShotPoints, Error> {
+    fn frames(s: &Selection) -> Option<Frames<'_>> {
+        s.first().zip(s.last()).map(|(first, last)| Frames {
+            first,
+            last,
+            each: Box::new(s.iter()),
+        })
     }
-    Ok(most)
+    ShotPoints::survey(scene, frames(&targets.frames), frames(selected), depth)
 }
 
 /// Loads and validates every scene of a run, selects the frames of each (`--frames` applies
@@ -96,12 +107,14 @@ fn survey_points(scene: &Scene, targets: &Targets) -> Result<u64, Error> {
 /// files (and the point caches' files of those frames), before anything is rendered: any bad
 /// scene or argument fails the whole run.
 /// Several scenes must not write the same files, so with several scenes an `--output` (or a
-/// `--clip`) must hold `{scene}`.
+/// `--clip`) must hold `{scene}`. `depth` is how much of the point caches' files the survey
+/// reads (`check` reads every value).
 pub(crate) fn load_shots(
     paths: &[PathBuf],
     overrides: &Overrides,
     frames: Option<&Option<String>>,
     chunk: Option<(u64, u64)>,
+    depth: Depth,
 ) -> Result<Vec<Job>, Error> {
     if paths.len() > 1 {
         for (flag, value) in [("--output", &overrides.output), ("--clip", &overrides.clip)] {
@@ -124,18 +137,20 @@ pub(crate) fn load_shots(
         selections.push(select_frames(&scene, frames, None)?);
         scenes.push(scene);
     }
+    let whole = selections.clone();
     if let Some((size, index)) = chunk {
         selections = batch_chunk(&selections, size, index).map_err(Error::Usage)?;
     }
     let mut shots = Vec::with_capacity(paths.len());
-    for ((path, scene), selected) in paths.iter().zip(scenes).zip(selections) {
+    for (((path, scene), selected), whole) in paths.iter().zip(scenes).zip(selections).zip(&whole) {
         let targets = targets_of(&scene, selected)?;
-        let points = survey_points(&scene, &targets)?;
+        let caches = survey_points(&scene, &targets, whole, depth)?;
         shots.push(Job {
             path: path.clone(),
             scene,
             targets,
-            points,
+            points: caches.most(),
+            caches,
         });
     }
     check_distinct(&shots)?;

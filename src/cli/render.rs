@@ -16,7 +16,7 @@ use crate::gpu::Gpu;
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
-use crate::point_cache;
+use crate::point_cache::{Depth, ShotPoints};
 use crate::renderer::{
     FrameResult, FrameStats, ShotGeometry, TemporalDenoiser, render_shot_frame_with,
 };
@@ -47,7 +47,13 @@ pub(crate) struct RunSummary {
 /// is checked before anything is written.
 pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let chunk = args.chunk_size.zip(args.chunk);
-    let shots = load_shots(&args.scenes, &args.overrides(), args.frames.as_ref(), chunk)?;
+    let shots = load_shots(
+        &args.scenes,
+        &args.overrides(),
+        args.frames.as_ref(),
+        chunk,
+        Depth::Files,
+    )?;
     let mut estimate = 0;
     for shot in &shots {
         if args.temporal && !shot.scene.output.denoise {
@@ -105,7 +111,7 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     for shot in shots.iter().filter(|s| s.targets.frames.len() > 0) {
         let summary = render_shot(
             &shot.scene,
-            &shot.targets,
+            (&shot.targets, &shot.caches),
             args,
             (denoiser.as_ref(), gpu.as_ref()),
             &progress,
@@ -179,10 +185,10 @@ fn summary_text(summary: &RunSummary) -> String {
 }
 
 /// Renders the frames of one shot, with a line per frame, with the run's denoiser and GPU
-/// (when some shot needs them).
+/// (when some shot needs them); its frames' points are read from its surveyed caches.
 fn render_shot(
     scene: &Scene,
-    targets: &Targets,
+    (targets, caches): (&Targets, &ShotPoints),
     args: &RenderArgs,
     (denoiser, gpu): (Option<&Denoiser>, Option<&Gpu>),
     progress: &Progress,
@@ -220,7 +226,7 @@ fn render_shot(
         }
         // The frame's points, read and checked (their files were surveyed before the run).
         let read_start = Instant::now();
-        let points = point_cache::read_frame(scene, frame)?;
+        let points = caches.read_frame(scene, frame)?;
         let read_seconds = read_start.elapsed().as_secs_f64();
         let planned = (!budget.is_set()).then(|| {
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
@@ -231,7 +237,7 @@ fn render_shot(
                 scene,
                 &geometry,
                 &points,
-                &|k| point_cache::read_frame(scene, k),
+                &|k| caches.read_frame(scene, k),
                 frame,
                 &budget,
                 &|n| bar.inc(n),

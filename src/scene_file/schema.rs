@@ -45,29 +45,30 @@ impl<'de> Deserialize<'de> for F {
     }
 }
 
-/// A 3-vector or colour: an array of exactly 3 numbers. Any other length is refused from the
-/// array's length alone, before any element is read, so a long array costs no more than its
-/// parse (the scan before the parse refuses very long arrays; see [`super::scan`]).
+/// A 3-vector or colour: an array of exactly 3 numbers (`V3<2>`: a pair, such as a range).
+/// Any other length is refused from the array's length alone, before any element is read, so
+/// a long array costs no more than its parse (the scan before the parse refuses very long
+/// arrays; see [`super::scan`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct V3(pub(super) [f64; 3]);
+pub(super) struct V3<const N: usize = 3>(pub(super) [f64; N]);
 
-impl<'de> Deserialize<'de> for V3 {
+impl<'de, const N: usize> Deserialize<'de> for V3<N> {
     fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = V3;
+        struct V<const N: usize>;
+        impl<'de, const N: usize> Visitor<'de> for V<N> {
+            type Value = V3<N>;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an array of 3 numbers")
+                write!(f, "an array of {N} numbers")
             }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<V3, A::Error> {
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<V3<N>, A::Error> {
                 let wrong =
-                    |n: usize| de::Error::custom(format_args!("expected 3 numbers, found {n}"));
+                    |n: usize| de::Error::custom(format_args!("expected {N} numbers, found {n}"));
                 if let Some(n) = seq.size_hint()
-                    && n != 3
+                    && n != N
                 {
                     return Err(wrong(n));
                 }
-                let mut v = [0.0; 3];
+                let mut v = [0.0; N];
                 for (i, x) in v.iter_mut().enumerate() {
                     match seq.next_element::<F>()? {
                         Some(f) => *x = f.0,
@@ -75,17 +76,17 @@ impl<'de> Deserialize<'de> for V3 {
                     }
                 }
                 // Without a size hint: count the rest without keeping it.
-                let mut n = 3;
+                let mut n = N;
                 while seq.next_element::<IgnoredAny>()?.is_some() {
                     n += 1;
                 }
-                if n != 3 {
+                if n != N {
                     return Err(wrong(n));
                 }
                 Ok(V3(v))
             }
         }
-        d.deserialize_seq(V)
+        d.deserialize_seq(V::<N>)
     }
 }
 
@@ -532,6 +533,24 @@ pub(super) struct RawPoints {
     pub(super) material: MaterialRef,
     pub(super) radius: Option<F>,
     pub(super) motion: Option<RawPointMotion>,
+    pub(super) format: Option<crate::points::CacheFormat>,
+    pub(super) snapshots: Option<RawSnapshots>,
+    pub(super) dt: Option<F>,
+    pub(super) velocity_scale: Option<F>,
+    pub(super) periodic: Option<bool>,
+    pub(super) color_by: Option<String>,
+    pub(super) colormap: Option<crate::colormap::Colormap>,
+    pub(super) color_range: Option<V3<2>>,
+    pub(super) radius_by: Option<String>,
+    pub(super) types: Option<BTreeMap<String, RawTypeLook>>,
+}
+
+/// A `types` entry of a `[[points]]` table.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table")]
+pub(super) struct RawTypeLook {
+    pub(super) radius: Option<F>,
+    pub(super) material: Option<MaterialRef>,
 }
 
 #[derive(Clone, Copy)]
@@ -550,3 +569,31 @@ impl Keyword for RawPointMotion {
 }
 
 keyword!(RawPointMotion);
+
+/// `[[points]] format`: the names are the description's own.
+impl Keyword for crate::points::CacheFormat {
+    const NAMES: &'static [(&'static str, Self)] = &crate::points::CacheFormat::ALL;
+}
+
+keyword!(crate::points::CacheFormat);
+
+/// `[[points]] snapshots`.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum RawSnapshots {
+    Frames,
+    Timestep,
+}
+
+impl Keyword for RawSnapshots {
+    const NAMES: &'static [(&'static str, Self)] =
+        &[("frames", Self::Frames), ("timestep", Self::Timestep)];
+}
+
+keyword!(RawSnapshots);
+
+/// `[[points]] colormap`: the names are the map's own.
+impl Keyword for crate::colormap::Colormap {
+    const NAMES: &'static [(&'static str, Self)] = &crate::colormap::Colormap::ALL;
+}
+
+keyword!(crate::colormap::Colormap);

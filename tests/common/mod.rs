@@ -251,3 +251,53 @@ pub fn exr_number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
         other => panic!("{name}: {other:?}"),
     }
 }
+
+/// A frame's channels by name, each as bits.
+pub type Bits = std::collections::HashMap<String, Vec<u32>>;
+
+/// Renders frames `frames` of the scene file `scene` in `dir` to EXR (`NAME_####.exr`
+/// beside it); each frame's channels as bits.
+pub fn render_bits(dir: &Path, scene: &str, frames: std::ops::RangeInclusive<u32>) -> Vec<Bits> {
+    let name = scene.trim_end_matches(".toml");
+    let out = format!("{name}_####.exr");
+    let spec = format!("{}-{}", frames.start(), frames.end());
+    ok(
+        dir,
+        &[
+            "render",
+            scene,
+            "-q",
+            "--threads",
+            "2",
+            "-o",
+            &out,
+            "--frames",
+            &spec,
+        ],
+    );
+    frames
+        .map(|frame| {
+            exr_channels(&dir.join(format!("{name}_{frame:04}.exr")))
+                .into_iter()
+                .map(|(c, v)| (c, v.iter().map(|x| x.to_bits()).collect()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Asserts two renders have the same channels, each the same bits, and that something was
+/// hit (the colour is not one value everywhere).
+pub fn assert_same_bits(a: &[Bits], b: &[Bits]) {
+    assert_eq!(a.len(), b.len());
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        let mut names: Vec<&String> = x.keys().collect();
+        names.sort();
+        assert_eq!(names.len(), y.len(), "frame {k}: channels");
+        for c in names {
+            let differ = x[c].iter().zip(&y[c]).filter(|(p, q)| p != q).count();
+            assert_eq!(differ, 0, "frame {k}: {differ} pixels of {c} differ");
+        }
+        let r = &x["R"];
+        assert!(r.iter().any(|v| *v != r[0]), "frame {k}: a blank image");
+    }
+}

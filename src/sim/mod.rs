@@ -1,0 +1,22 @@
+//! Simulation output as the tools write it, read as numbers for the caller's columns: LAMMPS
+//! text dumps (`lammps`), extended XYZ (`xyz`), VTK point data (`vtk`, legacy and XML), each
+//! a list of snapshots with named columns ([`Snapshot`], [`Column`]), and their periodic
+//! boxes (`cell`). `text` reads plain and gzip text line by line with positions, so a
+//! file's snapshots are indexed once and each read again from where it starts.
+//!
+//! What the columns mean (positions, velocities, radii) is the point cache's business
+//! (`point_cache`); here a column is a name, a component and the kind of its values.
+
+pub mod cell;
+pub mod lammps;
+mod read_error;
+mod snapshot;
+pub mod text;
+pub mod vtk;
+mod vtk_data;
+mod vtk_legacy;
+mod vtk_xml;
+pub mod xyz;
+
+pub use read_error::ReadError;
+pub use snapshot::{Column, ColumnKind, Snapshot};
