@@ -48,6 +48,7 @@ pub mod shutter;
 pub mod shutter_curve;
 pub mod sim;
 pub mod sphere;
+pub mod traced_points;
 pub mod tracer;
 pub mod trig;
 pub mod world;

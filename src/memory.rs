@@ -37,19 +37,19 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
         + (2 * pass_channels * size_of::<f32>()) as u64
 }
 
-/// Bytes per point of a point cache in a frame at the peak: its columns as read (position,
-/// velocity, radius, colour), held for the whole frame, and the larger of what the
-/// hierarchy's build holds (the boxes at the shutter's opening and closing, the build's
-/// working arrays) and what replaces it (the tracer's copy with its colour, the hierarchy).
-/// Measured: 3.94 GB at the peak of a frame of 1.009e7 points (docs/performance.md), 390
-/// bytes a point with the film and the process, where this estimate gives 3.31 GB (16
-/// percent low since the 8-wide nodes; the difference is not yet accounted for).
+/// Bytes per point of a point cache in a frame at the peak: the larger of what reading holds
+/// (the file's values as read, position, velocity and radius in `f64` and colour, beside
+/// the sets' `f32` columns made from them) and what tracing holds (the sets' columns, `f32`
+/// position, velocity and radius and colour, with the tracer's records and hierarchy,
+/// [`crate::traced_points::BYTES_PER_POINT`]). Measured: 1.16 GB at the peak of a frame of
+/// 1.009e7 points (docs/performance.md), film and process included.
 pub const BYTES_PER_POINT: u64 = {
     use std::mem::size_of;
-    let columns = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
-    let building = 2 * size_of::<crate::aabb::Aabb>() + crate::bvh::BUILD_BYTES_PER_PRIMITIVE;
-    let built = crate::world::PRIM_BYTES + size_of::<[f32; 3]>() + crate::bvh::BYTES_PER_PRIMITIVE;
-    (columns + if building > built { building } else { built }) as u64
+    let columns = 2 * size_of::<glam::Vec3>() + size_of::<f32>() + size_of::<[f32; 3]>();
+    let read = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
+    let reading = (read + columns) as u64;
+    let tracing = columns as u64 + crate::traced_points::BYTES_PER_POINT;
+    if reading > tracing { reading } else { tracing }
 };
 
 /// What interpolating adds per point of the frame's own snapshot: its id, and the ids sorted

@@ -7,8 +7,13 @@
 //! attributes, or from its next position in the next frame's file: see `point_cache`). A
 //! point is prepared for a frame's interval exactly as a `[[sphere]]` with `velocity` is
 //! ([`crate::motion::Motion::prepare`]), so the two render the same bits.
+//!
+//! The columns keep positions, velocities and radii as `f32` (28 bytes a point rather than
+//! 56): the precision of the files that simulations write (PLY `float`, VTK `Float32`), and of
+//! a frame's `f32` pixels. A point renders as the sphere with those `f32` values, computed on
+//! in `f64` from there as a `[[sphere]]` is.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 use crate::aabb::Aabb;
 use crate::shutter::Interval;
@@ -165,13 +170,13 @@ pub struct PointSet {
     /// The time at which the points are at `centers` (seconds).
     pub time: f64,
     /// Positions at `time`.
-    pub centers: Vec<DVec3>,
+    pub centers: Vec<Vec3>,
     /// Velocities, units per second, one per point; empty when no point moves.
-    pub velocities: Vec<DVec3>,
+    pub velocities: Vec<Vec3>,
     /// Radii, one per point (>= 0); empty when every point has [`PointSet::radius`].
-    pub radii: Vec<f64>,
+    pub radii: Vec<f32>,
     /// The radius of every point when `radii` is empty.
-    pub radius: f64,
+    pub radius: f32,
     /// Colours multiplying the material's albedo, one per point, each component in [0, 1];
     /// empty when the cache has none.
     pub colors: Vec<[f32; 3]>,
@@ -200,19 +205,19 @@ impl PointSet {
     /// The velocity of point `i`.
     #[inline]
     pub fn velocity(&self, i: usize) -> DVec3 {
-        self.velocities.get(i).copied().unwrap_or(DVec3::ZERO)
+        self.velocities.get(i).map_or(DVec3::ZERO, |v| v.as_dvec3())
     }
 
     /// The radius of point `i`.
     #[inline]
     pub fn radius_of(&self, i: usize) -> f64 {
-        self.radii.get(i).copied().unwrap_or(self.radius)
+        f64::from(self.radii.get(i).copied().unwrap_or(self.radius))
     }
 
     /// The centre of point `i` at time `t`: `P + v (t - time)`.
     #[inline]
     pub fn at(&self, i: usize, t: f64) -> DVec3 {
-        self.centers[i] + self.velocity(i) * (t - self.time)
+        self.centers[i].as_dvec3() + self.velocity(i) * (t - self.time)
     }
 
     /// Point `i` prepared for `interval`, as [`crate::motion::Motion::prepare`] prepares a
@@ -233,9 +238,9 @@ impl PointSet {
     /// Bytes held by the columns.
     pub fn memory_bytes(&self) -> usize {
         use std::mem::size_of;
-        self.centers.capacity() * size_of::<DVec3>()
-            + self.velocities.capacity() * size_of::<DVec3>()
-            + self.radii.capacity() * size_of::<f64>()
+        self.centers.capacity() * size_of::<Vec3>()
+            + self.velocities.capacity() * size_of::<Vec3>()
+            + self.radii.capacity() * size_of::<f32>()
             + self.colors.capacity() * size_of::<[f32; 3]>()
     }
 }
@@ -311,17 +316,18 @@ mod tests {
     use crate::sphere::SphereDesc;
 
     /// A point of a set at time 0 is prepared, and boxed, as the sphere with the same centre,
-    /// velocity and radius: the same bits, for still and moving points and instants.
+    /// velocity and radius (the point's `f32` values): the same bits, for still and moving
+    /// points and instants.
     #[test]
     fn a_point_is_prepared_as_a_sphere_with_its_velocity() {
         let mut rng = crate::rng::Pcg32::new(3, 9);
-        let mut r = || rng.next_f64() * 2.0 - 1.0;
+        let mut r = || (rng.next_f64() * 2.0 - 1.0) as f32;
         for _ in 0..500 {
-            let p = DVec3::new(r(), r(), r()) * 100.0;
+            let p = Vec3::new(r(), r(), r()) * 100.0;
             let v = if r() > 0.5 {
-                DVec3::ZERO
+                Vec3::ZERO
             } else {
-                DVec3::new(r(), r(), r()) * 30.0
+                Vec3::new(r(), r(), r()) * 30.0
             };
             let radius = r().abs() + 0.01;
             let set = PointSet {
@@ -332,14 +338,14 @@ mod tests {
             };
             let sphere = SphereDesc {
                 motion: Motion::Velocity {
-                    origin: p,
-                    velocity: v,
+                    origin: p.as_dvec3(),
+                    velocity: v.as_dvec3(),
                 },
-                radius,
+                radius: radius.into(),
                 material: 0,
             };
-            let open = r() * 10.0;
-            for close in [open, open + r().abs() * 0.1] {
+            let open = f64::from(r()) * 10.0;
+            for close in [open, open + f64::from(r().abs()) * 0.1] {
                 let interval = Interval { open, close };
                 let point = set.prepare(0, interval);
                 let prepared = sphere.prepare(interval);
@@ -362,7 +368,7 @@ mod tests {
     #[test]
     fn points_are_numbered_over_every_set() {
         let set = |n: usize| PointSet {
-            centers: vec![DVec3::ZERO; n],
+            centers: vec![Vec3::ZERO; n],
             ..PointSet::default()
         };
         let points = FramePoints {

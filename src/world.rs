@@ -14,12 +14,13 @@
 //! frame whose refitted boxes are too poor ([`REBUILD_AREA`]) gets a hierarchy of its own.
 //!
 //! The points of a scene's point caches ([`FramePoints`], read for each frame by the files
-//! floor) are animated spheres of the frame like the others: prepared for its interval
-//! ([`PointSet::prepare`]) straight into the tracer's compact form, without a description
-//! per point, and built into the frame's hierarchy with the animated spheres. A point's colour
-//! attribute multiplies its material's albedo where the hit is made ([`Material::tinted`]).
+//! floor) are prepared for the frame's interval straight into the tracer's compact records,
+//! with a hierarchy of their own ([`TracedPoints`]): no description and no object per point.
+//! A ray is traced against the still spheres, the animated ones and the points in turn, each
+//! search bounded by the nearest hit before it. A point's material is its set's, and its
+//! colour attribute multiplies the material's albedo where the hit is made
+//! ([`Material::tinted`]).
 //!
-//! [`PointSet::prepare`]: crate::points::PointSet::prepare
 //! [`SphereDesc::prepare`]: crate::sphere::SphereDesc::prepare
 //! [`Shot::interval`]: crate::shutter::Shot::interval
 
@@ -38,6 +39,10 @@ use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
 use crate::sphere::{PreparedSphere, intersect, surface_point};
+use crate::traced_points::{PointHit, TracedPoints};
+
+/// The points of a frame without any.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
 
 /// Marks a [`MovingPrim`] whose path is a line (or a point): no entry in [`World::motions`].
 const LINEAR: u32 = u32::MAX;
@@ -137,9 +142,8 @@ impl StaticGeometry {
             .iter()
             .filter(|s| s.motion.is_animated())
             .count();
-        // A scene with point caches has animated spheres in every frame: its points.
-        let points = !scene.points.is_empty();
-        let one_hierarchy = (animated_count > 0 || points)
+        // (A scene's points have a hierarchy of their own, per frame.)
+        let one_hierarchy = animated_count > 0
             && (n <= MERGE_LIMIT || animated_count as f64 >= SHARED_FRACTION * n as f64);
         let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy {
             // One hierarchy over everything, one traversal per ray: rebuilt per frame for a
@@ -148,12 +152,10 @@ impl StaticGeometry {
         } else {
             (0..n as u32).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
         };
-        // The points change from frame to frame, so a topology built once cannot serve them.
-        let shared = (one_hierarchy && n > MERGE_LIMIT && !points).then(|| {
+        let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
             let first = scene.shot.interval(scene.shot.first_frame);
             let prepared = prepare_spheres(scene, &animated, first);
-            let (open, close) = shutter_boxes(&prepared, &FramePoints::none(), first);
-            let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
+            let (topology, boxes) = build_animated(&prepared, first);
             SharedTopology {
                 topology,
                 area: boxes.area(),
@@ -241,9 +243,12 @@ pub struct World<'a> {
     animated_boxes: Boxes,
     /// The curved paths of this frame (circles, several keyframe segments).
     motions: Vec<FrameMotion>,
-    /// Per animated sphere, in the same order, the colour multiplying its material's albedo
-    /// (a point's colour attribute; white for the others); empty when no point has one.
-    tints: Vec<[f32; 3]>,
+    /// The frame's points as the tracer reads them, with their hierarchy.
+    points: TracedPoints,
+    /// The frame's points as read: their sets' materials and colours.
+    frame_points: &'a FramePoints,
+    /// The number of the first point as a sphere of the frame (after the scene's spheres).
+    first_point: u32,
     materials: &'a [Material],
     /// What rays that leave the scene see.
     pub background: Background,
@@ -259,30 +264,29 @@ impl<'a> World<'a> {
     /// sequence. The result depends only on its arguments, never on other worlds. A scene
     /// with point caches is prepared with its frame's points by [`World::prepare_with`].
     pub fn prepare(scene: &'a Scene, statics: &'a StaticGeometry, interval: Interval) -> World<'a> {
-        World::prepare_with(scene, statics, &FramePoints::none(), interval)
+        World::prepare_with(scene, statics, &NO_POINTS, interval)
     }
 
-    /// [`World::prepare`], with `points` (the frame's points of the scene's caches) among the
-    /// animated spheres. Point `k` (numbered over every set) is sphere `spheres.len() + k`
-    /// in hits and in what the tracer skips.
+    /// [`World::prepare`], with `points` (the frame's points of the scene's caches). Point
+    /// `k` (numbered over every set) is sphere `spheres.len() + k` in hits and in what the
+    /// tracer skips.
     pub fn prepare_with(
         scene: &'a Scene,
         statics: &'a StaticGeometry,
-        points: &FramePoints,
+        points: &'a FramePoints,
         interval: Interval,
     ) -> World<'a> {
         let prepared = prepare_spheres(scene, &statics.animated, interval);
-        let (open, close) = shutter_boxes(&prepared, points, interval);
-        let spheres = prepared.len();
         let first_point = scene.spheres.len() as u32;
         let own = || {
-            let (topology, boxes) = Bvh::build_moving(&open, &close).into_parts();
+            let (topology, boxes) = build_animated(&prepared, interval);
             (Cow::Owned(topology), boxes)
         };
         let (animated_topology, animated_boxes) = match &statics.shared {
-            // (A scene with points has no shared topology; frames without points use it.)
-            Some(shared) if points.is_empty() => {
-                let boxes = shared.topology.refit_moving(&open, &close);
+            Some(shared) => {
+                let boxes = shared.topology.refit_moving_with(&|pos| {
+                    prepared[shared.topology.order()[pos as usize] as usize].shutter_boxes(interval)
+                });
                 // Refitted boxes that have moved far from those the topology was built on
                 // overlap a lot and make a slow traversal: then the frame builds its own
                 // hierarchy. Both give the same nearest hits; the choice depends only on this
@@ -294,9 +298,8 @@ impl<'a> World<'a> {
                     (Cow::Borrowed(&shared.topology), boxes)
                 }
             }
-            _ => own(),
+            None => own(),
         };
-        drop((open, close));
         // The tracer's copies in leaf order, in parallel; then, in order, each curved path
         // gets its index in `motions`.
         let order = animated_topology.order();
@@ -304,18 +307,6 @@ impl<'a> World<'a> {
             .par_iter()
             .map(|&k| {
                 let k = k as usize;
-                if k >= spheres {
-                    let (set, i) = points.locate(k - spheres).expect("a point of the frame");
-                    let q = set.prepare(i, interval);
-                    return MovingPrim {
-                        center: q.start,
-                        velocity: q.velocity,
-                        radius: q.radius,
-                        material: set.material,
-                        id: first_point + (k - spheres) as u32,
-                        general: LINEAR,
-                    };
-                }
                 let id = statics.animated[k];
                 let s = &prepared[k];
                 let mut prim = MovingPrim {
@@ -346,30 +337,22 @@ impl<'a> World<'a> {
                 motions.push(prepared[k as usize].motion.clone());
             }
         }
+        drop(prepared);
+        let points_traced = TracedPoints::prepare(points, first_point, interval);
         let moving = animated
             .par_iter()
             .filter(|p| p.general != LINEAR || p.velocity != DVec3::ZERO)
-            .count();
-        let tints = match points.has_colors() {
-            false => Vec::new(),
-            true => order
-                .par_iter()
-                .map(|&k| match (k as usize).checked_sub(spheres) {
-                    Some(p) => {
-                        let (set, i) = points.locate(p).expect("a point of the frame");
-                        set.colors.get(i).copied().unwrap_or([1.0; 3])
-                    }
-                    None => [1.0; 3],
-                })
-                .collect(),
-        };
+            .count()
+            + points_traced.moving;
         World {
             statics,
             animated,
             animated_topology,
             animated_boxes,
             motions,
-            tints,
+            points: points_traced,
+            frame_points: points,
+            first_point,
             materials: &scene.materials,
             background: scene.background,
             interval,
@@ -382,8 +365,8 @@ impl<'a> World<'a> {
         self.moving > 0
     }
 
-    /// Bytes held by this frame's animated spheres and their hierarchy (its boxes, and its
-    /// topology if it is the frame's own).
+    /// Bytes held by this frame's animated spheres and points and their hierarchies (the
+    /// boxes, and the topology if it is the frame's own).
     pub fn memory_bytes(&self) -> usize {
         let topology = match &self.animated_topology {
             Cow::Owned(t) => t.memory_bytes(),
@@ -393,7 +376,7 @@ impl<'a> World<'a> {
             + topology
             + self.animated_boxes.memory_bytes()
             + self.motions.capacity() * std::mem::size_of::<FrameMotion>()
-            + self.tints.capacity() * std::mem::size_of::<[f32; 3]>()
+            + self.points.memory_bytes()
     }
 
     /// The nearest intersection of `ray` with any sphere except the one with index `skip`
@@ -401,11 +384,11 @@ impl<'a> World<'a> {
     #[inline]
     pub fn hit(&self, ray: &Ray, skip: u32, stack: &mut TraversalStack) -> Option<Hit> {
         let still = self.statics.closest(ray, skip, stack);
-        let t_max = still.map_or(f64::INFINITY, |b| b.0);
+        let mut t_max = still.map_or(f64::INFINITY, |b| b.0);
         let mut found = None;
         let dt = ray.time - self.interval.open;
+        let s = self.shutter_fraction(dt);
         if !self.animated.is_empty() {
-            let s = self.shutter_fraction(dt);
             let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
             found = bvh.closest_hit(
                 ray.origin,
@@ -428,8 +411,14 @@ impl<'a> World<'a> {
                     )
                 },
             );
+            t_max = found.map_or(t_max, |f| f.0);
         }
-        self.hit_of(ray, dt, found, still)
+        let point = if self.points.is_empty() {
+            None
+        } else {
+            self.points.closest(ray, dt, s, skip, t_max, stack)
+        };
+        self.hit_of(ray, dt, point, found, still)
     }
 
     /// The ray's time as a fraction of the shutter (`dt` seconds after its opening), for the
@@ -444,25 +433,33 @@ impl<'a> World<'a> {
         }
     }
 
-    /// The hit of `ray` (at `dt` seconds after the shutter opened), from the nearest animated
-    /// sphere it hits (`found`, a position in their hierarchy) and the nearest still one
-    /// (`still`): the animated one if any, as it was searched nearer than the still one.
+    /// The hit of `ray` (at `dt` seconds after the shutter opened), from the nearest point
+    /// it hits (`point`), the nearest animated sphere (`found`, a position in their
+    /// hierarchy) and the nearest still one (`still`): the point if any, as it was searched
+    /// nearer than the spheres, else the animated sphere, searched nearer than the still one.
     #[inline(always)]
     fn hit_of(
         &self,
         ray: &Ray,
         dt: f64,
+        point: Option<PointHit>,
         found: Option<(f64, u32)>,
         still: Option<(f64, u32)>,
     ) -> Option<Hit> {
-        let (t, center, radius, material, id) = if let Some((t, i)) = found {
-            let p = &self.animated[i as usize];
-            let c = p.center_at(&self.motions, dt, ray.time);
-            let mut m = self.materials[p.material as usize];
-            if let Some(&[r, g, b]) = self.tints.get(i as usize) {
+        let (t, center, radius, material, id) = if let Some(h) = point {
+            let (set, i) = self
+                .frame_points
+                .locate((h.id - self.first_point) as usize)
+                .expect("a point of the frame");
+            let mut m = self.materials[set.material as usize];
+            if let Some(&[r, g, b]) = set.colors.get(i) {
                 m = m.tinted(DVec3::new(r.into(), g.into(), b.into()));
             }
-            (t, c, p.radius, m, p.id)
+            (h.t, h.center, h.radius, m, h.id)
+        } else if let Some((t, i)) = found {
+            let p = &self.animated[i as usize];
+            let c = p.center_at(&self.motions, dt, ray.time);
+            (t, c, p.radius, self.materials[p.material as usize], p.id)
         } else {
             let (t, i) = still?;
             let p = &self.statics.prims[i as usize];
@@ -497,22 +494,20 @@ impl World<'_> {
         }
         let mut found = [None; PACKET];
         let mut dt = [0.0; PACKET];
+        let mut packet = [PacketRay {
+            origin: DVec3::ZERO,
+            dir: DVec3::ZERO,
+            s: 0.0,
+        }; PACKET];
         for (r, ray) in rays.iter().enumerate() {
             dt[r] = ray.time - self.interval.open;
+            packet[r] = PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s: self.shutter_fraction(dt[r]),
+            };
         }
         if !self.animated.is_empty() {
-            let mut packet = [PacketRay {
-                origin: DVec3::ZERO,
-                dir: DVec3::ZERO,
-                s: 0.0,
-            }; PACKET];
-            for (r, ray) in rays.iter().enumerate() {
-                packet[r] = PacketRay {
-                    origin: ray.origin,
-                    dir: ray.dir,
-                    s: self.shutter_fraction(dt[r]),
-                };
-            }
             let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
             // One reference to the rays and their times: the traversal keeps the test small.
             let lanes = &(rays, dt);
@@ -532,10 +527,19 @@ impl World<'_> {
                     )
                 },
             );
+            for r in 0..rays.len() {
+                t_max[r] = found[r].map_or(t_max[r], |f: (f64, u32)| f.0);
+            }
         }
+        let points = if self.points.is_empty() {
+            [None; PACKET]
+        } else {
+            self.points
+                .closest_packet(rays, &packet[..rays.len()], &dt, t_max, stack)
+        };
         std::array::from_fn(|r| {
             let ray = rays.get(r)?;
-            self.hit_of(ray, dt[r], found[r], still[r])
+            self.hit_of(ray, dt[r], points[r], found[r], still[r])
         })
     }
 }
@@ -548,34 +552,16 @@ fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Vec<Prepar
         .collect()
 }
 
-/// The boxes of `prepared`, then of every point of `points`, at the shutter's opening and at
-/// its closing ([`PreparedSphere::shutter_boxes`], [`PreparedPoint::shutter_boxes`]). One
-/// pass each, rather than one array of pairs and two copies: at a million spheres the
-/// difference is a few hundred megabytes at the peak.
-///
-/// [`PreparedPoint::shutter_boxes`]: crate::points::PreparedPoint::shutter_boxes
-fn shutter_boxes(
-    prepared: &[PreparedSphere],
-    points: &FramePoints,
-    interval: Interval,
-) -> (Vec<Aabb>, Vec<Aabb>) {
-    let boxes = |at_close: bool| -> Vec<Aabb> {
-        let pick = |(open, close)| if at_close { close } else { open };
-        let mut out = vec![Aabb::EMPTY; prepared.len() + points.len()];
-        let (head, mut rest) = out.split_at_mut(prepared.len());
-        head.par_iter_mut()
-            .zip(prepared.par_iter())
-            .for_each(|(b, p)| *b = pick(p.shutter_boxes(interval)));
-        for set in &points.sets {
-            let (part, tail) = rest.split_at_mut(set.len());
-            part.par_iter_mut()
-                .enumerate()
-                .for_each(|(i, b)| *b = pick(set.prepare(i, interval).shutter_boxes(interval)));
-            rest = tail;
-        }
-        out
-    };
-    (boxes(false), boxes(true))
+/// The topology and boxes of a hierarchy over the animated spheres `prepared` (for the
+/// shutter `interval`), built on their boxes at its opening and closing
+/// ([`PreparedSphere::shutter_boxes`]), computed as the build and the refit read them: no
+/// arrays of boxes.
+fn build_animated(prepared: &[PreparedSphere], interval: Interval) -> (Topology, Boxes) {
+    let topology = Topology::build(prepared.len(), &|i| prepared[i].shutter_boxes(interval));
+    let boxes = topology.refit_moving_with(&|pos| {
+        prepared[topology.order()[pos as usize] as usize].shutter_boxes(interval)
+    });
+    (topology, boxes)
 }
 
 /// The nearest sphere along `ray` at its time and its distance, found by testing every sphere

@@ -113,6 +113,26 @@ impl Boxes {
     }
 }
 
+impl Boxes {
+    /// Asks for node `node`'s boxes to be loaded into the cache (every line of them), to be
+    /// read later; nothing for a number past the last node.
+    #[inline(always)]
+    pub(super) fn prefetch<M: super::lanes::Lanes>(&self, m: M, node: usize) {
+        let lines = |b: &ChildBoxes| {
+            // Six planes of 32 bytes on three lines of 64.
+            for k in [0, 2, 4] {
+                m.prefetch(&b.planes[k]);
+            }
+        };
+        if let Some([b, d]) = self.moving.get(node) {
+            lines(b);
+            lines(d);
+        } else if let Some(b) = self.still.get(node) {
+            lines(b);
+        }
+    }
+}
+
 /// Sets child slot `k` of a moving node's `[boxes, delta]` to a box containing, at every
 /// shutter time `s` in [0, 1], the box interpolated from `open` (at `s = 0`) to `close` (at
 /// `s = 1`): stored as its sides at the opening and their change until the closing, both

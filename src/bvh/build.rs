@@ -1,327 +1,682 @@
-//! Building a hierarchy: a binary tree by the binned surface-area heuristic, in parallel,
-//! collapsed into 8-wide nodes.
+//! Building a hierarchy's topology: the binned surface-area heuristic (Wald 2007) over the
+//! primitives' boxes at the shutter's opening and closing, split top down straight into
+//! 8-wide nodes (as Embree's BVH8 builder), in parallel, reordering the primitives themselves
+//! into leaf order.
+//!
+//! The build only compares boxes: it reads each primitive's as `f32` ([`BuildBox`]), as the
+//! caller computes it on the fly from the primitive (no array of boxes is made), and the
+//! hierarchy's own boxes are computed afterwards from the primitives' exact boxes
+//! ([`super::refit`]). A split's cost is the surface-area heuristic on linear bounds (Woop et
+//! al. 2017, "STBVH", section 4; Embree's `LBBox::expectedApproxHalfArea`): the area a
+//! primitive's node presents to a ray at a random shutter time is the mean over the shutter
+//! of the area of the box interpolated from its box at the opening to its box at the
+//! closing, which for fast, incoherent motion is far smaller than the area of the box over
+//! the whole shutter that a still build would compare.
 
-use glam::DVec3;
+use glam::{Vec3, Vec3A, Vec3Swizzles};
+use rayon::prelude::*;
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, ChildBoxes, set_moving};
 use super::lanes::LANES;
-use super::topology::{COUNT_SHIFT, Links, Topology};
+use super::links::{COUNT_SHIFT, Links};
 
 /// Most primitives in a leaf.
-const MAX_LEAF: usize = 4;
-/// Number of centroid bins per axis for the SAH sweep.
-const BINS: usize = 16;
-/// Cost of visiting a node relative to intersecting one primitive (pbrt uses 1/8 to 1).
-const TRAVERSAL_COST: f64 = 0.5;
-/// Deepest level split by the SAH; deeper nodes are halved, so the depth stays below
-/// `MAX_SAH_DEPTH + log2(n)`, well inside the traversal stack for any `n` a `u32` indexes.
+pub(super) const MAX_LEAF: usize = 4;
+/// Centroid bins per axis for the SAH sweep: 16, and 8 for spans of at most 16 primitives
+/// (as Embree's `BinMapping` takes fewer for small spans), where filling and sweeping 16 bins
+/// cost more than the primitives.
+const fn bins_for(n: usize) -> usize {
+    if n <= 16 { 8 } else { 16 }
+}
+
+/// Cost of visiting a node relative to intersecting one primitive, for an index build (pbrt
+/// uses 1/8 to 1): spheres' hierarchies split down to one sphere a leaf almost everywhere.
+pub(super) const NODE_COST: f64 = 0.5;
+/// Deepest level split by the SAH (counted in binary splits); deeper spans are halved, so the
+/// depth stays below `MAX_SAH_DEPTH + log2(n)`, well inside the traversal stack for any `n`
+/// a `u32` indexes.
 pub(super) const MAX_SAH_DEPTH: usize = 64;
-/// Subtrees with more primitives than this are built on two threads.
+/// Nodes over more primitives than this build their children's subtrees in parallel.
 const PARALLEL_BUILD: usize = 4096;
+/// Spans of more primitives than this are binned in parallel, in chunks of this many: a
+/// number that does not depend on the threads, though the bins would not either (their
+/// unions and counts are exact in any order).
+const PARALLEL_BINS: usize = 1 << 15;
 // A leaf's count fits the bits of a child slot above `COUNT_SHIFT`.
 const _: () = assert!(
     MAX_LEAF < 1 << (32 - COUNT_SHIFT),
     "a leaf's count fits its bits"
 );
 
-/// Bytes per primitive a build holds at its peak, about: its working item, and a node of
-/// the binary tree (about one per primitive).
-pub const BUILD_BYTES_PER_PRIMITIVE: usize =
-    std::mem::size_of::<BuildItem>() + std::mem::size_of::<Build>();
-
-/// A node of the binary build tree. It keeps no boxes: the collapse into 8-wide nodes
-/// computes them bottom up from the primitives' (as a refit does), so the tree holds 24 bytes
-/// a node instead of the 144 of three boxes.
-enum Build {
-    Leaf {
-        first: u32,
-        count: u32,
-    },
-    /// `area`: the surface area of the node's box over the whole shutter, which the collapse
-    /// compares to choose the children it opens.
-    Inner {
-        area: f64,
-        children: Box<[Build; 2]>,
-    },
+/// A primitive's box as a build compares it, in `f32`: its box at the shutter's opening
+/// (`lo`, `hi`) and the move of that box from the opening to the closing (`shift`; zero for a
+/// still primitive). Approximate: it only steers the splits.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BuildBox {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub shift: Vec3,
 }
 
-struct BuildItem {
-    /// The box the SAH works with (over the whole shutter).
-    bounds: Aabb,
-    centroid: DVec3,
-    index: u32,
+impl BuildBox {
+    /// The boxes at the opening and the closing as the build takes them: the closing one's
+    /// centre only (a primitive's size is taken to be the same at both ends).
+    pub(crate) fn new(open: &Aabb, close: &Aabb) -> BuildBox {
+        BuildBox {
+            lo: open.min.as_vec3(),
+            hi: open.max.as_vec3(),
+            shift: (close.centroid() - open.centroid()).as_vec3(),
+        }
+    }
+
+    /// The boxes at the opening and the closing, and the centre at mid-shutter (what the
+    /// bins sort by).
+    #[inline(always)]
+    fn parts(&self) -> (Box3, Box3, Vec3A) {
+        let (lo, hi, shift) = (
+            Vec3A::from(self.lo),
+            Vec3A::from(self.hi),
+            Vec3A::from(self.shift),
+        );
+        let open = Box3 { lo, hi };
+        let close = Box3 {
+            lo: lo + shift,
+            hi: hi + shift,
+        };
+        (open, close, (lo + hi + shift) * 0.5)
+    }
 }
 
-/// The boxes of a node: over the whole shutter, at its opening and at its closing.
-#[derive(Clone, Copy)]
-struct NodeBoxes {
-    whole: Aabb,
-    open: Aabb,
-    close: Aabb,
+/// An `f32` box for the build's bookkeeping; empty when `lo > hi`.
+#[derive(Clone, Copy, Debug)]
+struct Box3 {
+    lo: Vec3A,
+    hi: Vec3A,
 }
 
-impl NodeBoxes {
-    const EMPTY: NodeBoxes = NodeBoxes {
-        whole: Aabb::EMPTY,
-        open: Aabb::EMPTY,
-        close: Aabb::EMPTY,
+impl Box3 {
+    const EMPTY: Box3 = Box3 {
+        lo: Vec3A::splat(f32::INFINITY),
+        hi: Vec3A::splat(f32::NEG_INFINITY),
     };
 
-    fn union(&self, o: &NodeBoxes) -> NodeBoxes {
-        NodeBoxes {
-            whole: self.whole.union(&o.whole),
-            open: self.open.union(&o.open),
-            close: self.close.union(&o.close),
+    #[inline(always)]
+    fn union(self, o: Box3) -> Box3 {
+        Box3 {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    #[inline(always)]
+    fn with_point(self, p: Vec3A) -> Box3 {
+        Box3 {
+            lo: self.lo.min(p),
+            hi: self.hi.max(p),
+        }
+    }
+
+    /// The sides' lengths, 0 for an empty box (and for a NaN side).
+    #[inline(always)]
+    fn extent(self) -> Vec3A {
+        (self.hi - self.lo).max(Vec3A::ZERO)
+    }
+}
+
+/// The mean over the shutter of the half surface area of the box interpolated linearly from
+/// `open` to `close`: with sides `a + s d` (`s` in [0, 1]), the integral of
+/// `(a_i + s d_i)(a_j + s d_j)` is `a_i a_j + (a_i d_j + a_j d_i) / 2 + d_i d_j / 3`, summed over
+/// the three pairs of axes (`i`, `j = i + 1 mod 3`). For a still box (`close = open`), half
+/// its surface area. In `f32`: it only compares splits.
+#[inline(always)]
+fn expected_half_area(open: Box3, close: Box3) -> f32 {
+    let a = open.extent();
+    let d = close.extent() - a;
+    let (a2, d2) = (a.yzx(), d.yzx());
+    a.dot(a2) + 0.5 * (a.dot(d2) + d.dot(a2)) + d.dot(d2) * (1.0 / 3.0)
+}
+
+/// A contiguous run of primitives being built: where it starts in the whole array, how many,
+/// the unions of their boxes at the opening and the closing, and of their centroids.
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    start: usize,
+    len: usize,
+    open: Box3,
+    close: Box3,
+    centroids: Box3,
+    /// Binary splits above it.
+    depth: u32,
+}
+
+impl Span {
+    fn area(&self) -> f32 {
+        expected_half_area(self.open, self.close)
+    }
+
+    /// The child slot of this span as a leaf.
+    fn leaf_slot(&self) -> u32 {
+        self.start as u32 | (self.len as u32) << COUNT_SHIFT
+    }
+}
+
+/// One centroid bin: how many primitives fell in it and the unions of their boxes.
+#[derive(Clone, Copy, Debug)]
+struct Bin {
+    count: usize,
+    open: Box3,
+    close: Box3,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        count: 0,
+        open: Box3::EMPTY,
+        close: Box3::EMPTY,
+    };
+
+    #[inline(always)]
+    fn add(&mut self, open: Box3, close: Box3) {
+        self.count += 1;
+        self.open = self.open.union(open);
+        self.close = self.close.union(close);
+    }
+
+    #[inline(always)]
+    fn merge(&self, o: &Bin) -> Bin {
+        Bin {
+            count: self.count + o.count,
+            open: self.open.union(o.open),
+            close: self.close.union(o.close),
+        }
+    }
+
+    #[inline(always)]
+    fn area(&self) -> f32 {
+        expected_half_area(self.open, self.close)
+    }
+}
+
+/// Per axis, `N` bins.
+type Bins<const N: usize> = [[Bin; N]; 3];
+
+/// Where a centroid falls: the number of bins, and per axis the bins' origin and their
+/// number per unit.
+#[derive(Clone, Copy, Debug)]
+struct BinMap {
+    count: usize,
+    origin: Vec3A,
+    scale: Vec3A,
+    /// The last bin, `count - 1`, in every lane.
+    last: Vec3A,
+}
+
+impl BinMap {
+    fn new(centroids: Box3, count: usize) -> BinMap {
+        let extent = centroids.hi - centroids.lo;
+        // An axis without extent (or a NaN one) puts everything in bin 0 and is not split.
+        let scale = Vec3A::select(
+            extent.cmpgt(Vec3A::ZERO),
+            Vec3A::splat(count as f32) / extent,
+            Vec3A::ZERO,
+        );
+        BinMap {
+            count,
+            origin: centroids.lo,
+            scale,
+            last: Vec3A::splat((count - 1) as f32),
+        }
+    }
+
+    /// The bins of centroid `c` along the three axes; a NaN centroid is in bin 0. Clamped
+    /// before the conversion (`max` gives its second operand, 0, for a NaN: SSE's `maxps`, as
+    /// glam's scalar form), so it is exact and needs no saturation: four lanes at once.
+    #[inline(always)]
+    fn bins(&self, c: Vec3A) -> [usize; 3] {
+        truncate(
+            ((c - self.origin) * self.scale)
+                .max(Vec3A::ZERO)
+                .min(self.last),
+        )
+    }
+
+    /// The bin of centroid `c` along `axis`, as [`BinMap::bins`] gives it.
+    #[inline(always)]
+    fn bin(&self, c: Vec3A, axis: usize) -> usize {
+        self.bins(c)[axis]
+    }
+}
+
+/// The whole numbers of the first three lanes of `x` (each in `0..=15`), towards zero.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn truncate(x: Vec3A) -> [usize; 3] {
+    let i: [i32; 4] = safe_arch::truncate_m128_to_m128i(safe_arch::m128(x.into())).into();
+    [i[0] as usize, i[1] as usize, i[2] as usize]
+}
+
+/// The whole numbers of `x`'s lanes (each in `0..=15`), towards zero.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn truncate(x: Vec3A) -> [usize; 3] {
+    [x.x as usize, x.y as usize, x.z as usize]
+}
+
+/// Adds `items` to `bins`, on one thread.
+#[inline(always)]
+fn bin_serial<P, const N: usize>(
+    bins: &mut Bins<N>,
+    items: &[P],
+    map: &BinMap,
+    bounds: &impl Fn(&P) -> BuildBox,
+) {
+    for p in items {
+        let (open, close, c) = bounds(p).parts();
+        for (axis, b) in map.bins(c).into_iter().enumerate() {
+            bins[axis][b].add(open, close);
         }
     }
 }
 
-/// The topology and boxes of the hierarchy over primitives whose boxes are `open`, or, with
-/// `close`, over moving primitives (as [`Bvh::build_moving`] takes them).
-///
-/// [`Bvh::build_moving`]: super::hierarchy::Bvh::build_moving
-pub(super) fn build_parts(open: &[Aabb], close: Option<&[Aabb]>) -> (Topology, Boxes) {
-    assert!(
-        open.len() <= 1 << COUNT_SHIFT,
-        "too many primitives for a hierarchy"
-    );
-    let whole = |i: usize| close.map_or(open[i], |c| open[i].union(&c[i]));
-    let mut items: Vec<BuildItem> = {
-        use rayon::prelude::*;
-        (0..open.len())
-            .into_par_iter()
-            .map(|i| {
-                let b = whole(i);
-                BuildItem {
-                    bounds: b,
-                    centroid: b.centroid(),
-                    index: i as u32,
-                }
-            })
-            .collect()
-    };
-    let mut topology = Topology::default();
-    let mut boxes = Boxes::default();
-    if !items.is_empty() {
-        let mut tree = build_node(&mut items, 0, 0);
-        topology.order = items.iter().map(|it| it.index).collect();
-        drop(items);
-        // The root is always an 8-wide node, even over a single leaf, so traversal starts
-        // at node 0. (Its area is never compared: only children are opened.)
-        if let Build::Leaf { .. } = tree {
-            let lone = std::mem::replace(&mut tree, Build::empty());
-            tree = Build::Inner {
-                area: 0.0,
-                children: Box::new([lone, Build::empty()]),
-            };
+/// Adds `items` to `bins` (empty), in parallel for many.
+fn fill_bins<P: Sync, const N: usize>(
+    bins: &mut Bins<N>,
+    items: &[P],
+    map: &BinMap,
+    bounds: &(impl Fn(&P) -> BuildBox + Sync),
+) {
+    if items.len() <= PARALLEL_BINS {
+        bin_serial(bins, items, map, bounds);
+        return;
+    }
+    let parts: Vec<Box<Bins<N>>> = items
+        .par_chunks(PARALLEL_BINS)
+        .map(|chunk| {
+            let mut part = Box::new([[Bin::EMPTY; N]; 3]);
+            bin_serial(&mut part, chunk, map, bounds);
+            part
+        })
+        .collect();
+    for part in parts {
+        for (bins, part) in bins.iter_mut().zip(part.iter()) {
+            for (b, p) in bins.iter_mut().zip(part) {
+                *b = b.merge(p);
+            }
         }
-        let prim = |pos: u32| {
-            let i = topology.order[pos as usize] as usize;
-            NodeBoxes {
-                whole: whole(i),
-                open: open[i],
-                close: close.map_or(open[i], |c| c[i]),
-            }
-        };
-        let moving = close.is_some();
-        let all = collapse(&tree, &prim, moving, &mut topology.links, &mut boxes);
-        // Pushed one by one: up to twice the memory needed, kept for the hierarchy's life.
-        topology.links.shrink_to_fit();
-        boxes.still.shrink_to_fit();
-        boxes.moving.shrink_to_fit();
-        boxes.bounds = all.whole;
-    }
-    (topology, boxes)
-}
-
-impl Build {
-    /// A leaf of no primitives, with empty boxes: no ray enters it.
-    fn empty() -> Build {
-        Build::Leaf { first: 0, count: 0 }
     }
 }
 
-/// Builds the binary tree over `items` (reordered in place so every leaf is a contiguous
-/// range); `offset` is the position of `items[0]` in the whole array.
-fn build_node(items: &mut [BuildItem], offset: usize, depth: usize) -> Build {
-    let leaf = Build::Leaf {
-        first: offset as u32,
-        count: items.len() as u32,
+/// The span of `items` (at `start`, `depth` splits down), measured.
+fn measure<P: Sync>(
+    items: &[P],
+    start: usize,
+    depth: u32,
+    bounds: &(impl Fn(&P) -> BuildBox + Sync),
+) -> Span {
+    let one = |items: &[P]| {
+        let mut all = (Bin::EMPTY, Box3::EMPTY);
+        for p in items {
+            let (open, close, c) = bounds(p).parts();
+            all.0.add(open, close);
+            all.1 = all.1.with_point(c);
+        }
+        all
     };
-    if items.len() <= 1 {
-        return leaf;
-    }
-    let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(&it.bounds));
-    // Below MAX_SAH_DEPTH, halving keeps the tree shallow enough for the traversal stack
-    // whatever the distribution.
-    let sah = if depth < MAX_SAH_DEPTH {
-        split(items, &bounds)
+    let (all, centroids) = if items.len() <= PARALLEL_BINS {
+        one(items)
     } else {
-        None
-    };
-    let mid = match sah {
-        Some(mid) => mid,
-        // No useful SAH split (e.g. identical centroids) but too many for a leaf: halve.
-        None if items.len() > MAX_LEAF => items.len() / 2,
-        None => return leaf,
-    };
-    let (left, right) = items.split_at_mut(mid);
-    let (l, r) = if left.len().min(right.len()) > PARALLEL_BUILD {
-        rayon::join(
-            || build_node(left, offset, depth + 1),
-            || build_node(right, offset + mid, depth + 1),
-        )
-    } else {
-        (
-            build_node(left, offset, depth + 1),
-            build_node(right, offset + mid, depth + 1),
+        items.par_chunks(PARALLEL_BINS).map(one).reduce(
+            || (Bin::EMPTY, Box3::EMPTY),
+            |a, b| (a.0.merge(&b.0), a.1.union(b.1)),
         )
     };
-    // The union of the items' boxes is the union of the primitives' boxes below, as the
-    // collapse computes it (a union of boxes is exact, in any order).
-    Build::Inner {
-        area: bounds.surface_area(),
-        children: Box::new([l, r]),
+    Span {
+        start,
+        len: items.len(),
+        open: all.open,
+        close: all.close,
+        centroids,
+        depth,
     }
 }
 
-/// Appends the 8-wide nodes of the binary subtree `t` (an inner node) to `links` and
-/// `boxes` in depth-first order, and returns the boxes of `t`: the unions of its primitives'
-/// boxes (`prim(pos)` is the boxes of the primitive at position `pos` of the leaf order),
-/// computed bottom up. The eight children are found by opening, from the node's two, the inner
-/// child with the largest surface area until there are eight (Embree's BVH8 collapse); a node
-/// with fewer leaves below it has fewer, its other slots empty.
-fn collapse(
-    t: &Build,
-    prim: &impl Fn(u32) -> NodeBoxes,
-    moving: bool,
-    links: &mut Vec<Links>,
-    boxes: &mut Boxes,
-) -> NodeBoxes {
-    let Build::Inner { children, .. } = t else {
-        unreachable!("collapse starts at inner nodes")
+/// Moves the items whose centroid `side` puts left before the others; returns how many
+/// there are and the bounds of the left and the right ones' centroids. Every item's side is
+/// found once, and nothing branches on it (Lomuto's scheme without branches: each item is
+/// swapped with the first right one, which only moves it when it goes left), since a side
+/// is a coin toss a branch would mispredict half the time.
+fn partition<P>(items: &mut [P], side: impl Fn(&P) -> (bool, Vec3A)) -> (usize, Box3, Box3) {
+    let mut mid = 0;
+    let (mut lc, mut rc) = (Box3::EMPTY, Box3::EMPTY);
+    for i in 0..items.len() {
+        let (left, c) = side(&items[i]);
+        let on = glam::BVec3A::splat(left);
+        let off = glam::BVec3A::splat(!left);
+        lc = Box3 {
+            lo: Vec3A::select(on, lc.lo.min(c), lc.lo),
+            hi: Vec3A::select(on, lc.hi.max(c), lc.hi),
+        };
+        rc = Box3 {
+            lo: Vec3A::select(off, rc.lo.min(c), rc.lo),
+            hi: Vec3A::select(off, rc.hi.max(c), rc.hi),
+        };
+        items.swap(i, mid);
+        mid += usize::from(left);
+    }
+    (mid, lc, rc)
+}
+
+/// What a span becomes: a leaf, or a node whose two halves are the given spans. (At most
+/// eight live at once, on the stack, while a node is made: boxing the larger variant would
+/// allocate for every node to save a few hundred bytes of stack.)
+#[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)]
+enum Kid {
+    Leaf(Span),
+    Inner(Span, Span, Span),
+}
+
+impl Kid {
+    fn span(&self) -> &Span {
+        match self {
+            Kid::Leaf(s) | Kid::Inner(s, _, _) => s,
+        }
+    }
+}
+
+/// Decides whether `span` (its primitives `items`) is a leaf or is split, and if split,
+/// reorders `items` so its two halves are contiguous: the best binned SAH split, or halves
+/// where the SAH finds none (identical centroids) or the span is too deep, or a leaf where
+/// that costs less than any split and holds at most [`MAX_LEAF`] primitives.
+fn decide<P: Send + Sync>(
+    items: &mut [P],
+    span: Span,
+    build: &Build<impl Fn(&P) -> BuildBox + Sync>,
+) -> Kid {
+    debug_assert_eq!(items.len(), span.len);
+    let n = span.len;
+    let (bounds, node_cost) = (&build.bounds, build.node_cost);
+    // A split costs at least a node's visit: where that is no less than testing them all, a
+    // leaf, without the bins.
+    if n <= 1 || (n <= MAX_LEAF && node_cost >= n as f64) {
+        return Kid::Leaf(span);
+    }
+    let depth = span.depth + 1;
+    let halve = |items: &mut [P]| {
+        let mid = n / 2;
+        let (l, r) = items.split_at(mid);
+        Kid::Inner(
+            span,
+            measure(l, span.start, depth, bounds),
+            measure(r, span.start + mid, depth, bounds),
+        )
     };
-    let mut kids: Vec<&Build> = children.iter().collect();
-    while kids.len() < LANES {
-        let Some((i, _)) = kids
-            .iter()
-            .enumerate()
-            .filter_map(|(i, c)| match c {
-                Build::Inner { area, .. } => Some((i, *area)),
-                Build::Leaf { .. } => None,
-            })
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-        else {
-            break;
-        };
-        let Build::Inner {
-            children: grand, ..
-        } = kids.remove(i)
-        else {
-            unreachable!()
-        };
-        kids.insert(i, &grand[1]);
-        kids.insert(i, &grand[0]);
-    }
-    let index = links.len();
-    links.push(Links { child: [0; LANES] });
-    if moving {
-        boxes.moving.push([ChildBoxes::EMPTY, ChildBoxes::ZERO]);
-    } else {
-        boxes.still.push(ChildBoxes::EMPTY);
-    }
-    let mut all = NodeBoxes::EMPTY;
-    for (k, c) in kids.iter().enumerate() {
-        let b = match **c {
-            Build::Leaf { first, count } => {
-                links[index].child[k] = first | count << COUNT_SHIFT;
-                (first..first + count).fold(NodeBoxes::EMPTY, |b, p| b.union(&prim(p)))
-            }
-            Build::Inner { .. } => {
-                links[index].child[k] = links.len() as u32;
-                collapse(c, prim, moving, links, boxes)
-            }
-        };
-        if moving {
-            set_moving(&mut boxes.moving[index], k, &b.open, &b.close);
+    if span.depth as usize >= MAX_SAH_DEPTH {
+        return if n > MAX_LEAF {
+            halve(items)
         } else {
-            boxes.still[index].set(k, &b.whole);
-        }
-        all = all.union(&b);
+            Kid::Leaf(span)
+        };
     }
-    all
+    let map = BinMap::new(span.centroids, bins_for(n));
+    let best = match map.count {
+        8 => best_split::<P, 8>(items, &map, bounds),
+        _ => best_split::<P, 16>(items, &map, bounds),
+    };
+    let Some((cost, axis, boundary, left, right)) = best else {
+        return if n > MAX_LEAF {
+            halve(items)
+        } else {
+            Kid::Leaf(span)
+        };
+    };
+    let area = span.area();
+    let split_cost = node_cost
+        + if area > 0.0 {
+            f64::from(cost / area)
+        } else {
+            0.0
+        };
+    if n <= MAX_LEAF && split_cost >= n as f64 {
+        return Kid::Leaf(span);
+    }
+    let (mid, lc, rc) = partition(items, |p| {
+        let (_, _, c) = bounds(p).parts();
+        (map.bin(c, axis) < boundary, c)
+    });
+    debug_assert_eq!(mid, left.count);
+    let part = |b: Bin, start: usize, centroids: Box3| Span {
+        start,
+        len: b.count,
+        open: b.open,
+        close: b.close,
+        centroids,
+        depth,
+    };
+    Kid::Inner(
+        span,
+        part(left, span.start, lc),
+        part(right, span.start + mid, rc),
+    )
 }
 
-/// The best SAH split of `items` (reordered in place so the split is at the returned index),
-/// or `None` when keeping them in one leaf is cheaper or no split separates them.
-fn split(items: &mut [BuildItem], bounds: &Aabb) -> Option<usize> {
-    let cb = items
-        .iter()
-        .fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
-    let extent = cb.max - cb.min;
-    let mut best: Option<(f64, usize, usize)> = None; // (cost, axis, bin boundary)
-    for axis in 0..3 {
-        // Also skips a NaN extent.
-        if extent[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+/// The binned SAH's best split of `items` into two, with `N` bins per axis: its cost, axis,
+/// the bin boundary, and the bins left and right of it merged; `None` when no axis has two
+/// bins with primitives.
+fn best_split<P: Sync, const N: usize>(
+    items: &[P],
+    map: &BinMap,
+    bounds: &(impl Fn(&P) -> BuildBox + Sync),
+) -> Option<(f32, usize, usize, Bin, Bin)> {
+    let mut bins = [[Bin::EMPTY; N]; 3];
+    fill_bins(&mut bins, items, map, bounds);
+    // (cost, axis, bin boundary)
+    let mut best: Option<(f32, usize, usize)> = None;
+    for (axis, bins) in bins.iter().enumerate() {
+        if map.scale[axis] == 0.0 {
             continue;
         }
-        let scale = BINS as f64 / extent[axis];
-        let bin_of = |c: DVec3| (((c[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-        let mut counts = [0usize; BINS];
-        let mut boxes = [Aabb::EMPTY; BINS];
-        for it in items.iter() {
-            let b = bin_of(it.centroid);
-            counts[b] += 1;
-            boxes[b] = boxes[b].union(&it.bounds);
+        // From the right, every right part's count and area.
+        let mut right = [(0, 0.0); N];
+        let mut acc = Bin::EMPTY;
+        for i in (1..N).rev() {
+            acc = acc.merge(&bins[i]);
+            right[i] = (acc.count, acc.area());
         }
-        // Sweep from the right to get the area and count of every right part.
-        let mut right_area = [0.0; BINS];
-        let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
-        for i in (1..BINS).rev() {
-            acc = acc.union(&boxes[i]);
-            n += counts[i];
-            right_area[i] = acc.surface_area();
-            right_count[i] = n;
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
-        for i in 1..BINS {
-            acc = acc.union(&boxes[i - 1]);
-            n += counts[i - 1];
-            if n == 0 || right_count[i] == 0 {
+        let mut left = Bin::EMPTY;
+        for i in 1..N {
+            left = left.merge(&bins[i - 1]);
+            let (right_count, right_area) = right[i];
+            if left.count == 0 || right_count == 0 {
                 continue;
             }
-            let cost = n as f64 * acc.surface_area() + right_count[i] as f64 * right_area[i];
-            if best.is_none_or(|(c, _, _)| cost < c) {
+            let cost = left.count as f32 * left.area() + right_count as f32 * right_area;
+            if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, i));
             }
         }
     }
     let (cost, axis, boundary) = best?;
-    let area = bounds.surface_area();
-    let split_cost = TRAVERSAL_COST + if area > 0.0 { cost / area } else { 0.0 };
-    if items.len() <= MAX_LEAF && split_cost >= items.len() as f64 {
-        return None;
+    let merged = |bins: &[Bin]| bins.iter().fold(Bin::EMPTY, |a, b| a.merge(b));
+    let (l, r) = bins[axis].split_at(boundary);
+    Some((cost, axis, boundary, merged(l), merged(r)))
+}
+
+/// Appends the 8-wide node whose two halves are `a` and `b`, and then its subtree, to
+/// `links` in depth-first order (each node's inner children after it, in slot order, each
+/// subtree contiguous); `items` are its primitives, the first at position `a.start`. The eight
+/// children are found by opening, from the node's two, the inner child with the largest
+/// area until there are eight (Embree's BVH8); a node with fewer leaves below it has fewer,
+/// its other slots empty.
+fn node<P: Send + Sync>(
+    items: &mut [P],
+    a: Span,
+    b: Span,
+    links: &mut Vec<Links>,
+    build: &Build<impl Fn(&P) -> BuildBox + Sync>,
+) {
+    let base = a.start;
+    let total = a.len + b.len;
+    let mut kids: Vec<Kid> = Vec::with_capacity(LANES);
+    for s in [a, b] {
+        let part = &mut items[s.start - base..][..s.len];
+        kids.push(decide(part, s, build));
     }
-    let scale = BINS as f64 / extent[axis];
-    let mut mid = 0;
-    for i in 0..items.len() {
-        let b = (((items[i].centroid[axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
-        if b < boundary {
-            items.swap(i, mid);
-            mid += 1;
+    while kids.len() < LANES {
+        // Of equal largest, the last in position.
+        let Some((i, _, _)) = kids
+            .iter()
+            .enumerate()
+            .filter_map(|(i, k)| match k {
+                Kid::Inner(s, _, _) => Some((i, s.area(), s.start)),
+                Kid::Leaf(_) => None,
+            })
+            .max_by(|x, y| x.1.total_cmp(&y.1).then(x.2.cmp(&y.2)))
+        else {
+            break;
+        };
+        let Kid::Inner(_, l, r) = kids[i] else {
+            unreachable!("an inner child was chosen")
+        };
+        let mut split = |s: Span| decide(&mut items[s.start - base..][..s.len], s, build);
+        kids[i] = split(l);
+        kids.push(split(r));
+    }
+    // In position order: each child's primitives after the one's before.
+    kids.sort_unstable_by_key(|k| k.span().start);
+    let index = links.len();
+    links.push(Links::default());
+    for (k, kid) in kids.iter().enumerate() {
+        if let Kid::Leaf(s) = kid {
+            links[index].child[k] = s.leaf_slot();
         }
     }
-    Some(mid)
+    // The inner children's primitives, apart: the kids are contiguous, in order.
+    let mut rest = items;
+    let mut jobs = Vec::with_capacity(LANES);
+    for (k, kid) in kids.iter().enumerate() {
+        let (part, tail) = rest.split_at_mut(kid.span().len);
+        rest = tail;
+        if let Kid::Inner(_, l, r) = *kid {
+            jobs.push((k, part, l, r));
+        }
+    }
+    if total <= PARALLEL_BUILD {
+        for (k, part, l, r) in jobs {
+            links[index].child[k] = links.len() as u32;
+            node(part, l, r, links, build);
+        }
+        return;
+    }
+    // Each inner child's subtree on its own, numbered from 0, then appended in slot order
+    // with its node numbers moved past those before it: the same nodes, in the same order,
+    // as built in place.
+    let subtrees: Vec<(usize, Vec<Links>)> = jobs
+        .into_par_iter()
+        .map(|(k, part, l, r)| {
+            let mut sub = Vec::new();
+            node(part, l, r, &mut sub, build);
+            (k, sub)
+        })
+        .collect();
+    for (k, sub) in subtrees {
+        let offset = links.len() as u32;
+        links[index].child[k] = offset;
+        links.extend(sub.into_iter().map(|mut n| {
+            for w in &mut n.child {
+                // A node (count 0) other than an empty slot.
+                if *w >> COUNT_SHIFT == 0 && *w != 0 {
+                    *w += offset;
+                }
+            }
+            n
+        }));
+    }
 }
+
+/// What a build reads of its items and how it weighs a split.
+pub(super) struct Build<F> {
+    /// An item's box as the build compares it.
+    pub(super) bounds: F,
+    /// The cost of visiting a node relative to testing one primitive: the higher, the more
+    /// primitives a leaf holds (at most [`MAX_LEAF`]) and the fewer nodes.
+    pub(super) node_cost: f64,
+}
+
+/// The links of a hierarchy over `items`, which are reordered into leaf order (position `p`
+/// of the hierarchy's leaves is `items[p]`). The same hierarchy and order on any number of
+/// threads. The root is always an 8-wide node, even over a single leaf, so traversal starts
+/// at node 0.
+pub(super) fn build_links<P: Send + Sync>(
+    items: &mut [P],
+    build: &Build<impl Fn(&P) -> BuildBox + Sync>,
+) -> Vec<Links> {
+    assert!(
+        items.len() <= 1 << COUNT_SHIFT,
+        "too many primitives for a hierarchy"
+    );
+    let mut links = Vec::new();
+    if items.is_empty() {
+        return links;
+    }
+    let root = measure(items, 0, 0, &build.bounds);
+    match decide(items, root, build) {
+        Kid::Leaf(s) => links.push(Links {
+            child: std::array::from_fn(|k| if k == 0 { s.leaf_slot() } else { 0 }),
+        }),
+        Kid::Inner(_, a, b) => node(items, a, b, &mut links, build),
+    }
+    // Pushed one by one: up to twice the memory needed, kept for the hierarchy's life.
+    links.shrink_to_fit();
+    links
+}
+
+/// A primitive of an index build: its box as the build compares it and its index.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Indexed {
+    pub(super) bounds: BuildBox,
+    pub(super) index: u32,
+}
+
+/// The links and leaf order of a hierarchy over primitives `0..n`, where `prim(i)` is the box
+/// of primitive `i` at the shutter's opening and at its closing (the same box for a still
+/// one).
+pub(super) fn build_indexed(
+    n: usize,
+    prim: &(impl Fn(usize) -> (Aabb, Aabb) + Sync),
+) -> (Vec<Links>, Vec<u32>) {
+    let mut items: Vec<Indexed> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (open, close) = prim(i);
+            Indexed {
+                bounds: BuildBox::new(&open, &close),
+                index: i as u32,
+            }
+        })
+        .collect();
+    let links = build_links(
+        &mut items,
+        &Build {
+            bounds: |p: &Indexed| p.bounds,
+            node_cost: NODE_COST,
+        },
+    );
+    let order = items.par_iter().map(|p| p.index).collect();
+    (links, order)
+}
+
+/// Bytes per primitive an index build holds at its peak, about: its working item and its
+/// place in the leaf order.
+pub const BUILD_BYTES_PER_PRIMITIVE: usize = std::mem::size_of::<Indexed>() + 4;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::bvh::hierarchy::Bvh;
     use crate::rng::Pcg32;
+    use glam::DVec3;
 
     #[test]
     fn identical_boxes_still_split_into_small_leaves() {
@@ -338,25 +693,66 @@ mod tests {
         assert_eq!(seen, (0..1000).collect::<Vec<u32>>());
     }
 
-    /// The same boxes give the same hierarchy whatever the number of threads building it.
+    /// The same boxes give the same hierarchy whatever the number of threads building it,
+    /// still and moving, over enough boxes for the parallel binning and subtrees.
     #[test]
     fn build_is_deterministic_across_thread_counts() {
         let mut r = Pcg32::new(4, 4);
-        let boxes: Vec<Aabb> = (0..40_000)
+        let (open, close): (Vec<Aabb>, Vec<Aabb>) = (0..100_000)
             .map(|_| {
                 let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 100.0;
-                Aabb::point(c).grow(0.1 + r.next_f64())
+                let v = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 8.0 - 4.0;
+                let b = Aabb::point(c).grow(0.1 + r.next_f64());
+                (b, Aabb::point(c + v).grow(b.max.x - c.x))
             })
-            .collect();
+            .unzip();
         let build = |threads| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| Bvh::build(&boxes))
+                .install(|| (Bvh::build(&open), Bvh::build_moving(&open, &close)))
         };
         let (a, b) = (build(1), build(3));
-        assert_eq!(a.topology(), b.topology());
-        assert_eq!(a.boxes(), b.boxes());
+        assert_eq!(a.0.topology(), b.0.topology());
+        assert_eq!(a.0.boxes(), b.0.boxes());
+        assert_eq!(a.1.topology(), b.1.topology());
+        assert_eq!(a.1.boxes(), b.1.boxes());
+    }
+
+    /// The mean area of the interpolated box, against sampling it over the shutter.
+    #[test]
+    fn expected_area_is_the_mean_over_the_shutter() {
+        let open = Box3 {
+            lo: Vec3A::new(0.0, 1.0, -2.0),
+            hi: Vec3A::new(1.0, 3.0, 0.5),
+        };
+        let close = Box3 {
+            lo: Vec3A::new(4.0, 0.0, -1.0),
+            hi: Vec3A::new(9.0, 1.5, 0.0),
+        };
+        let steps = 100_000;
+        let mean = (0..steps)
+            .map(|k| {
+                let s = (k as f32 + 0.5) / steps as f32;
+                let b = Box3 {
+                    lo: open.lo + s * (close.lo - open.lo),
+                    hi: open.hi + s * (close.hi - open.hi),
+                };
+                f64::from(expected_half_area(b, b))
+            })
+            .sum::<f64>()
+            / steps as f64;
+        let got = f64::from(expected_half_area(open, close));
+        assert!((got - mean).abs() < 1e-5 * mean, "{got} {mean}");
+        // A still box: half its surface area.
+        let still = Aabb {
+            min: DVec3::new(0.0, 1.0, -2.0),
+            max: DVec3::new(1.0, 3.0, 0.5),
+        };
+        assert_eq!(
+            2.0 * f64::from(expected_half_area(open, open)),
+            still.surface_area()
+        );
     }
 }

@@ -5,17 +5,21 @@ use glam::DVec3;
 use crate::aabb::Aabb;
 
 use super::boxes::{Boxes, ChildBoxes};
-use super::build::build_parts;
+use super::links::Links;
 use super::stack::TraversalStack;
-use super::topology::{Links, Topology};
+use super::topology::Topology;
 use super::traverse::BvhView;
+
+/// Bytes of an 8-wide moving node: its children's links and their boxes at the shutter's
+/// opening and their change until its closing.
+pub const MOVING_NODE_BYTES: usize =
+    std::mem::size_of::<Links>() + std::mem::size_of::<[ChildBoxes; 2]>();
 
 /// Bytes per primitive of a hierarchy, at most about: its place in the leaf order, and an
 /// 8-wide moving node's children and boxes per two and a half primitives (a leaf holds one
 /// to four and a node about four children: 0.38 nodes a primitive over 100 random spheres,
 /// 0.27 over 30,000; a test checks the bound).
-pub const BYTES_PER_PRIMITIVE: usize =
-    4 + (std::mem::size_of::<Links>() + std::mem::size_of::<[ChildBoxes; 2]>()) * 2 / 5;
+pub const BYTES_PER_PRIMITIVE: usize = 4 + MOVING_NODE_BYTES * 2 / 5;
 
 /// A hierarchy over primitives `0..n` given by their boxes: its topology and its boxes.
 #[derive(Clone, Debug, Default)]
@@ -28,7 +32,8 @@ impl Bvh {
     /// Builds the hierarchy over `boxes`; primitive `i` has box `boxes[i]`. At most 2^28
     /// primitives.
     pub fn build(boxes: &[Aabb]) -> Bvh {
-        let (topology, boxes) = build_parts(boxes, None);
+        let topology = Topology::build(boxes.len(), &|i| (boxes[i], boxes[i]));
+        let boxes = topology.refit_still_with(&|pos| boxes[topology.order[pos as usize] as usize]);
         Bvh { topology, boxes }
     }
 
@@ -38,7 +43,8 @@ impl Bvh {
     /// [`Aabb::pad_for_rounding`]).
     pub fn build_moving(open: &[Aabb], close: &[Aabb]) -> Bvh {
         assert_eq!(open.len(), close.len());
-        let (topology, boxes) = build_parts(open, Some(close));
+        let topology = Topology::build(open.len(), &|i| (open[i], close[i]));
+        let boxes = topology.refit_moving(open, close);
         Bvh { topology, boxes }
     }
 

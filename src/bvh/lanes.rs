@@ -34,6 +34,12 @@ pub(super) trait Lanes: Copy {
     /// Bit `k` set where lane `k` of `a` is at most that of `b` (false for NaN).
     fn le_mask(self, a: Self::V, b: Self::V) -> u32;
     fn to_array(self, a: Self::V) -> [f32; LANES];
+    /// Asks for the cache line holding `r` to be loaded, without waiting for it (nothing
+    /// where there is no such instruction).
+    #[inline(always)]
+    fn prefetch<T>(self, r: &T) {
+        let _ = r;
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -107,6 +113,10 @@ mod x86 {
             let (p, q) = (a[0].to_array(), a[1].to_array());
             [p[0], p[1], p[2], p[3], q[0], q[1], q[2], q[3]]
         }
+        #[inline(always)]
+        fn prefetch<T>(self, r: &T) {
+            prefetch_t0(r);
+        }
     }
 
     /// The two halves of eight lanes.
@@ -158,6 +168,10 @@ mod x86 {
         #[inline(always)]
         fn to_array(self, a: __m256) -> [f32; LANES] {
             pulp::cast(a)
+        }
+        #[inline(always)]
+        fn prefetch<T>(self, r: &T) {
+            prefetch_t0(r);
         }
     }
 }

@@ -1,6 +1,6 @@
-//! A bounding volume hierarchy over boxes: built as a binary tree with the surface-area
-//! heuristic (binned, as in Wald 2007, "On fast Construction of SAH-based Bounding Volume
-//! Hierarchies"), in parallel, then collapsed into an 8-wide tree (as Embree's BVH8) stored as
+//! A bounding volume hierarchy over boxes: built top down with the surface-area heuristic
+//! (binned, as in Wald 2007, "On fast Construction of SAH-based Bounding Volume
+//! Hierarchies"), in parallel, straight into an 8-wide tree (as Embree's BVH8) stored as
 //! flat arrays of nodes. A node holds its eight children's boxes as structure-of-arrays, in
 //! `f32` rounded outward (half the memory of `f64`; a box only ever grows, so no hit is lost),
 //! so a ray is tested against all eight at once (one AVX register where the processor has
@@ -21,14 +21,19 @@
 //! of its children's.
 //!
 //! Primitives are identified by their position in [`Topology::order`]: callers store their
-//! primitives in that order, so the leaves of the hierarchy read memory front to back.
+//! primitives in that order, so the leaves of the hierarchy read memory front to back. A
+//! caller whose primitives are compact records can have them reordered in place instead
+//! ([`Topology::build_in_place`]), with no order and no copy.
 //!
 //! The files, one concept each, in the order they build on one another:
 //! - `rounding`: `f64` sides rounded outward to `f32`, still and moving;
 //! - `lanes`: eight `f32` lanes (AVX chosen at run time, SSE, or plain arrays);
 //! - `boxes`: [`Boxes`], the nodes' `f32` boxes (eight children a node, still or moving);
+//! - `links`: a node's eight children packed one word a slot;
 //! - `topology`: [`Topology`], the nodes' children and the leaf order; the refit;
-//! - `build`: the binned SAH build of a binary tree and its collapse into 8-wide nodes;
+//! - `build`: the binned SAH build, on the primitives' boxes at the shutter's opening and
+//!   closing, straight into 8-wide nodes, reordering the primitives into leaf order;
+//! - `refit`: the nodes' boxes from the primitives', bottom up (after a build, or a refit);
 //! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
 //! - `stack`: [`TraversalStack`], the fixed stacks of a ray's and a packet's traversal;
 //! - `traverse`: [`BvhView`], the nearest-hit traversal;
@@ -42,7 +47,9 @@ mod build;
 mod export;
 mod hierarchy;
 mod lanes;
+mod links;
 mod packet;
+mod refit;
 mod rounding;
 mod slab;
 mod stack;
@@ -54,8 +61,9 @@ mod tests;
 
 pub use boxes::Boxes;
 pub use build::BUILD_BYTES_PER_PRIMITIVE;
+pub(crate) use build::BuildBox;
 pub use export::{Child, ChildKind};
-pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh, MOVING_NODE_BYTES};
 pub use packet::PacketRay;
 pub use stack::{PACKET, TraversalStack};
 pub use topology::Topology;

@@ -12,9 +12,9 @@
 use glam::DVec3;
 
 use super::lanes::{LANES, Lanes};
+use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{PACKET, TraversalStack};
-use super::topology::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::traverse::BvhView;
 
 /// One ray of a packet: `origin + t dir` at shutter time `s` in [0, 1] (as
@@ -134,6 +134,15 @@ impl BvhView<'_> {
             // Per child, the rays entering it (transposed: byte k of `by_child`).
             let by_child = transpose8(entered);
             let any = by_child_nonzero(by_child);
+            // Every node child entered is asked for now, as in a ray's traversal.
+            let mut bits = any;
+            while bits != 0 {
+                let w = node.child[bits.trailing_zeros() as usize];
+                bits &= bits - 1;
+                if w >> COUNT_SHIFT == 0 {
+                    self.boxes.prefetch(m, w as usize);
+                }
+            }
             // The children entered, nearest first by their smallest entry distance; all but
             // the nearest are pushed (nearest last, so popped first).
             let mut next = 0;

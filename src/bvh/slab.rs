@@ -38,6 +38,11 @@ pub(super) trait SlabTest {
     /// or `limit` (an `f32` at or above it, [`widened_limit`]), as bits, and their entry
     /// distances, at most the true ones.
     fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; LANES]);
+    /// Asks for the boxes of `node` to be loaded into the cache, for a test later.
+    #[inline(always)]
+    fn prefetch(&self, boxes: &Boxes, node: usize) {
+        let _ = (boxes, node);
+    }
 }
 
 /// A ray as the `f32` slab test reads it, on the lanes of machine `M`: per axis, its
@@ -107,6 +112,11 @@ fn splat3<M: Lanes>(m: M, v: glam::Vec3) -> [M::V; 3] {
 }
 
 impl<M: Lanes> SlabTest for RayLanes<M> {
+    #[inline(always)]
+    fn prefetch(&self, boxes: &Boxes, node: usize) {
+        boxes.prefetch(self.m, node);
+    }
+
     /// Entry distances at most the exact ones (computed in real arithmetic from the `f64`
     /// origin and direction, against the box a traversal's `f32` evaluation gives).
     #[inline(always)]

@@ -3,7 +3,7 @@
 
 use super::build::MAX_SAH_DEPTH;
 use super::lanes::LANES;
-use super::topology::Links;
+use super::links::Links;
 
 /// The most rays in a packet.
 pub const PACKET: usize = 8;
@@ -18,7 +18,7 @@ pub(super) const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
 pub struct TraversalStack {
     /// A child slot ([`COUNT_SHIFT`]): a node index, or a leaf's first position and count.
     ///
-    /// [`COUNT_SHIFT`]: super::topology::COUNT_SHIFT
+    /// [`COUNT_SHIFT`]: super::links::COUNT_SHIFT
     pub(super) entry: [u32; STACK],
     /// For a node entry, its children, read from the topology when the entry is pushed.
     pub(super) links: [Links; STACK],

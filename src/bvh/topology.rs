@@ -3,54 +3,56 @@
 
 use crate::aabb::Aabb;
 
-use super::boxes::{Boxes, ChildBoxes, set_moving};
-use super::lanes::LANES;
-
-/// A child slot is one word: a node index, or a leaf's first primitive position with its
-/// primitive count in the bits from this one up (a node has count 0). Positions are below
-/// 2^28, which a hierarchy of fewer primitives than that guarantees.
-pub(super) const COUNT_SHIFT: u32 = 28;
-/// The position bits of a child slot.
-pub(super) const POSITION_MASK: u32 = (1 << COUNT_SHIFT) - 1;
-
-/// The children of an 8-wide node: per slot, a node index or a leaf's first primitive
-/// position and count, packed in one word ([`COUNT_SHIFT`]). An empty slot is 0 (node 0 is the
-/// root, nobody's child). Thirty-two bytes, aligned, so a node's children never straddle a
-/// cache line: a traversal reads them apart from the node's boxes, one line more per node.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(align(32))]
-pub(super) struct Links {
-    pub(super) child: [u32; LANES],
-}
-
-impl Links {
-    /// Slot `k`: a node index and count 0, or a leaf's first position and its count.
-    #[inline]
-    pub(super) fn slot(&self, k: usize) -> (u32, u32) {
-        let w = self.child[k];
-        (w & POSITION_MASK, w >> COUNT_SHIFT)
-    }
-}
-
-/// The children of the child word `w`'s node, read ahead of descending into it; a leaf's word
-/// (or an empty slot) reads the root's, which a traversal never uses, so the read needs no
-/// branch on what the traversal does next.
-#[inline]
-pub(super) fn links_of(links: &[Links], w: u32) -> Links {
-    links[if w >> COUNT_SHIFT == 0 { w as usize } else { 0 }]
-}
+use super::boxes::Boxes;
+use super::build::{Build, BuildBox, build_indexed, build_links};
+use super::links::Links;
+use super::refit::refit;
 
 /// The structure of a hierarchy over primitives `0..n`, which a refit keeps: the children of
-/// every 8-wide node (nodes in depth-first order, the root first) and the primitives in leaf
-/// order.
+/// every 8-wide node (nodes in depth-first order, the root first, each node's inner children
+/// after it in slot order and each subtree contiguous) and the primitives in leaf order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Topology {
     pub(super) links: Vec<Links>,
-    /// Primitive indices in leaf order.
+    /// Primitive indices in leaf order; empty for a build that reordered the primitives
+    /// themselves ([`Topology::build_in_place`]).
     pub(super) order: Vec<u32>,
+    /// Number of primitives.
+    pub(super) len: usize,
 }
 
 impl Topology {
+    /// The topology of a hierarchy over primitives `0..n`, where `prim(i)` gives primitive
+    /// `i`'s boxes at the shutter's opening and at its closing (one box twice for a still
+    /// primitive). The same on any number of threads. At most 2^28 primitives.
+    pub fn build(n: usize, prim: &(impl Fn(usize) -> (Aabb, Aabb) + Sync)) -> Topology {
+        let (links, order) = build_indexed(n, prim);
+        Topology {
+            links,
+            order,
+            len: n,
+        }
+    }
+
+    /// The topology of a hierarchy over `items`, reordered into leaf order (position `p` is
+    /// `items[p]`; [`Topology::order`] is empty), with no copy of them: `bounds(item)` gives
+    /// an item's boxes, in `f32`, as the build compares them (it only steers the splits; the
+    /// hierarchy's boxes come from [`Topology::refit_moving_with`]). `node_cost` is the cost
+    /// of visiting a node relative to testing one item (spheres' hierarchies take 0.5): the
+    /// higher, the more items a leaf holds (at most four) and the fewer nodes. The same on
+    /// any number of threads. At most 2^28 items.
+    pub(crate) fn build_in_place<P: Send + Sync>(
+        items: &mut [P],
+        bounds: impl Fn(&P) -> BuildBox + Sync,
+        node_cost: f64,
+    ) -> Topology {
+        Topology {
+            links: build_links(items, &Build { bounds, node_cost }),
+            order: Vec::new(),
+            len: items.len(),
+        }
+    }
+
     /// Boxes for moving primitives on this topology (refitting): primitive `i` lies inside
     /// the box interpolated from `open[i]` to `close[i]`, as for [`Bvh::build_moving`]. Every
     /// node's boxes are the unions of its children's, bottom up, so the result is exact for
@@ -60,54 +62,50 @@ impl Topology {
     /// [`Bvh::build_moving`]: super::hierarchy::Bvh::build_moving
     pub fn refit_moving(&self, open: &[Aabb], close: &[Aabb]) -> Boxes {
         assert!(open.len() == self.order.len() && close.len() == self.order.len());
-        let n = self.links.len();
-        let mut boxes = Boxes {
+        self.refit_moving_with(&|pos| {
+            let i = self.order[pos as usize] as usize;
+            (open[i], close[i])
+        })
+    }
+
+    /// [`Topology::refit_moving`] with `prim(pos)` the boxes, at the shutter's opening and
+    /// closing, of the primitive at position `pos` of the leaf order. In parallel.
+    pub fn refit_moving_with(&self, prim: &(impl Fn(u32) -> (Aabb, Aabb) + Sync)) -> Boxes {
+        let (moving, (open, close)) = refit(&self.links, prim);
+        Boxes {
             still: Vec::new(),
-            moving: vec![[ChildBoxes::EMPTY, ChildBoxes::ZERO]; n],
-            bounds: Aabb::EMPTY,
-        };
-        // Nodes are in depth-first order, so every child comes after its parent: in reverse
-        // order, a node's children are done before it.
-        let mut unions = vec![(Aabb::EMPTY, Aabb::EMPTY); n];
-        for i in (0..n).rev() {
-            let links = &self.links[i];
-            let mut all = (Aabb::EMPTY, Aabb::EMPTY);
-            for k in 0..LANES {
-                let (child, count) = links.slot(k);
-                let (o, c) = if count > 0 {
-                    (child..child + count).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
-                        let p = self.order[pos as usize] as usize;
-                        (o.union(&open[p]), c.union(&close[p]))
-                    })
-                } else if child > 0 {
-                    unions[child as usize]
-                } else {
-                    // An empty slot (the root is nobody's child): it stays empty.
-                    continue;
-                };
-                set_moving(&mut boxes.moving[i], k, &o, &c);
-                all = (all.0.union(&o), all.1.union(&c));
-            }
-            unions[i] = all;
+            moving,
+            bounds: open.union(&close),
         }
-        if let Some(&(o, c)) = unions.first() {
-            boxes.bounds = o.union(&c);
+    }
+
+    /// Boxes for still primitives on this topology, with `prim(pos)` the box of the primitive
+    /// at position `pos` of the leaf order. In parallel.
+    pub fn refit_still_with(&self, prim: &(impl Fn(u32) -> Aabb + Sync)) -> Boxes {
+        let (still, (all, _)) = refit(&self.links, &|pos| {
+            let b = prim(pos);
+            (b, b)
+        });
+        Boxes {
+            still,
+            moving: Vec::new(),
+            bounds: all,
         }
-        boxes
     }
 
     /// Number of primitives.
     pub fn len(&self) -> usize {
-        self.order.len()
+        self.len
     }
 
     /// Whether there are no primitives.
     pub fn is_empty(&self) -> bool {
-        self.order.is_empty()
+        self.len == 0
     }
 
     /// The primitives in leaf order: position `p` in the callbacks of
-    /// [`BvhView::closest_hit`] is primitive `order()[p]`.
+    /// [`BvhView::closest_hit`] is primitive `order()[p]`. Empty for a topology built in
+    /// place.
     ///
     /// [`BvhView::closest_hit`]: super::traverse::BvhView::closest_hit
     pub fn order(&self) -> &[u32] {

@@ -5,9 +5,10 @@ use glam::DVec3;
 
 use super::boxes::Boxes;
 use super::lanes::{LANES, Lanes};
+use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
 use super::stack::TraversalStack;
-use super::topology::{COUNT_SHIFT, POSITION_MASK, Topology, links_of};
+use super::topology::Topology;
 
 /// A topology with boxes computed for it (by its build or by [`Topology::refit_moving`]), as
 /// a traversal reads them.
@@ -126,6 +127,17 @@ impl<'a> BvhView<'a> {
         let mut node = links[0];
         loop {
             let (mask, near) = ray.test(self.boxes, current, limit, t_max);
+            // Every node child entered is asked for now: the loads of its boxes overlap this
+            // node's sorting and pushing and the descent, where a hierarchy far larger than
+            // the cache would wait for each (a fifth of a render of a million points).
+            let mut bits = mask;
+            while bits != 0 {
+                let w = node.child[bits.trailing_zeros() as usize];
+                bits &= bits - 1;
+                if w >> COUNT_SHIFT == 0 {
+                    ray.prefetch(self.boxes, w as usize);
+                }
+            }
             // The child to go to next (a child slot, 0 for none): the nearest child hit. The
             // others are pushed, nearest last, so the nearest of them is popped first.
             let mut next = 0;

@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::files::{Files, Key};
 use super::layout::{Layout, layout};
@@ -237,16 +238,18 @@ impl Columns {
     }
 
     /// The sets, one per material (the table's first, then the types' in their order), each
-    /// point in the order of the columns.
+    /// point in the order of the columns; positions, velocities and radii rounded to the
+    /// `f32` the sets keep (see [`crate::points`]).
     fn into_sets(self, desc: &PointCacheDesc, time: f64) -> Vec<PointSet> {
-        let radius = desc.radius.unwrap_or(0.0);
+        let radius = desc.radius.unwrap_or(0.0) as f32;
+        let narrow = |col: &[DVec3]| -> Vec<Vec3> { col.par_iter().map(|c| c.as_vec3()).collect() };
         if self.materials.is_empty() {
             return vec![PointSet {
                 material: desc.material,
                 time,
-                centers: self.centers,
-                velocities: self.velocities,
-                radii: self.radii,
+                centers: narrow(&self.centers),
+                velocities: narrow(&self.velocities),
+                radii: self.radii.iter().map(|&r| r as f32).collect(),
                 radius,
                 colors: self.colors,
             }];
@@ -261,11 +264,11 @@ impl Columns {
             .map(|m| {
                 let pick = |i: &usize| self.materials[*i] == m;
                 let all: Vec<usize> = (0..self.centers.len()).filter(pick).collect();
-                let take = |col: &[DVec3]| -> Vec<DVec3> {
+                let take = |col: &[DVec3]| -> Vec<Vec3> {
                     if col.is_empty() {
                         Vec::new()
                     } else {
-                        all.iter().map(|&i| col[i]).collect()
+                        all.iter().map(|&i| col[i].as_vec3()).collect()
                     }
                 };
                 PointSet {
@@ -276,7 +279,7 @@ impl Columns {
                     radii: if self.radii.is_empty() {
                         Vec::new()
                     } else {
-                        all.iter().map(|&i| self.radii[i]).collect()
+                        all.iter().map(|&i| self.radii[i] as f32).collect()
                     },
                     radius,
                     colors: if self.colors.is_empty() {

@@ -424,7 +424,7 @@ mod tests {
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         let e = read_rows(&mut l, &a, &[1], |_, _| Ok(())).unwrap_err();
         assert!(
-            matches!(e, ReadError::Bad(m) if m == "line 5: atom 2: 1 fields for the 4 columns Properties= declares")
+            matches!(e, ReadError::Bad(m) if m == "line 5: atom 2: 1 fields for the 4 columns Properties= declares (the count line of its frame lies?)")
         );
         std::fs::write(
             &path,

@@ -1,0 +1,129 @@
+//! A topology's boxes computed from its primitives' boxes: every node's children's boxes are
+//! the unions of the boxes below them, bottom up, in parallel over the subtrees. What a build
+//! ends with and a refit to new boxes does, exact for any boxes.
+
+use rayon::prelude::*;
+
+use crate::aabb::Aabb;
+
+use super::boxes::{ChildBoxes, set_moving};
+use super::lanes::LANES;
+use super::links::Links;
+
+/// Subtrees of more nodes than this have their children's subtrees refitted in parallel.
+const PARALLEL_REFIT: usize = 512;
+
+/// A node's children's boxes as a hierarchy stores them: still, or moving over the shutter.
+pub(super) trait NodeBoxes: Copy + Send + Sync {
+    /// Every slot empty: no ray enters it.
+    const EMPTY: Self;
+    /// Sets slot `k` to the boxes `open` (at the shutter's opening) and `close` (at its
+    /// closing), rounded outward.
+    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb);
+}
+
+impl NodeBoxes for ChildBoxes {
+    const EMPTY: Self = ChildBoxes::EMPTY;
+
+    /// A still node holds the union (for a still primitive, `open` and `close` are one box).
+    #[inline]
+    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb) {
+        ChildBoxes::set(self, k, &open.union(close));
+    }
+}
+
+impl NodeBoxes for [ChildBoxes; 2] {
+    const EMPTY: Self = [ChildBoxes::EMPTY, ChildBoxes::ZERO];
+
+    #[inline]
+    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb) {
+        set_moving(self, k, open, close);
+    }
+}
+
+/// The boxes of every node of `links` (depth first, each node's inner children after it and
+/// each subtree contiguous, as a build lays them out), with `prim(pos)` the boxes of the
+/// primitive at leaf position `pos` at the shutter's opening and closing; and the unions of
+/// every primitive's boxes at the opening and at the closing.
+pub(super) fn refit<T: NodeBoxes>(
+    links: &[Links],
+    prim: &(impl Fn(u32) -> (Aabb, Aabb) + Sync),
+) -> (Vec<T>, (Aabb, Aabb)) {
+    let mut nodes = vec![T::EMPTY; links.len()];
+    let all = if links.is_empty() {
+        (Aabb::EMPTY, Aabb::EMPTY)
+    } else {
+        subtree(links, 0, &mut nodes, prim)
+    };
+    (nodes, all)
+}
+
+/// Refits node `first` and its subtree, whose boxes are `nodes` (`nodes[0]` the node's own);
+/// returns the unions of its boxes.
+fn subtree<T: NodeBoxes>(
+    links: &[Links],
+    first: usize,
+    nodes: &mut [T],
+    prim: &(impl Fn(u32) -> (Aabb, Aabb) + Sync),
+) -> (Aabb, Aabb) {
+    let node = links[first];
+    let mut child = [(Aabb::EMPTY, Aabb::EMPTY); LANES];
+    // The inner children, by node number: each one's subtree runs up to the next one's.
+    let mut inner: Vec<(u32, usize)> = Vec::with_capacity(LANES);
+    for (k, c) in child.iter_mut().enumerate() {
+        let (at, count) = node.slot(k);
+        if count > 0 {
+            *c = (at..at + count).fold((Aabb::EMPTY, Aabb::EMPTY), |(o, c), pos| {
+                let (po, pc) = prim(pos);
+                (o.union(&po), c.union(&pc))
+            });
+        } else if at > 0 {
+            inner.push((at, k));
+        }
+    }
+    inner.sort_unstable();
+    let (head, mut rest) = nodes.split_first_mut().expect("a node's boxes");
+    let end = first + 1 + rest.len();
+    let mut jobs = Vec::with_capacity(inner.len());
+    for (j, &(at, k)) in inner.iter().enumerate() {
+        let next = inner.get(j + 1).map_or(end, |n| n.0 as usize);
+        let at = at as usize;
+        // A build lays the subtrees out one after another, right after their node.
+        let skipped = at - (end - rest.len());
+        assert!(
+            skipped == 0 && next > at,
+            "a topology not laid out depth first"
+        );
+        let (part, tail) = std::mem::take(&mut rest).split_at_mut(next - at);
+        rest = tail;
+        jobs.push((k, at, part));
+    }
+    let done: Vec<(usize, (Aabb, Aabb))> = if nodes_len(&jobs) > PARALLEL_REFIT {
+        jobs.into_par_iter()
+            .map(|(k, at, part)| (k, subtree(links, at, part, prim)))
+            .collect()
+    } else {
+        jobs.into_iter()
+            .map(|(k, at, part)| (k, subtree(links, at, part, prim)))
+            .collect()
+    };
+    for (k, b) in done {
+        child[k] = b;
+    }
+    let mut all = (Aabb::EMPTY, Aabb::EMPTY);
+    for (k, (o, c)) in child.iter().enumerate() {
+        let (at, count) = node.slot(k);
+        if count == 0 && at == 0 {
+            // An empty slot (the root is nobody's child): it stays empty.
+            continue;
+        }
+        head.set(k, o, c);
+        all = (all.0.union(o), all.1.union(c));
+    }
+    all
+}
+
+/// The nodes below a node's inner children.
+fn nodes_len<T>(jobs: &[(usize, usize, &mut [T])]) -> usize {
+    jobs.iter().map(|j| j.2.len()).sum()
+}
