@@ -103,7 +103,8 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
 /// ([`memory_estimate`]), or, if that is more than the machine has available (Linux:
-/// `MemAvailable`; elsewhere not checked), a usage error that says what to lower.
+/// `MemAvailable`; elsewhere not checked), a usage error that names the scene file and says
+/// what to lower.
 pub fn check_memory(scene: &Scene, points: u64) -> Result<u64, Error> {
     let estimate = memory_estimate(scene, points);
     let with_points = if points > 0 {
@@ -113,7 +114,8 @@ pub fn check_memory(scene: &Scene, points: u64) -> Result<u64, Error> {
     };
     match available_memory_bytes() {
         Some(available) if estimate > available => Err(Error::Usage(format!(
-            "a frame of {}x{} pixels with {} spheres{with_points} needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            "{}: a frame of {}x{} pixels with {} spheres{with_points} needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            crate::error::elide_path(&scene.source),
             scene.output.width,
             scene.output.height,
             scene.spheres.len(),

@@ -42,7 +42,7 @@ impl PointMotion {
 pub struct PointCacheDesc {
     /// The file, or a sequence: each run of `#` is the zero-padded frame number. Relative
     /// paths have been joined to the scene file's folder.
-    pub file: String,
+    pub file: crate::path_pattern::FramePattern,
     /// Index into [`crate::scene::Scene::materials`].
     pub material: u32,
     /// Radius of points without a radius attribute (> 0); `None`: the cache must have one.

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use super::frames::{Selection, batch_chunk};
 use crate::error::{Error, elide_path};
 use crate::io;
-use crate::path_pattern;
+use crate::path_pattern::{self, FramePattern};
 use crate::point_cache;
 use crate::scene::Scene;
 use crate::scene_file::Overrides;
@@ -35,7 +35,7 @@ pub(crate) fn select_frames(
 #[derive(Clone, Debug)]
 pub(crate) struct Targets {
     pub(crate) frames: Selection,
-    pub(crate) pattern: String,
+    pub(crate) pattern: FramePattern,
 }
 
 impl Targets {

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::Check;
 use crate::material::Material;
+use crate::path_pattern::FramePattern;
 use crate::points::{PointCacheDesc, PointMotion};
 use crate::scene_file::schema::{MaterialRef, RawPointMotion, RawPoints};
 
@@ -32,6 +33,8 @@ impl Check<'_> {
                 }
                 _ => p.file.clone(),
             };
+            let file = FramePattern::new(file)
+                .or_else(|e| self.err(format_args!("{field}.file \"{}\": {e}", p.file)))?;
             let material = match &p.material {
                 MaterialRef::Name(n) => self.named_material(&field, n, names)?,
                 MaterialRef::Inline(m) => {
