@@ -60,7 +60,8 @@ pub const INTERPOLATE_BYTES_PER_POINT: u64 = 24 + 8 + 8 + 2 * 16;
 /// bytes: the process's floor; per pixel, [`bytes_per_pixel`]; per sphere, the scene's
 /// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
 /// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
-/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`]. It grows linearly
+/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`], and with point
+/// caches, what reading one of their files holds ([`crate::ply::READ_BUFFER_BYTES`]). It grows linearly
 /// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
 pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
     use std::mem::size_of;
@@ -94,7 +95,13 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
         } else {
             0
         };
+    // A point cache's file is read through bounded buffers, one file at a time.
+    let reading = match scene.points.is_empty() {
+        true => 0,
+        false => crate::ply::READ_BUFFER_BYTES,
+    };
     FLOOR_BYTES
+        + reading
         + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64

@@ -469,11 +469,8 @@ fn read_points(
             read.colors.push(c);
         }
         if let Some(k) = id {
-            let x = v[k];
-            if x.fract() != 0.0 || !x.is_finite() {
-                return Err(format!("point {i}: id is {x}, not a whole number"));
-            }
-            read.ids.push(x as i64);
+            read.ids
+                .push(crate::points::point_id(v[k]).map_err(|m| format!("point {i}: {m}"))?);
         }
         Ok(())
     })?;

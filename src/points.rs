@@ -58,6 +58,23 @@ impl PointCacheDesc {
     }
 }
 
+/// A point's id from the number a cache holds: a whole number in the range of 64-bit integers,
+/// -2^63 to 2^63 - 1 (the conversion to `i64` saturates past it, which would make 1e30 and
+/// 2e30 the same id).
+pub fn point_id(x: f64) -> Result<i64, String> {
+    // 2^63, exactly a double.
+    const LIMIT: f64 = 9_223_372_036_854_775_808.0;
+    if !x.is_finite() || x.fract() != 0.0 {
+        return Err(format!("id is {x}, not a whole number"));
+    }
+    if !(-LIMIT..LIMIT).contains(&x) {
+        return Err(format!(
+            "id is {x:e}, out of range: ids are whole numbers from -2^63 to 2^63 - 1"
+        ));
+    }
+    Ok(x as i64)
+}
+
 /// One frame's points of one cache, as columns.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointSet {
@@ -210,6 +227,32 @@ mod tests {
     use super::*;
     use crate::motion::{FrameMotion, Motion};
     use crate::sphere::SphereDesc;
+
+    #[test]
+    fn ids_are_whole_numbers_within_64_bit_integers() {
+        assert_eq!(point_id(-9.223372036854775808e18), Ok(i64::MIN));
+        // The largest double below 2^63.
+        assert_eq!(
+            point_id(9.223372036854774784e18),
+            Ok(9_223_372_036_854_774_784)
+        );
+        assert_eq!(point_id(-0.0), Ok(0));
+        for (x, why) in [
+            (9.223372036854775808e18, "out of range"),
+            (1e30, "out of range"),
+            (-1e300, "out of range"),
+            (0.5, "not a whole number"),
+            (f64::NAN, "not a whole number"),
+            (f64::INFINITY, "not a whole number"),
+        ] {
+            let e = point_id(x).unwrap_err();
+            assert!(e.contains(why), "{x}: {e}");
+        }
+        assert_eq!(
+            point_id(1e30).unwrap_err(),
+            "id is 1e30, out of range: ids are whole numbers from -2^63 to 2^63 - 1"
+        );
+    }
 
     /// A point of a set at time 0 is prepared, and boxed, as the sphere with the same centre,
     /// velocity and radius: the same bits, for still and moving points and instants.
