@@ -230,15 +230,15 @@ mod tests {
 
     #[test]
     fn ids_are_whole_numbers_within_64_bit_integers() {
-        assert_eq!(point_id(-9.223372036854775808e18), Ok(i64::MIN));
+        assert_eq!(point_id(-(2f64.powi(63))), Ok(i64::MIN));
         // The largest double below 2^63.
         assert_eq!(
-            point_id(9.223372036854774784e18),
+            point_id(2f64.powi(63) - 1024.0),
             Ok(9_223_372_036_854_774_784)
         );
         assert_eq!(point_id(-0.0), Ok(0));
         for (x, why) in [
-            (9.223372036854775808e18, "out of range"),
+            (2f64.powi(63), "out of range"),
             (1e30, "out of range"),
             (-1e300, "out of range"),
             (0.5, "not a whole number"),

@@ -86,12 +86,7 @@ fn ascii_rows_hold_exactly_their_properties_and_nothing_follows_them() {
     let d = cache(text.as_bytes());
     both_refuse(d.path(), &["c.ply", "line 11: face 0 has more values"]);
     // What a good file may hold: CR LF line ends, blank lines, spaces and tabs at line ends.
-    let d = cache(
-        &ascii("0 0 0\r\n1 1 1 \t\r\n\r\n2 2 2\r\n\n")
-            .iter()
-            .map(|&b| b)
-            .collect::<Vec<u8>>(),
-    );
+    let d = cache(&ascii("0 0 0\r\n1 1 1 \t\r\n\r\n2 2 2\r\n\n"));
     let t = accepted(d.path());
     assert!(t.contains("3 points"), "{t}");
 }
@@ -171,7 +166,8 @@ fn ids_beyond_64_bit_integers_are_out_of_range_not_duplicates() {
         &[
             (
                 "s_1.ply",
-                &file(&[-9.223372036854775808e18, 9.223372036854774784e18, 3.0]),
+                // -2^63 and 2^63 - 1024, the largest f64 below 2^63: both exact.
+                &file(&[i64::MIN as f64, (i64::MAX - 1023) as f64, 3.0]),
             ),
             ("s_2.ply", &file(&[1.0, 2.0, 3.0])),
         ],

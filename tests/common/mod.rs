@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod hostile;
+pub mod moved;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
