@@ -37,6 +37,7 @@ pub mod point_cache;
 pub mod points;
 pub mod ray;
 pub mod renderer;
+pub mod replicates;
 pub mod rng;
 pub mod sampler;
 pub mod scene;

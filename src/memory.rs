@@ -214,23 +214,15 @@ mod tests {
             memory_estimate(&all, 0) - memory_estimate(&none, 0),
             pixels * (12 * 8 + 2 * 15 * 4 + 12)
         );
-        let statics = crate::world::StaticGeometry::new(&none);
-        let r = crate::renderer::render_frame(
-            &none,
-            &statics,
-            1,
-            &crate::renderer::Budget::default(),
-            &|_| {},
-        );
+        let statics = crate::renderer::ShotGeometry::cpu(&none);
+        let r = crate::renderer::FrameJob::new(&none, 1)
+            .sample(&statics)
+            .unwrap();
         assert!(r.pass_images().is_none());
-        let statics = crate::world::StaticGeometry::new(&all);
-        let r = crate::renderer::render_frame(
-            &all,
-            &statics,
-            1,
-            &crate::renderer::Budget::default(),
-            &|_| {},
-        );
+        let statics = crate::renderer::ShotGeometry::cpu(&all);
+        let r = crate::renderer::FrameJob::new(&all, 1)
+            .sample(&statics)
+            .unwrap();
         assert_eq!(r.pass_images().map(|p| p.channels.len()), Some(15));
     }
 }
