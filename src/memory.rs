@@ -61,7 +61,8 @@ pub const INTERPOLATE_BYTES_PER_POINT: u64 = 24 + 8 + 8 + 2 * 16;
 /// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
 /// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
 /// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`], and with point
-/// caches, what reading one of their files holds ([`crate::ply::READ_BUFFER_BYTES`]). It grows linearly
+/// caches, what reading one of their files holds ([`crate::ply::READ_BUFFER_BYTES`]); on the
+/// GPU, its driver, its batches and per pixel a target ([`crate::gpu::FIXED_BYTES`]). It grows linearly
 /// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
 pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
     use std::mem::size_of;
@@ -100,9 +101,18 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
         true => 0,
         false => crate::ply::READ_BUFFER_BYTES,
     };
+    // On the GPU: its driver, its batches and each pixel's target (crate::gpu).
+    let (gpu_fixed, gpu_per_pixel) = match scene.render.device {
+        crate::scene::Device::Cpu => (0, 0),
+        crate::scene::Device::Gpu => (
+            crate::gpu::DRIVER_BYTES + crate::gpu::FIXED_BYTES,
+            crate::gpu::BYTES_PER_PIXEL,
+        ),
+    };
     FLOOR_BYTES
+        + gpu_fixed
         + reading
-        + pixels * per_pixel
+        + pixels * (per_pixel + gpu_per_pixel)
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
         + points * per_point
