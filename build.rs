@@ -1,19 +1,21 @@
-//! Provides Intel Open Image Denoise (OIDN) 2.5 for the `oidn` crate, and makes every binary
-//! of this package (the program, tests, benchmarks, examples) find it at run time.
+//! Provides Intel Open Image Denoise (OIDN) 2.5, which the `oidn` crate (patched in
+//! vendor/oidn) loads at run time when a frame is denoised, and tells the binaries where it
+//! was provided.
 //!
-//! The `oidn` crate's own build script links `OIDN_DIR/lib/libOpenImageDenoise.so`; it only
-//! emits the link-search path, so the folder may be filled here, before the final link.
+//! Nothing links the library: a binary runs without it, and finds it when it denoises
+//! (`src/denoise/library.rs`): beside itself (its folder, `lib`, `../lib`), then in the
+//! folder this script names in `RAYTRACE_OIDN_BUILD_LIB`, compiled in.
 //! `.cargo/config.toml` points `OIDN_DIR` at the project's ignored `.oidn/` folder (unless the
 //! environment names another one), and this script fills it once:
 //!
 //! 1. a system OIDN 2.5 or later 2.x that pkg-config finds: its front library is copied into
-//!    `.oidn/lib` for the linker, and the binaries load it from the system's folder;
+//!    `.oidn/lib` (as a record that the system has it), and the binaries load it from the
+//!    system's folder;
 //! 2. otherwise the official OIDN 2.5.1 Linux x86-64 binaries that PyPI's `pyoidn` 2.5.1 wheel
 //!    carries, fetched with `python3 -m pip download` (its SHA-256 pinned below) and unpacked
 //!    with Python's `zipfile`: the library, its core, its CPU device module and oneTBB.
 //!
-//! A stamp file records what was provided; a later build that finds it does nothing. Every
-//! binary gets an rpath to the library's folder, so it runs with no `LD_LIBRARY_PATH`.
+//! A stamp file records what was provided; a later build that finds it does nothing.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -26,7 +28,8 @@ const WHEEL_PLATFORM: &str = "manylinux2014_x86_64";
 const WHEEL_SHA256: &str = "32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e";
 /// The files taken from the wheel's `pyoidn/oidn/lib/` (the GPU device modules are left out:
 /// only the CPU device is used). The libraries find each other through their own
-/// `$ORIGIN/../lib` rpath; OIDN loads device modules from its own folder.
+/// `$ORIGIN/../lib` rpath in a folder named `lib` (and in any folder once the `oidn` crate has
+/// loaded oneTBB and the core first); OIDN loads device modules from its own folder.
 const WHEEL_LIBRARIES: [&str; 4] = [
     "libOpenImageDenoise.so.2.5.1",
     "libOpenImageDenoise_core.so.2.5.1",
@@ -69,8 +72,12 @@ fn main() {
             default_dir.display()
         ));
     };
-    // Absolute: the binaries run from target/ (tests from target/*/deps) with no set-up.
-    println!("cargo::rustc-link-arg=-Wl,-rpath,{}", runtime_dir.display());
+    // The folder the binaries look in last before the system's search path: found wherever
+    // the binary runs on this machine (`cargo install`'s copy, say).
+    println!(
+        "cargo::rustc-env=RAYTRACE_OIDN_BUILD_LIB={}",
+        runtime_dir.display()
+    );
 }
 
 /// Stops the build with `message` and how to provide the library.
@@ -163,8 +170,8 @@ fn system_library() -> Option<PathBuf> {
 }
 
 fn link_system(staging: &Path, libdir: &Path) -> Result<String, String> {
-    // A copy of the small front library for the linker (its soname, libOpenImageDenoise.so.2,
-    // is then loaded from `libdir` through the rpath); a copy, as in `unpack_wheel`.
+    // A copy of the small front library, which the stamp's check finds (the binaries load
+    // the system's, from `libdir`); a copy, as in `unpack_wheel`.
     fs::copy(
         libdir.join("libOpenImageDenoise.so"),
         staging.join("lib/libOpenImageDenoise.so"),
@@ -236,8 +243,9 @@ fn unpack_wheel(staging: &Path) -> Result<String, String> {
         ));
     }
     fs::remove_dir_all(&download).map_err(|e| e.to_string())?;
-    // The names the linker (.so) and the loader (.so.2, the soname) look for: copies (124 KB)
-    // rather than symbolic links, whose own times `age` cannot set.
+    // The front library under its soname (.so.2), which the binaries load, and its
+    // development name (.so), which an unpacked release holds: copies (124 KB) rather than
+    // symbolic links, whose own times `age` cannot set.
     for name in ["libOpenImageDenoise.so", "libOpenImageDenoise.so.2"] {
         let lib = staging.join("lib");
         fs::copy(lib.join("libOpenImageDenoise.so.2.5.1"), lib.join(name))
@@ -248,11 +256,10 @@ fn unpack_wheel(staging: &Path) -> Result<String, String> {
 
 /// Sets the modification time of the folder and everything in it to a fixed past instant.
 ///
-/// The `oidn` crate's build script asks cargo to rerun it when `OIDN_DIR` (or its `lib`)
-/// changes. Cargo may run that script before this one, while the folder does not exist yet;
-/// with files dated "now" the next build would see them as changed and rebuild `oidn` and
-/// everything above it once more. Dated in the past they read as unchanged, so the second
-/// build does nothing.
+/// This script asks cargo to rerun it when the stamp changes, and writes the stamp while it
+/// runs: dated "now", the stamp would read as changed at the next build, which would run the
+/// script and rebuild the package once more. Dated in the past it reads as unchanged, so the
+/// second build does nothing.
 fn age(dir: &Path) -> std::io::Result<()> {
     let past = SystemTime::UNIX_EPOCH + Duration::from_secs(1_000_000_000);
     let mut stack = vec![dir.to_path_buf()];

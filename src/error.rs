@@ -63,10 +63,36 @@ pub const MAX_QUOTED: usize = 400;
 /// The longest message printed whole, in bytes.
 const MAX_MESSAGE: usize = 4000;
 
-/// `text` itself when it is at most [`MAX_QUOTED`] bytes; else its start, an ellipsis, its
-/// last few characters and its length: `renders/aaaaaaaa…aaa/f_####.exr (20971531 bytes)`.
-/// A message never repeats a huge argument.
+/// `text` as a message quotes it: control characters escaped as Rust writes them (`\n`,
+/// `\u{1b}`), so that a name cannot move the cursor, recolour or retitle the terminal; then,
+/// when longer than [`MAX_QUOTED`] bytes, its start, an ellipsis, its last few characters
+/// and its length: `renders/aaaaaaaa…aaa/f_####.exr (20971531 bytes)`. A message never
+/// repeats a huge argument.
 pub fn elide(text: &str) -> Cow<'_, str> {
+    match escape_controls(text) {
+        Cow::Borrowed(text) => shorten(text),
+        Cow::Owned(escaped) => Cow::Owned(shorten(&escaped).into_owned()),
+    }
+}
+
+/// `text` with its control characters (C0, DEL and C1) escaped.
+fn escape_controls(text: &str) -> Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    Cow::Owned(out)
+}
+
+/// `text` itself when it is at most [`MAX_QUOTED`] bytes, else its start, end and length.
+fn shorten(text: &str) -> Cow<'_, str> {
     if text.len() <= MAX_QUOTED {
         return Cow::Borrowed(text);
     }
@@ -86,7 +112,7 @@ pub fn elide(text: &str) -> Cow<'_, str> {
     ))
 }
 
-/// A path for a message, shortened as [`elide`] does.
+/// A path for a message, escaped and shortened as [`elide`] does.
 pub fn elide_path(path: &Path) -> String {
     elide(&path.to_string_lossy()).into_owned()
 }
@@ -178,5 +204,24 @@ mod tests {
             "{text}"
         );
         assert_eq!(Error::Usage("short".into()).to_string(), "short");
+    }
+
+    #[test]
+    fn control_characters_are_escaped_in_quoted_texts_and_paths() {
+        assert_eq!(
+            elide("a\u{1b}[31mb\u{7}\n\t\u{9b}"),
+            "a\\u{1b}[31mb\\u{7}\\n\\t\\u{9b}"
+        );
+        // Printable text, quotes and backslashes included, is left alone.
+        assert!(matches!(elide("é \"q\" \\ ~"), Cow::Borrowed(_)));
+        let e = Error::io("d/p\u{1b}]0;title\u{7}.ply", std::io::Error::other("gone"));
+        assert_eq!(e.to_string(), "d/p\\u{1b}]0;title\\u{7}.ply: gone");
+        // Escaped before it is shortened: the length given is the escaped text's.
+        let long = "\u{1b}".repeat(1000);
+        let short = elide(&long);
+        assert!(
+            short.starts_with("\\u{1b}\\u{1b}") && short.ends_with("(6000 bytes)"),
+            "{short}"
+        );
     }
 }

@@ -67,8 +67,13 @@ impl Format {
     /// The format of `path` as [`Format::from_extension`] tells it, or a message naming
     /// `what` the file is, the path and the extensions allowed.
     pub fn of(path: &Path, allowed: &[Format], what: &str) -> Result<Format, String> {
-        Format::from_extension(path, allowed)
-            .ok_or_else(|| format!("{}: {}", path.display(), Format::unsupported(allowed, what)))
+        Format::from_extension(path, allowed).ok_or_else(|| {
+            format!(
+                "{}: {}",
+                crate::error::elide_path(path),
+                Format::unsupported(allowed, what)
+            )
+        })
     }
 
     /// Why a file's extension is refused: `unsupported output format (the file name must

@@ -32,7 +32,7 @@ pub mod motion;
 pub mod output;
 pub mod pass;
 pub mod passes;
-mod path_pattern;
+pub mod path_pattern;
 pub mod ply;
 pub mod point_cache;
 pub mod points;

@@ -80,7 +80,9 @@ impl From<u64> for PointLoad {
 /// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
 /// per point of the frame's point caches (`load.points`), [`BYTES_PER_POINT`] (and with
 /// `interpolate` [`INTERPOLATE_BYTES_PER_POINT`]), per point of the next snapshots
-/// (`load.next`), [`NEXT_BYTES_PER_POINT`]. It grows linearly
+/// (`load.next`), [`NEXT_BYTES_PER_POINT`]; with point caches, what reading one of their
+/// files holds ([`crate::ply::READ_BUFFER_BYTES`]); on the GPU, its driver, its batches and
+/// per pixel a target ([`crate::gpu::FIXED_BYTES`]). It grows linearly
 /// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
 pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
     use std::mem::size_of;
@@ -114,8 +116,23 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
         } else {
             0
         };
+    // A point cache's file is read through bounded buffers, one file at a time.
+    let reading = match scene.points.is_empty() {
+        true => 0,
+        false => crate::ply::READ_BUFFER_BYTES,
+    };
+    // On the GPU: its driver, its batches and each pixel's target (crate::gpu).
+    let (gpu_fixed, gpu_per_pixel) = match scene.render.device {
+        crate::scene::Device::Cpu => (0, 0),
+        crate::scene::Device::Gpu => (
+            crate::gpu::DRIVER_BYTES + crate::gpu::FIXED_BYTES,
+            crate::gpu::BYTES_PER_PIXEL,
+        ),
+    };
     FLOOR_BYTES
-        + pixels * per_pixel
+        + gpu_fixed
+        + reading
+        + pixels * (per_pixel + gpu_per_pixel)
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
         + load.points * per_point
@@ -124,7 +141,8 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
 /// ([`memory_estimate`]), or, if that is more than the machine has available (Linux:
-/// `MemAvailable`; elsewhere not checked), a usage error that says what to lower.
+/// `MemAvailable`; elsewhere not checked), a usage error that names the scene file and says
+/// what to lower.
 pub fn check_memory(scene: &Scene, load: PointLoad) -> Result<u64, Error> {
     let estimate = memory_estimate(scene, load);
     let points = load.points + load.next;
@@ -135,7 +153,8 @@ pub fn check_memory(scene: &Scene, load: PointLoad) -> Result<u64, Error> {
     };
     match available_memory_bytes() {
         Some(available) if estimate > available => Err(Error::Usage(format!(
-            "a frame of {}x{} pixels with {} spheres{with_points} needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            "{}: a frame of {}x{} pixels with {} spheres{with_points} needs about {} of memory, and {} is available: lower --width/--height or use fewer spheres",
+            crate::error::elide_path(&scene.source),
             scene.output.width,
             scene.output.height,
             scene.spheres.len(),

@@ -25,7 +25,65 @@ pub(crate) fn pattern_has_scene(pattern: &str) -> bool {
     pattern.contains(SCENE_PLACEHOLDER)
 }
 
-/// The output path of `frame` for a file name pattern.
+/// The widest run of `#` a pattern may hold: a run is part of one file name, and file names
+/// are at most 255 bytes (Linux's `NAME_MAX`, as `io` checks an output's names), so a wider
+/// run could name no file.
+pub const MAX_RUN: usize = 255;
+
+/// A path pattern whose runs of `#` can be formatted: checked once, where the scene's key or
+/// the command line's option is read ([`FramePattern::new`]), so that making a frame's path
+/// ([`frame_path`]) cannot fail.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FramePattern(String);
+
+impl FramePattern {
+    /// `text` as a pattern, or why it cannot be one: a run of more than [`MAX_RUN`] `#`.
+    /// The message quotes neither the text nor the key: the caller names them.
+    pub fn new(text: impl Into<String>) -> Result<FramePattern, String> {
+        let text = text.into();
+        let widest = text.split(|c| c != '#').map(str::len).max().unwrap_or(0);
+        if widest > MAX_RUN {
+            return Err(format!(
+                "a run of {widest} '#' pads the frame number to {widest} digits, and a file \
+                 name holds at most {MAX_RUN} bytes (runs of up to {MAX_RUN} '#' are taken)"
+            ));
+        }
+        Ok(FramePattern(text))
+    }
+
+    /// The pattern's text.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::ops::Deref for FramePattern {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.0
+    }
+}
+
+impl PartialEq<&str> for FramePattern {
+    fn eq(&self, other: &&str) -> bool {
+        self.0 == *other
+    }
+}
+
+/// A pattern without `#` is the path of every frame.
+impl AsRef<std::ffi::OsStr> for FramePattern {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_ref()
+    }
+}
+
+impl std::fmt::Display for FramePattern {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The path of `frame` for a file name pattern.
 ///
 /// Every run of `#` in the pattern becomes the frame number, zero-padded to the length of the
 /// run (`render.####.exr` → `render.0001.exr`). A number with more digits than the run is
@@ -33,16 +91,19 @@ pub(crate) fn pattern_has_scene(pattern: &str) -> bool {
 ///
 /// A pattern without any `#` is returned unchanged, so every frame then writes the same
 /// file; callers rendering more than one frame should check [`pattern_has_frame_number`].
-pub(crate) fn frame_path(pattern: &str, frame: u32) -> PathBuf {
-    let mut out = String::with_capacity(pattern.len() + 8);
+pub fn frame_path(pattern: &FramePattern, frame: u32) -> PathBuf {
+    let digits = frame.to_string();
+    let mut out = String::with_capacity(pattern.len() + digits.len());
     let mut chars = pattern.chars().peekable();
     while let Some(c) = chars.next() {
         if c == '#' {
-            let mut width = 1;
+            let mut width: usize = 1;
             while chars.next_if_eq(&'#').is_some() {
                 width += 1;
             }
-            out.push_str(&format!("{frame:0width$}"));
+            // Padded by hand: `format!`'s width takes at most 65535.
+            out.extend(std::iter::repeat_n('0', width.saturating_sub(digits.len())));
+            out.push_str(&digits);
         } else {
             out.push(c);
         }
@@ -54,4 +115,41 @@ pub(crate) fn frame_path(pattern: &str, frame: u32) -> PathBuf {
 /// paths from [`frame_path`].
 pub(crate) fn pattern_has_frame_number(pattern: &str) -> bool {
     pattern.contains('#')
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_up_to_a_file_name_are_taken_and_padded_in_full() {
+        let widest = FramePattern::new(format!("f_{}.exr", "#".repeat(MAX_RUN))).unwrap();
+        let path = frame_path(&widest, 42).to_string_lossy().into_owned();
+        assert_eq!(path, format!("f_{}42.exr", "0".repeat(MAX_RUN - 2)));
+        // Padding by hand agrees with `format!` wherever `format!` can pad.
+        for width in [1, 2, 9, 10, 11, 200] {
+            let pattern = FramePattern::new("#".repeat(width)).unwrap();
+            for frame in [0, 7, 12345, u32::MAX] {
+                assert_eq!(
+                    frame_path(&pattern, frame),
+                    PathBuf::from(format!("{frame:0width$}"))
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn wider_runs_are_refused_whatever_their_place() {
+        for text in [
+            format!("{}.exr", "#".repeat(MAX_RUN + 1)),
+            format!("a_#/b_{}_##.png", "#".repeat(65_536)),
+            "#".repeat(1 << 20),
+        ] {
+            let e = FramePattern::new(text.as_str()).unwrap_err();
+            let widest = text.split(|c| c != '#').map(str::len).max().unwrap();
+            assert!(e.starts_with(&format!("a run of {widest} '#'")), "{e}");
+            assert!(e.len() < 200, "{e}");
+        }
+        assert_eq!(FramePattern::new("still.exr").unwrap(), "still.exr");
+    }
 }

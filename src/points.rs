@@ -128,7 +128,7 @@ pub struct PointCacheDesc {
     /// The file, or a sequence: each run of `#` is the zero-padded frame number; or a series
     /// of one file a snapshot, a `*` standing for any number (the timestep, as LAMMPS names
     /// them). Relative paths have been joined to the scene file's folder.
-    pub file: String,
+    pub file: crate::path_pattern::FramePattern,
     pub format: CacheFormat,
     /// Index into [`crate::scene::Scene::materials`]. With `color_by`, a copy of the table's
     /// material with a white albedo, which the map's colour multiplies.

@@ -11,6 +11,7 @@ use crate::denoise::denoiser::DenoiseQuality;
 use crate::format::Format;
 use crate::material::{Background, Material};
 use crate::pass::PassSet;
+use crate::path_pattern::FramePattern;
 use crate::points::PointCacheDesc;
 use crate::sampler::SamplerKind;
 use crate::shutter::Shot;
@@ -24,7 +25,7 @@ pub const MAX_SIDE: u32 = 65536;
 pub struct OutputSettings {
     /// The output path pattern; runs of `#` become the zero-padded frame number. `{scene}`
     /// has already been replaced by the scene file's name without extension.
-    pub path: String,
+    pub path: FramePattern,
     /// The frames' format, from `path`'s extension: [`Format::Exr`] or [`Format::Png`].
     pub format: Format,
     pub width: u32,

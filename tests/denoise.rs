@@ -202,38 +202,16 @@ fn noisy_takes_denoising_and_an_exr_output() {
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
 
-/// The folder the `raytrace` binary loads libOpenImageDenoise from, by `ldd`.
-fn oidn_folder() -> PathBuf {
-    let o = std::process::Command::new("ldd")
-        .arg(env!("CARGO_BIN_EXE_raytrace"))
-        .output()
-        .expect("run ldd");
-    let listing = String::from_utf8_lossy(&o.stdout);
-    let line = listing
-        .lines()
-        .find(|l| l.contains("libOpenImageDenoise.so"))
-        .unwrap_or_else(|| panic!("no libOpenImageDenoise in:\n{listing}"));
-    let path = line.split("=>").nth(1).unwrap().split_whitespace().next();
-    Path::new(path.unwrap()).parent().unwrap().to_path_buf()
-}
-
 #[test]
 fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
-    // A folder with OIDN's front and core libraries but not its CPU device module (nor
-    // oneTBB, which only that module needs), put first on the library path: the program
-    // starts, but OIDN cannot make a CPU device.
+    // The binary moved beside OIDN's front and core libraries but not its CPU device module
+    // (nor oneTBB, which only that module needs): the library loads, but OIDN cannot make a
+    // CPU device.
     let d = tempfile::tempdir().unwrap();
-    let lib = d.path().join("lib");
-    std::fs::create_dir(&lib).unwrap();
-    let mut copied = 0;
-    for entry in std::fs::read_dir(oidn_folder()).unwrap() {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_string_lossy().into_owned();
-        if name.starts_with("libOpenImageDenoise") && !name.contains("device") {
-            std::fs::copy(&path, lib.join(&name)).unwrap();
-            copied += 1;
-        }
-    }
+    let raytrace = common::moved::moved_binary(d.path());
+    let copied = common::moved::copy_libraries(d.path(), |name| {
+        name.starts_with("libOpenImageDenoise") && !name.contains("device")
+    });
     assert!(copied >= 2, "front and core libraries");
     let out = d.path().join("out");
     std::fs::create_dir(&out).unwrap();
@@ -258,9 +236,8 @@ fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
         }
         a
     };
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
+    let o = std::process::Command::new(&raytrace)
         .args(args(true))
-        .env("LD_LIBRARY_PATH", &lib)
         .output()
         .unwrap();
     let message = text(&o);
@@ -272,9 +249,8 @@ fn without_the_denoiser_s_cpu_device_denoise_is_exit_1_and_writes_nothing() {
     );
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
     // Frames that are not denoised do not need the device.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
+    let o = std::process::Command::new(&raytrace)
         .args(args(false))
-        .env("LD_LIBRARY_PATH", &lib)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", text(&o));

@@ -284,3 +284,36 @@ fn colours_out_of_range_duplicate_ids_and_missing_velocities_are_refused() {
         ],
     );
 }
+
+#[test]
+fn a_bad_cache_in_a_later_frame_keeps_the_frames_before_it() {
+    // Values are checked as each frame's points are read: frame 2's NaN stops the run with
+    // exit 2 after frame 1 is written, which stays whole (README, docs/robustness.md and
+    // docs/scene-format.md say so alike).
+    use common::hostile::{points, scene, setup};
+    let header = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n\
+                  property float y\nproperty float z\nend_header\n";
+    let good = format!("{header}0 0 0\n");
+    let bad = format!("{header}0 nan 0\n");
+    let d = setup(
+        &scene("f_####.png", &points("c_####.ply", "")),
+        &[
+            ("c_0001.ply", good.as_bytes()),
+            ("c_0002.ply", bad.as_bytes()),
+        ],
+    );
+    let o = run_limited(d.path(), &["render", "shot.toml"], SECONDS, MEMORY_KIB);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("shot.toml: points[0]: frame 2: c_0002.ply: point 0: y is NaN"),
+        "{t}"
+    );
+    let first = image::open(d.path().join("f_0001.png")).unwrap();
+    assert_eq!((first.width(), first.height()), (8, 6));
+    // Nothing of frame 2, not even a temporary file.
+    assert_eq!(
+        common::hostile::names(d.path()),
+        ["c_0001.ply", "c_0002.ply", "f_0001.png", "shot.toml"]
+    );
+}

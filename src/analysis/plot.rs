@@ -90,13 +90,15 @@ pub(crate) fn write_plot(
     guides: &Guides,
 ) -> Result<(), String> {
     let format = Format::of(path, PLOT_FORMATS, "plot")?;
-    register_embedded_font().map_err(|e| format!("cannot write plot {}: {e}", path.display()))?;
+    register_embedded_font()
+        .map_err(|e| format!("cannot write plot {}: {e}", crate::error::elide_path(path)))?;
     let labels = Labels {
         title,
         x: x_label,
         y: y_label,
     };
-    let drawing_error = |e: String| format!("cannot draw plot {}: {e}", path.display());
+    let drawing_error =
+        |e: String| format!("cannot draw plot {}: {e}", crate::error::elide_path(path));
     let (width, height) = PLOT_SIZE;
     match format {
         Format::Png => {

@@ -8,7 +8,7 @@ use super::progress::print_line;
 use crate::clip::{self, Source};
 use crate::error::{Error, elide};
 use crate::format::{FRAME_FORMATS, Format};
-use crate::path_pattern;
+use crate::path_pattern::{self, FramePattern};
 use crate::scene::Scene;
 
 /// `raytrace clip`: the frames selected by `--frames` (default: every frame of the shot),
@@ -24,7 +24,8 @@ pub(crate) fn clip(args: &ClipArgs) -> Result<(), Error> {
                     Format::unsupported(FRAME_FORMATS, "frame")
                 )));
             }
-            path_pattern::with_scene(p, &args.scene)
+            FramePattern::new(path_pattern::with_scene(p, &args.scene))
+                .map_err(|e| Error::Usage(format!("--input \"{}\": {e}", elide(p))))?
         }
         None => scene.output.path.clone(),
     };

@@ -6,7 +6,7 @@ use crate::error::{Error, elide_path};
 use crate::format::Format;
 use crate::fountain::{FPS, Fountain, write_frame};
 use crate::io;
-use crate::path_pattern::{frame_path, pattern_has_frame_number};
+use crate::path_pattern::{FramePattern, frame_path, pattern_has_frame_number};
 use crate::scene_file::generate::{RandomScene, scene_text};
 
 /// Writes the scene to its `.toml` file, or the point cache's `.ply` files, atomically. The
@@ -30,7 +30,8 @@ pub(crate) fn generate(args: &GenerateArgs) -> Result<String, Error> {
 
 /// The fountain's frames 1 to `args.frames`, one file each.
 fn point_cache(args: &GenerateArgs) -> Result<String, Error> {
-    let pattern = args.output.to_string_lossy().into_owned();
+    let pattern = FramePattern::new(args.output.to_string_lossy())
+        .map_err(|e| Error::Usage(format!("--output \"{}\": {e}", elide_path(&args.output))))?;
     if args.frames > 1 && !pattern_has_frame_number(&pattern) {
         return Err(Error::Usage(format!(
             "{}: {} frames of a point cache need a '#' in the name for the frame number",

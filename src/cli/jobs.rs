@@ -8,7 +8,7 @@ use super::frames::{Selection, batch_chunk};
 use crate::error::{Error, elide_path};
 use crate::io;
 use crate::memory::PointLoad;
-use crate::path_pattern;
+use crate::path_pattern::{self, FramePattern};
 use crate::point_cache::{Depth, Frames, ShotPoints};
 use crate::scene::Scene;
 use crate::scene_file::Overrides;
@@ -36,7 +36,7 @@ pub(crate) fn select_frames(
 #[derive(Clone, Debug)]
 pub(crate) struct Targets {
     pub(crate) frames: Selection,
-    pub(crate) pattern: String,
+    pub(crate) pattern: FramePattern,
 }
 
 impl Targets {

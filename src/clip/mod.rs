@@ -96,7 +96,7 @@ where
         )));
     }
     if source.exposure != 0.0
-        && Format::from_extension(Path::new(source.pattern), &[Format::Exr]).is_none()
+        && Format::from_extension(Path::new(source.pattern.as_str()), &[Format::Exr]).is_none()
     {
         return Err(Error::Usage(
             "--exposure applies to EXR frames only: PNG frames are already 8-bit sRGB".to_string(),

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, elide_path};
 use crate::format::Format;
 use crate::io;
-use crate::path_pattern;
+use crate::path_pattern::{self, FramePattern};
 
 /// One frame as a clip shows it: 8-bit sRGB, three bytes a pixel, row-major, top row first.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -21,7 +21,7 @@ pub(crate) struct FrameImage {
 /// exposure in stops applied to EXR frames before their sRGB encoding.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Source<'a> {
-    pub(crate) pattern: &'a str,
+    pub(crate) pattern: &'a FramePattern,
     pub(crate) exposure: f64,
 }
 

@@ -23,6 +23,9 @@ pub const MAX_SIDE: usize = 65536;
 /// What can go wrong when denoising.
 #[derive(Debug, Clone, PartialEq)]
 pub enum DenoiseError {
+    /// The library could not be loaded: where it was looked for and how to provide it
+    /// ([`super::library::load`]).
+    Missing(String),
     /// OIDN could not make a CPU device: the library or its CPU device module could not be
     /// loaded, or the CPU is not supported (OIDN needs SSE4.1 on x86-64).
     Unavailable(String),
@@ -42,6 +45,7 @@ pub enum DenoiseError {
 impl fmt::Display for DenoiseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            DenoiseError::Missing(m) => write!(f, "{m}"),
             DenoiseError::Unavailable(m) => write!(
                 f,
                 "Intel Open Image Denoise (libOpenImageDenoise 2.5) could not start a CPU \
@@ -132,6 +136,7 @@ impl Denoiser {
     /// Starts OIDN's CPU device (it uses every core unless `OIDN_NUM_THREADS` says
     /// otherwise).
     pub fn new() -> Result<Denoiser, DenoiseError> {
+        super::library::load().map_err(DenoiseError::Missing)?;
         let device = oidn::Device::cpu().map_err(|e| DenoiseError::Unavailable(describe(&e)))?;
         Ok(Denoiser { device })
     }

@@ -28,8 +28,8 @@ mod upload;
 #[cfg(test)]
 mod tests;
 
-pub use context::{Gpu, GpuError, LOSE_AFTER_VARIABLE};
-pub use shot::{GpuFrame, GpuShot, RoundCounts};
+pub use context::{DRIVER_BYTES, Gpu, GpuError, LOSE_AFTER_VARIABLE};
+pub use shot::{BYTES_PER_PIXEL, FIXED_BYTES, GpuFrame, GpuShot, RoundCounts};
 pub use support::{
     CAMERA_FRACTION, MAX_BUFFER_BYTES, MAX_COORDINATE, MAX_SWEEP_DEGREES, MIN_PIXEL_ANGLE,
     MIN_RADIUS, MIN_RADIUS_FRACTION, Unsupported, unsupported,

@@ -21,6 +21,28 @@ use crate::scene::Scene;
 /// Bytes of output a batch may hold: its runs' records, and as much again read back.
 const BATCH_BYTES: u64 = 64 << 20;
 
+/// The most runs a batch holds.
+const MAX_RUNS: u64 = 1 << 20;
+
+/// Pixels listed at once as pending in a round ([`GpuFrame::round`]): 5 MiB of list. The list
+/// held every pixel of the frame (20 bytes a pixel), which the memory estimate did not count.
+const WINDOW_PIXELS: usize = 1 << 18;
+
+/// Bytes a frame on the GPU holds beyond the CPU's frame, whatever the frame's size: a
+/// window's pending pixels, and a batch at its largest: its output (on the device, its
+/// staging copy, and the words read back), and its runs (on the device, as listed with their
+/// owners, as words, as bytes, and the queue's copy of them). The device's buffers count
+/// because a GPU without memory of its own (lavapipe, integrated GPUs) keeps them in the
+/// process's; with its own, this errs high.
+pub const FIXED_BYTES: u64 = WINDOW_PIXELS as u64 * std::mem::size_of::<Pending>() as u64
+    + 3 * BATCH_BYTES
+    + MAX_RUNS * (5 * std::mem::size_of::<Run>() as u64 + 4);
+
+/// Bytes a frame on the GPU holds per pixel beyond the CPU's frame: each pixel's target
+/// sample count for the round, and its tile's copy while the targets are gathered
+/// ([`crate::renderer`]).
+pub const BYTES_PER_PIXEL: u64 = 2 * std::mem::size_of::<u32>() as u64;
+
 /// Seconds a batch should take: long enough that a dispatch's fixed cost is small, short
 /// enough for progress to move and for drivers that stop long dispatches (two seconds on
 /// Windows).
@@ -160,7 +182,10 @@ impl GpuFrame<'_> {
         let rects = film.tile_rects();
         let (pixels, sums) = film.storage_mut();
         assert_eq!(targets.len(), pixels.len(), "a target for every pixel");
-        let mut pending = Vec::new();
+        let mut counts = RoundCounts::default();
+        // Pixels are taken a window at a time, so that the list of pending pixels is bounded
+        // in bytes whatever the frame's size ([`FIXED_BYTES`]).
+        let mut pending = Vec::with_capacity(WINDOW_PIXELS);
         let mut index = 0usize;
         for rect in rects {
             for i in 0..rect.len() {
@@ -176,9 +201,26 @@ impl GpuFrame<'_> {
                     });
                 }
                 index += 1;
+                if pending.len() == WINDOW_PIXELS {
+                    self.trace(&mut pending, pixels, sums, &mut counts, progress)?;
+                }
             }
         }
-        let mut counts = RoundCounts::default();
+        self.trace(&mut pending, pixels, sums, &mut counts, progress)?;
+        Ok(counts)
+    }
+
+    /// Takes every pixel of `pending` to its end, adding each run's sums to its pixel of
+    /// `pixels` and its pass sums in `sums`, and the round's figures to `counts`; leaves
+    /// `pending` empty.
+    fn trace(
+        &mut self,
+        pending: &mut Vec<Pending>,
+        pixels: &mut [Pixel],
+        sums: &mut [f64],
+        counts: &mut RoundCounts,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<(), GpuError> {
         let mut runs: Vec<Run> = Vec::new();
         let mut owners: Vec<u32> = Vec::new();
         let mut cursor = 0;
@@ -236,12 +278,13 @@ impl GpuFrame<'_> {
             let pace = runs.len() as f64 / seconds.max(1e-6);
             self.batch = (pace * BATCH_SECONDS).clamp(256.0, capacity as f64) as usize;
         }
-        Ok(counts)
+        pending.clear();
+        Ok(())
     }
 
     /// The runs a batch may hold.
     fn capacity(&self) -> usize {
-        (BATCH_BYTES / (self.record as u64 * 4)).min(1 << 20) as usize
+        (BATCH_BYTES / (self.record as u64 * 4)).min(MAX_RUNS) as usize
     }
 
     /// Buffers for a batch of `runs` runs: those of the last batch if they are large
@@ -253,6 +296,8 @@ impl GpuFrame<'_> {
             .is_none_or(|b| (b.capacity() as usize) < runs)
         {
             let capacity = (2 * runs).min(self.capacity()) as u32;
+            // The last batch's buffers go before the new ones are made: never both at once.
+            self.batches = None;
             self.batches = Some(Batches::new(
                 &self.shot.gpu,
                 &self.shot.buffer,

@@ -9,7 +9,7 @@ use super::exr::fps_rational;
 use super::*;
 use crate::error::Error;
 use crate::format::{FRAME_FORMATS, Format};
-use crate::path_pattern::{frame_path, pattern_has_frame_number};
+use crate::path_pattern::{FramePattern, pattern_has_frame_number};
 use std::ffi::OsStr;
 
 fn info() -> FrameInfo {
@@ -45,6 +45,11 @@ fn dir_names(dir: &Path) -> Vec<String> {
         .collect();
     names.sort();
     names
+}
+
+/// The path of `frame` for the pattern `text`.
+fn frame_path(text: &str, frame: u32) -> PathBuf {
+    crate::path_pattern::frame_path(&FramePattern::new(text).unwrap(), frame)
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! A PLY header: its encoding, elements and properties with their types; reading it; and
 //! what goes wrong reading a PLY file.
 
+use std::collections::HashSet;
+use std::hash::{BuildHasher, RandomState};
 use std::io::{BufRead, Read};
 
 /// Largest header read, in bytes.
@@ -216,13 +218,41 @@ pub(super) fn bad<T>(msg: impl Into<String>) -> Result<T, PlyError> {
     Err(PlyError::Bad(msg.into()))
 }
 
-/// Reads the header: its lines up to `end_header`, at most [`MAX_HEADER`] bytes. Returns it
-/// and its length in bytes.
-pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, usize), PlyError> {
+/// Names declared so far, each found in time independent of their number: a set of their
+/// hashes (8 bytes a name, no copy of it), a hash found again confirmed against the names
+/// themselves (a collision of SipHash's 64 bits with random keys is left to chance, and even
+/// then costs one search of the names).
+#[derive(Default)]
+struct Seen {
+    hashes: HashSet<u64>,
+    state: RandomState,
+}
+
+impl Seen {
+    /// Records `name`; false if it was declared before (`declared` searches the names).
+    fn insert(&mut self, name: &str, declared: impl FnOnce(&str) -> bool) -> bool {
+        self.hashes.insert(self.state.hash_one(name)) || !declared(name)
+    }
+}
+
+/// Where a header ends: its length in bytes and in lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct HeaderEnd {
+    pub(super) bytes: usize,
+    pub(super) lines: u64,
+}
+
+/// Reads the header: its lines up to `end_header`, at most [`MAX_HEADER`] bytes, in time
+/// linear in its size (names are looked up in hash sets, not compared with every one before
+/// them). Returns it and where it ends.
+pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, HeaderEnd), PlyError> {
     let mut used = 0usize;
     let mut line = Vec::new();
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
+    // The names declared so far: every element's, and the last element's properties'.
+    let mut element_names = Seen::default();
+    let mut property_names = Seen::default();
     let mut number = 0usize;
     loop {
         line.clear();
@@ -231,14 +261,27 @@ pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, usize), PlyEr
             .read_until(b'\n', &mut line)?;
         used += n;
         number += 1;
+        // A carriage return before a line's end: lines that end in CR alone (old Mac
+        // files), which would otherwise read as one long line.
+        let body = line.strip_suffix(b"\n").unwrap_or(&line);
+        let body = body.strip_suffix(b"\r").unwrap_or(body);
+        if body.contains(&b'\r') {
+            return bad(format!(
+                "header line {number} holds a carriage return (CR) inside it: PLY header lines \
+                 end in LF or CR LF, and these seem to end in CR alone"
+            ));
+        }
         if used > MAX_HEADER {
             return bad(format!(
                 "no end_header in the first {MAX_HEADER} bytes: not a PLY header"
             ));
         }
-        if n == 0 || line.last() != Some(&b'\n') {
+        if n == 0 && number == 1 {
+            return bad("empty: not a PLY file");
+        }
+        if line.last() != Some(&b'\n') {
             return bad(if number == 1 {
-                "empty: not a PLY file".to_string()
+                "the file ends inside its first line: not a PLY file".to_string()
             } else {
                 "truncated: the file ends inside its header (no end_header line)".to_string()
             });
@@ -280,9 +323,10 @@ pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, usize), PlyEr
                         "element {name}: count \"{count}\" is not a whole number"
                     )));
                 };
-                if elements.iter().any(|e| e.name == *name) {
+                if !element_names.insert(name, |n| elements.iter().any(|e| e.name == n)) {
                     return Err(at(format!("element {name} is declared twice")));
                 }
+                property_names = Seen::default();
                 elements.push(Element {
                     name: name.to_string(),
                     count,
@@ -316,7 +360,7 @@ pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, usize), PlyEr
                     [t, name] => (Kind::Scalar(ty(t)?), name),
                     _ => return Err(at(format!("cannot read \"{}\"", text.trim_end()))),
                 };
-                if e.property(name).is_some() {
+                if !property_names.insert(name, |n| e.property(n).is_some()) {
                     return Err(at(format!(
                         "property {name} of element {} is declared twice",
                         e.name
@@ -339,5 +383,9 @@ pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, usize), PlyEr
     let Some(encoding) = encoding else {
         return bad("the header has no format line");
     };
-    Ok((Header { encoding, elements }, used))
+    let end = HeaderEnd {
+        bytes: used,
+        lines: number as u64,
+    };
+    Ok((Header { encoding, elements }, end))
 }

@@ -1,18 +1,42 @@
 //! An open PLY file: the rows of one element, their chosen properties handed to the caller
-//! as numbers, in chunks of rows of fixed size where it can.
+//! as numbers, in chunks of rows of fixed size where it can; ASCII rows line by line, each
+//! holding exactly its properties' values.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::header::{Element, Encoding, Header, Kind, PlyError, Scalar, bad, read_header};
+use super::header::{
+    Element, Encoding, Header, Kind, MAX_HEADER, PlyError, Scalar, bad, read_header,
+};
 
-/// Rows decoded per read of a binary element without lists.
-const CHUNK_ROWS: usize = 1 << 14;
+/// The reader's buffer, in bytes.
+const READER_BYTES: usize = 1 << 20;
+
+/// Bytes of rows decoded per read of a binary element without lists (whole rows, at least
+/// one). A row is less than this: its properties' header lines take at least 16 bytes each
+/// (`property char a`), 18 for the largest type (`property double a`, 8 bytes), so a row
+/// holds at most [`MAX_HEADER`] / 18 * 8 bytes, under half of it.
+const CHUNK_BYTES: usize = 1 << 20;
+const _: () = assert!(MAX_HEADER / 18 * 8 <= CHUNK_BYTES);
+
+/// Unused bytes in a row from which each row's used bytes are read alone, with a seek over
+/// the rest: two system calls a row cost less than copying 64 KiB, and a file of wide rows
+/// is read in time proportional to its rows, not its bytes.
+const SKIP_BYTES: usize = 1 << 16;
+
+/// The buffers reading one PLY file holds, in bytes: the reader's and a chunk of rows, 2 MiB
+/// whatever the rows' size. The point caches' memory estimate counts one such file at a
+/// time ([`crate::memory`]). The parsed header comes on top: a few hundred bytes for a
+/// cache's usual dozen properties, at most about 6 MiB for the largest header, 1 MiB of
+/// one-byte properties (measured: docs/robustness.md).
+pub const READ_BUFFER_BYTES: u64 = (READER_BYTES + CHUNK_BYTES) as u64;
 
 /// An open PLY file, positioned after its header.
 pub struct PlyFile {
     header: Header,
+    /// The header's lines: an ASCII body's first line is the next.
+    header_lines: u64,
     reader: BufReader<File>,
 }
 
@@ -35,9 +59,9 @@ impl PlyFile {
                 crate::scene_file::file_kind(&meta.file_type())
             ));
         }
-        let mut reader = BufReader::with_capacity(1 << 20, file);
-        let (header, header_bytes) = read_header(&mut reader)?;
-        let data_bytes = meta.len().saturating_sub(header_bytes as u64);
+        let mut reader = BufReader::with_capacity(READER_BYTES, file);
+        let (header, end) = read_header(&mut reader)?;
+        let data_bytes = meta.len().saturating_sub(end.bytes as u64);
         let mut needed = 0u64;
         for e in &header.elements {
             if e.properties.is_empty() && e.count > 0 {
@@ -60,7 +84,11 @@ impl PlyFile {
                 }
             }
         }
-        Ok(PlyFile { header, reader })
+        Ok(PlyFile {
+            header,
+            header_lines: end.lines,
+            reader,
+        })
     }
 
     /// The header.
@@ -71,8 +99,12 @@ impl PlyFile {
     /// Reads the rows of element `element` (an index into the header's elements), calling
     /// `row(i, values)` for row `i` with the values of its properties `wanted` (indices into
     /// the element's properties, each a scalar), in that order. An error `row` returns stops
-    /// the reading and is returned. Elements before it are skipped; those after it are not
-    /// read.
+    /// the reading and is returned. Elements before it are skipped. In binary, those after it
+    /// are not read; in ASCII they are read to the end of the file, which must hold nothing
+    /// after the last row: every row is one line of exactly its properties' values (blank
+    /// lines between rows and blanks at the ends of lines are taken), so that values that
+    /// shift rows, a file cut inside a value and text after the rows are found, with their
+    /// line.
     pub fn read_rows(
         mut self,
         element: usize,
@@ -94,20 +126,22 @@ impl PlyFile {
         }
         let encoding = self.header.encoding;
         if encoding == Encoding::Ascii {
-            let mut tokens = Tokens {
+            let mut lines = Lines {
                 reader: &mut self.reader,
                 token: Vec::new(),
+                line: self.header_lines + 1,
             };
-            for skipped in &self.header.elements[..element] {
-                for i in 0..skipped.count {
-                    ascii_row(&mut tokens, skipped, i, &[], &mut [], &mut |_, _| Ok(()))?;
+            let mut values = vec![0.0; wanted.len()];
+            for (k, each) in self.header.elements.iter().enumerate() {
+                let (wanted, values) = match k == element {
+                    true => (wanted, &mut values[..]),
+                    false => (&[][..], &mut [][..]),
+                };
+                for i in 0..each.count {
+                    ascii_row(&mut lines, each, i, wanted, values, &mut row)?;
                 }
             }
-            let mut values = vec![0.0; wanted.len()];
-            for i in 0..e.count {
-                ascii_row(&mut tokens, e, i, wanted, &mut values, &mut row)?;
-            }
-            return Ok(());
+            return lines.end(self.header.elements.last());
         }
         let big = encoding == Encoding::BinaryBigEndian;
         for skipped in &self.header.elements[..element] {
@@ -146,19 +180,44 @@ impl PlyFile {
             );
         }
         let fields: Vec<(usize, Scalar)> = offsets.into_iter().zip(types).collect();
-        let mut buf = vec![0u8; stride.max(1) * CHUNK_ROWS];
+        // The values of a row from its bytes `r`, which start at byte `start` of the row.
+        let decode = |values: &mut [f64], r: &[u8], start: usize| {
+            for (v, &(off, ty)) in values.iter_mut().zip(&fields) {
+                *v = ty.decode(&r[off - start..], big);
+            }
+        };
+        // The bytes of a row that hold wanted values.
+        let lo = fields.iter().map(|f| f.0).min().unwrap_or(0);
+        let hi = fields.iter().map(|f| f.0 + f.1.size()).max().unwrap_or(0);
+        if stride - (hi - lo) >= SKIP_BYTES {
+            // Wide rows: each row's used bytes alone, the rest seeked over.
+            let mut at = self.reader.stream_position()?;
+            let mut file = self.reader.into_inner();
+            let mut used = vec![0u8; hi - lo];
+            for i in 0..e.count {
+                file.seek(SeekFrom::Start(at + lo as u64))?;
+                if read_full(&mut file, &mut used)? < used.len() {
+                    return bad(truncated(e, i));
+                }
+                decode(&mut values, &used, lo);
+                row(i, &values).map_err(PlyError::Bad)?;
+                at += stride as u64;
+            }
+            return Ok(());
+        }
+        // Bounded in bytes, not rows: a row of many unused properties is large.
+        let chunk_rows = (CHUNK_BYTES / stride.max(1)).max(1);
+        let mut buf = vec![0u8; stride.max(1) * chunk_rows.min(e.count as usize)];
         let mut i = 0u64;
         while i < e.count {
-            let rows = (e.count - i).min(CHUNK_ROWS as u64) as usize;
+            let rows = (e.count - i).min(chunk_rows as u64) as usize;
             let chunk = &mut buf[..rows * stride];
             let got = read_full(&mut self.reader, chunk)?;
             if got < chunk.len() {
                 return bad(truncated(e, i + (got / stride.max(1)) as u64));
             }
             for r in chunk.chunks_exact(stride) {
-                for (v, &(off, ty)) in values.iter_mut().zip(&fields) {
-                    *v = ty.decode(&r[off..], big);
-                }
+                decode(&mut values, r, 0);
                 row(i, &values).map_err(PlyError::Bad)?;
                 i += 1;
             }
@@ -232,70 +291,150 @@ fn binary_row(
     Ok(())
 }
 
-/// Whitespace-separated tokens of an ASCII body.
-struct Tokens<'a, R> {
-    reader: &'a mut R,
-    token: Vec<u8>,
+/// What comes next in an ASCII body.
+enum Item {
+    /// A value (in [`Lines::token`]).
+    Value,
+    /// The end of a line, consumed.
+    LineEnd,
+    /// The end of the file.
+    End,
 }
 
-impl<R: BufRead> Tokens<'_, R> {
-    /// The next token, or `None` at the end of the file.
-    fn next(&mut self) -> Result<Option<&str>, PlyError> {
+/// The whitespace-separated values of an ASCII body, and its line ends.
+struct Lines<'a, R> {
+    reader: &'a mut R,
+    token: Vec<u8>,
+    /// The line the reading is in, counted from the file's first.
+    line: u64,
+}
+
+impl<R: BufRead> Lines<'_, R> {
+    /// The next value of the current line, the line's end, or the file's.
+    fn next(&mut self) -> Result<Item, PlyError> {
         self.token.clear();
         loop {
             let buf = self.reader.fill_buf()?;
             if buf.is_empty() {
-                break;
+                // A value the file ends in is a value (found cut short by the row's end).
+                return Ok(match self.token.is_empty() {
+                    true => Item::End,
+                    false => Item::Value,
+                });
             }
             let mut used = 0;
-            let mut done = false;
+            let mut found = None;
             for &c in buf {
+                if c == b'\n' {
+                    // A value ends before its line's end, which the next call consumes.
+                    if self.token.is_empty() {
+                        used += 1;
+                        self.line += 1;
+                        found = Some(Item::LineEnd);
+                    } else {
+                        found = Some(Item::Value);
+                    }
+                    break;
+                }
+                used += 1;
                 if c.is_ascii_whitespace() {
                     if !self.token.is_empty() {
-                        done = true;
+                        found = Some(Item::Value);
                         break;
                     }
                 } else {
                     if self.token.len() >= 64 {
-                        return bad("a value of more than 64 characters in the data");
+                        return bad(format!(
+                            "line {}: a value of more than 64 characters in the data",
+                            self.line
+                        ));
                     }
                     self.token.push(c);
                 }
-                used += 1;
             }
             self.reader.consume(used);
-            if done {
-                break;
+            if let Some(item) = found {
+                return Ok(item);
             }
         }
-        if self.token.is_empty() {
-            return Ok(None);
-        }
-        match std::str::from_utf8(&self.token) {
-            Ok(t) => Ok(Some(t)),
-            Err(_) => bad("a value that is not ASCII text in the data"),
+    }
+
+    /// The value [`Lines::next`] found.
+    fn value(&self) -> Result<&str, PlyError> {
+        std::str::from_utf8(&self.token).or_else(|_| {
+            bad(format!(
+                "line {}: a value that is not ASCII text in the data",
+                self.line
+            ))
+        })
+    }
+
+    /// Whether the file ends here.
+    fn at_end(&mut self) -> Result<bool, PlyError> {
+        Ok(self.reader.fill_buf()?.is_empty())
+    }
+
+    /// Reads to the end of the file after the rows of every element (`last` is the last
+    /// element): only blanks and line ends may follow them.
+    fn end(mut self, last: Option<&Element>) -> Result<(), PlyError> {
+        loop {
+            match self.next()? {
+                Item::LineEnd => {}
+                Item::End => return Ok(()),
+                Item::Value => {
+                    let rows = last.map_or("the header's".to_string(), |e| {
+                        format!("the {} {} rows the header declares", e.count, e.name)
+                    });
+                    return bad(format!(
+                        "line {}: text after {rows}: \"{}\"",
+                        self.line,
+                        self.value()?
+                    ));
+                }
+            }
         }
     }
 }
 
-/// Reads one ASCII row of `e` (row `i`), storing the values of properties `wanted` in
+/// Reads one ASCII row of `e` (row `i`), one line holding exactly its properties' values
+/// (blank lines before it are skipped), storing the values of properties `wanted` in
 /// `values`, then calls `row` with them (when some are wanted).
 fn ascii_row<R: BufRead>(
-    tokens: &mut Tokens<R>,
+    lines: &mut Lines<R>,
     e: &Element,
     i: u64,
     wanted: &[usize],
     values: &mut [f64],
     row: &mut impl FnMut(u64, &[f64]) -> Result<(), String>,
 ) -> Result<(), PlyError> {
-    let value = |tokens: &mut Tokens<R>, s: Scalar, name: &str| -> Result<f64, PlyError> {
-        let Some(t) = tokens.next()? else {
-            return bad(truncated(e, i));
-        };
+    let mut read = 0usize;
+    let mut value = |lines: &mut Lines<R>, s: Scalar, name: &str| -> Result<f64, PlyError> {
+        loop {
+            match lines.next()? {
+                Item::Value => break,
+                Item::LineEnd if read == 0 => {}
+                Item::End => return bad(format!("line {}: {}", lines.line, truncated(e, i))),
+                Item::LineEnd if lines.at_end()? => {
+                    return bad(format!("line {}: {}", lines.line - 1, truncated(e, i)));
+                }
+                Item::LineEnd => {
+                    return bad(format!(
+                        "line {}: {} {i} ends after {read} values, short of its {} properties \
+                         (each row is one line)",
+                        lines.line - 1,
+                        e.name,
+                        e.properties.len()
+                    ));
+                }
+            }
+        }
+        read += 1;
+        let t = lines.value()?;
         match s.parse_value(t) {
             Some(v) => Ok(v),
             None => bad(format!(
-                "{} {i}: {name} is \"{t}\", not a value of type {}",
+                "line {}: {} {i}: {name} is \"{t}\", not a value of type {}",
+                lines.line,
                 e.name,
                 s.name()
             )),
@@ -304,23 +443,45 @@ fn ascii_row<R: BufRead>(
     for (k, p) in e.properties.iter().enumerate() {
         match p.kind {
             Kind::Scalar(s) => {
-                let v = value(tokens, s, &p.name)?;
+                let v = value(lines, s, &p.name)?;
                 if let Some(j) = wanted.iter().position(|&w| w == k) {
                     values[j] = v;
                 }
             }
             Kind::List { count, item } => {
-                let n = value(tokens, count, &p.name)?;
+                let n = value(lines, count, &p.name)?;
                 if n < 0.0 {
                     return bad(format!(
-                        "{} {i}: list {} has a negative count ({n})",
-                        e.name, p.name
+                        "line {}: {} {i}: list {} has a negative count ({n})",
+                        lines.line, e.name, p.name
                     ));
                 }
                 for _ in 0..n as u64 {
-                    value(tokens, item, &p.name)?;
+                    value(lines, item, &p.name)?;
                 }
             }
+        }
+    }
+    // The row's line ends here.
+    match lines.next()? {
+        Item::LineEnd => {}
+        Item::Value => {
+            let last = e.properties.last().map_or("", |p| p.name.as_str());
+            return bad(format!(
+                "line {}: {} {i} has more values than its {} properties: \"{}\" after {last} \
+                 (each row is one line)",
+                lines.line,
+                e.name,
+                e.properties.len(),
+                lines.value()?
+            ));
+        }
+        Item::End => {
+            return bad(format!(
+                "line {}: the file ends inside {} {i}, with no line end after its last value: \
+                 truncated (that value may be cut short)",
+                lines.line, e.name
+            ));
         }
     }
     if !wanted.is_empty() {

@@ -26,7 +26,8 @@ impl<'de> Deserialize<'de> for Device {
 
 /// `scene` itself, or bad input ([`Error::Scene`], exit status 2) when it asks for the GPU
 /// and the GPU path does not render it: the message names the file, the field or flag that
-/// chose the GPU, what is beyond the GPU's limits and the way out (`--device cpu`).
+/// chose the GPU (`shot.toml: --device gpu: ...`, `shot.toml: render.device = "gpu": ...`), what
+/// is beyond the GPU's limits and the way out (`--device cpu`).
 pub(super) fn check(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
     if scene.render.device != Device::Gpu {
         return Ok(scene);
@@ -35,8 +36,10 @@ pub(super) fn check(scene: Scene, overrides: &Overrides) -> Result<Scene, Error>
         return Ok(scene);
     };
     let file = crate::error::elide_path(&scene.source);
+    // The file is named either way: with several scenes, `--device gpu` alone does not say
+    // which one the GPU refuses.
     let chosen = if overrides.device.is_some() {
-        "--device gpu".to_string()
+        format!("{file}: --device gpu")
     } else {
         format!("{file}: render.device = \"gpu\"")
     };

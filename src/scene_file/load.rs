@@ -40,7 +40,7 @@ impl Scene {
         match std::str::from_utf8(bytes) {
             Ok(text) => Scene::parse_with(text, source, overrides),
             Err(e) => Err(Error::Scene(report::not_utf8(
-                &source.display().to_string(),
+                &crate::error::elide_path(source),
                 bytes,
                 &e,
             ))),
@@ -186,7 +186,7 @@ pub(super) fn parse_whole(
     source: &Path,
     overrides: &Overrides,
 ) -> Result<Scene, Error> {
-    let file = source.display().to_string();
+    let file = crate::error::elide_path(source);
     let located =
         |e: report::Located| Error::Scene(report::render(&file, text, e.span, &e.message));
     scan::scan(text, 0).map_err(located)?;

@@ -182,7 +182,7 @@ pub(super) fn parse_in_pieces(
             Section::SphereSub => return None,
         }
     }
-    let file = source.display().to_string();
+    let file = crate::error::elide_path(source);
     let check = Check::new(&file, overrides);
     // The rest as one document, with a map from its offsets back to the text's.
     let mut rest_text = String::new();

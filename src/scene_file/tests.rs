@@ -1158,5 +1158,5 @@ fn the_device_is_the_cpu_unless_the_file_or_the_flag_names_the_gpu() {
     );
     let e = Scene::parse_with(far, Path::new("s.toml"), &gpu).unwrap_err();
     assert_eq!(e.exit_code(), 2);
-    assert!(e.to_string().starts_with("--device gpu: "), "{e}");
+    assert!(e.to_string().starts_with("s.toml: --device gpu: "), "{e}");
 }

@@ -27,7 +27,7 @@ use crate::format::{CLIP_FORMATS, FRAME_FORMATS, Format};
 use crate::material::{Background, Material};
 use crate::motion::{Key, Motion, Orbit};
 use crate::pass::{Pass, PassSet};
-use crate::path_pattern;
+use crate::path_pattern::{self, FramePattern};
 use crate::sampler::SamplerKind;
 use crate::scene::{DenoiseSettings, MAX_SIDE, OutputSettings, RenderSettings, Scene};
 use crate::shutter::{
@@ -488,12 +488,20 @@ impl<'a> Check<'a> {
                         self.name("output.path")
                     ));
                 };
-                (path_pattern::with_scene(p, source), format)
+                let path = FramePattern::new(path_pattern::with_scene(p, source)).or_else(|e| {
+                    self.err(format_args!("{} \"{p}\": {e}", self.name("output.path")))
+                })?;
+                (path, format)
             }
-            None => (
-                format!("{}_####.png", path_pattern::scene_name(source)),
-                Format::Png,
-            ),
+            None => {
+                let name = format!("{}_####.png", path_pattern::scene_name(source));
+                let path = FramePattern::new(name).or_else(|e| {
+                    self.err(format_args!(
+                        "the scene file's name (output.path's default): {e}"
+                    ))
+                })?;
+                (path, Format::Png)
+            }
         };
         let clip = match &o.clip {
             None => None,

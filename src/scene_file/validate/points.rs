@@ -17,6 +17,7 @@ use crate::scene_file::schema::{MaterialRef, RawPointMotion, RawPoints, RawSnaps
 
 /// Most entries of a `types` table.
 const MAX_TYPES: usize = 4096;
+use crate::path_pattern::FramePattern;
 
 impl Check<'_> {
     /// The point caches, numbered from 0 (`points[0]`), with their files joined to the scene
@@ -53,6 +54,8 @@ impl Check<'_> {
             }
             _ => p.file.clone(),
         };
+        let file = FramePattern::new(file)
+            .or_else(|e| self.err(format_args!("{field}.file \"{}\": {e}", p.file)))?;
         if p.file.contains('*') {
             let name = Path::new(&p.file).file_name().map(|n| n.to_string_lossy());
             let stars = p.file.matches('*').count();

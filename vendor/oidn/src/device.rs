@@ -17,7 +17,10 @@ impl Device {
     /// Creates a device using the fastest one available to run denoising.
     ///
     /// Fails when Open Image Denoise cannot create any device, which usually
-    /// means its device modules are not installed beside the library.
+    /// means its device modules are not installed beside the library. Every
+    /// constructor loads the library first, through the system's search path
+    /// unless [`crate::load`] loaded it (an error of kind
+    /// [`ErrorKind::LibraryNotLoaded`] when it cannot).
     pub fn new() -> Result<Self, Error> {
         Self::create(OIDNDeviceType_OIDN_DEVICE_TYPE_DEFAULT)
     }
@@ -60,6 +63,7 @@ impl Device {
     }
 
     fn create(device_type: OIDNDeviceType) -> Result<Self, Error> {
+        crate::library::ensure_loaded()?;
         Self::commit_new_handle(get_handle(device_type), "oidnNewDevice")
     }
 
@@ -72,6 +76,7 @@ impl Device {
     /// even report inconsistent ones, so check more than one property where
     /// possible.
     pub fn by_uuid(uuid: &[u8; 16]) -> Result<Self, Error> {
+        crate::library::ensure_loaded()?;
         Self::commit_new_handle(
             unsafe { oidnNewDeviceByUUID(uuid.as_ptr().cast()) },
             "oidnNewDeviceByUUID",
@@ -85,6 +90,7 @@ impl Device {
     /// See [`Device::by_uuid`] for the caveats that apply to selecting a
     /// physical device this way.
     pub fn by_luid(luid: &[u8; 8]) -> Result<Self, Error> {
+        crate::library::ensure_loaded()?;
         Self::commit_new_handle(
             unsafe { oidnNewDeviceByLUID(luid.as_ptr().cast()) },
             "oidnNewDeviceByLUID",

@@ -34,6 +34,7 @@ use std::fmt;
 pub mod buffer;
 pub mod device;
 pub mod filter;
+mod library;
 pub mod semaphore;
 #[allow(non_upper_case_globals, non_camel_case_types, non_snake_case)]
 pub mod sys;
@@ -46,6 +47,7 @@ pub use buffer::{Buffer, ExternalMemoryTypeFlags, PendingBufferRead, PendingBuff
 pub use device::Device;
 #[doc(inline)]
 pub use filter::{AuxiliaryImage, PendingFilter, RayTracing, prefilter_auxiliary};
+pub use library::{LIBRARY_NAMES, load, loaded_from};
 #[doc(inline)]
 pub use semaphore::{ExternalSemaphoreTypeFlags, Semaphore};
 
@@ -61,6 +63,8 @@ pub enum ErrorKind {
     UnsupportedHardware = sys::OIDNError_OIDN_ERROR_UNSUPPORTED_HARDWARE,
     Canceled = sys::OIDNError_OIDN_ERROR_CANCELLED,
     InvalidImageDimensions,
+    /// The library could not be loaded ([`load`]): not found, or it failed to load.
+    LibraryNotLoaded,
 }
 
 impl ErrorKind {
@@ -75,6 +79,7 @@ impl ErrorKind {
             ErrorKind::UnsupportedHardware => "unsupported hardware",
             ErrorKind::Canceled => "canceled",
             ErrorKind::InvalidImageDimensions => "invalid image dimensions",
+            ErrorKind::LibraryNotLoaded => "library not loaded",
         }
     }
 }
