@@ -35,6 +35,7 @@ mod path_pattern;
 pub mod ply;
 pub mod point_cache;
 pub mod points;
+pub mod prepared;
 pub mod ray;
 pub mod renderer;
 pub mod rng;

@@ -60,8 +60,11 @@ pub const INTERPOLATE_BYTES_PER_POINT: u64 = 24 + 8 + 8 + 2 * 16;
 /// bytes: the process's floor; per pixel, [`bytes_per_pixel`]; per sphere, the scene's
 /// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
 /// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
-/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`]. It grows linearly
-/// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
+/// per point of the frame's point caches (`points`), [`BYTES_PER_POINT`]; on the GPU, what
+/// its path adds ([`crate::gpu::frame_bytes`]: the driver, the scene's words, the film on the
+/// device and its read-back buffers, counted on the host, where a software device keeps
+/// them). It grows linearly in pixels, spheres and points, and errs high for scenes whose
+/// spheres are mostly still.
 pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
@@ -94,7 +97,12 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
         } else {
             0
         };
+    let gpu = match scene.render.device {
+        crate::scene::Device::Gpu => crate::gpu::frame_bytes(scene),
+        crate::scene::Device::Cpu => 0,
+    };
     FLOOR_BYTES
+        + gpu
         + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64

@@ -7,16 +7,16 @@ use super::adaptive::{Plan, Weights, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::denoised::{self, Denoised};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
-use super::tiles::{FrameRequest, FrameSetup};
+use super::tiles::FrameRequest;
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
-use crate::gpu::GpuError;
-use crate::passes::{Layout, PassContext, PassImages};
+use crate::passes::{Layout, PassImages};
 use crate::points::FramePoints;
+use crate::prepared::PreparedFrame;
 use crate::scene::Scene;
-use crate::shutter::{FrameTimes, Interval};
-use crate::world::{StaticGeometry, World};
+use crate::shutter::Interval;
+use crate::world::StaticGeometry;
 
 /// Figures of one rendered frame.
 #[derive(Clone, Debug, Default)]
@@ -26,8 +26,12 @@ pub struct FrameStats {
     /// Seconds spent tracing.
     pub render_seconds: f64,
     /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
-    /// count, how busy the cores were.
+    /// count, how busy the cores were. On the GPU: seconds the host waited for the device,
+    /// so that the frame's time less these is the host's work.
     pub tile_seconds: f64,
+    /// Bytes read back from the device (on the GPU: its film once a round and each
+    /// dispatch's counts; 0 on the CPU).
+    pub readback_bytes: u64,
     /// Rays intersected with the scene.
     pub rays: u64,
     /// Camera samples taken, over the whole frame.
@@ -255,9 +259,7 @@ pub(super) fn render(
         Denoising::Frame(d) | Denoising::Temporal(d) => Some(d),
     };
     let frame_start = Instant::now();
-    let req = &FrameRequest::from_scene(scene, frame);
-    let times = scene.shot.frame_times(req.frame);
-    let interval = times.interval;
+    let req = &FrameRequest::from_scene(scene);
     let layout = match denoiser {
         Some(_) => Layout::for_denoising(
             scene.output.passes,
@@ -265,16 +267,10 @@ pub(super) fn render(
         ),
         None => Layout::new(scene.output.passes),
     };
-    let mut rounds = match on {
-        On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(
-            scene, statics, points, req, times, layout,
-        ))),
-        // Unreachable from a validated scene: one with `[[points]]` is refused for the GPU.
-        On::Gpu(_) if !points.is_empty() => {
-            return Err(GpuError::Failed("the GPU renders no point caches".to_string()).into());
-        }
-        On::Gpu(shot) => Rounds::Gpu(Box::new(shot.frame(scene, frame, &layout)?)),
-    };
+    // One prepared frame, whichever device traces it.
+    let prepared = PreparedFrame::new(scene, on.statics(), points, frame);
+    let interval = prepared.interval();
+    let mut rounds = Rounds::new(on, prepared, points, req, &layout)?;
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
     let render_start = Instant::now();
@@ -400,6 +396,7 @@ pub(super) fn render(
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
     stats.min_samples_per_pixel = taken.min().unwrap_or(0);
     stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
+    stats.readback_bytes = rounds.readback_bytes();
     stats.render_seconds = render_start.elapsed().as_secs_f64();
     Ok(FrameResult {
         frame,
@@ -409,50 +406,6 @@ pub(super) fn render(
         denoised,
         stats,
     })
-}
-
-/// Everything about a frame on the CPU that is fixed before its first sample: its world (the
-/// spheres and `points` prepared for its interval, their hierarchies), its camera and passes.
-fn cpu_setup<'a>(
-    scene: &'a Scene,
-    statics: &'a StaticGeometry,
-    points: &'a FramePoints,
-    req: &'a FrameRequest,
-    times: FrameTimes,
-    layout: Layout,
-) -> FrameSetup<'a> {
-    let interval = times.interval;
-    let world = World::prepare_with(scene, statics, points, interval);
-    let camera_moves = scene.camera.moves_in(interval);
-    let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
-    let passes = (layout.stride > 0).then(|| {
-        PassContext::new(
-            layout,
-            &scene.spheres,
-            scene.background,
-            &scene.camera,
-            scene.shot.fps,
-            req.width,
-            req.height,
-        )
-        .with_points(points)
-    });
-    FrameSetup {
-        scene,
-        // Sample time only when something moves during the frame's whole exposure (so a still
-        // scene renders the same under any shutter); sample the lens only for a lens with an
-        // aperture (which does not change over time, so any instant's view answers).
-        sample_time: world.has_motion() || camera_moves,
-        has_lens: fixed_view.has_lens(),
-        world,
-        req,
-        interval,
-        times,
-        camera_moves,
-        fixed_view,
-        passes,
-        transparent: scene.transparent,
-    }
 }
 
 /// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):
