@@ -13,13 +13,12 @@ use glam::DVec3;
 use raytrace::aabb::Aabb;
 use raytrace::bvh::{Bvh, TraversalStack};
 use raytrace::ray::Ray;
-use raytrace::renderer::{Budget, render_frame};
+use raytrace::renderer::{FrameJob, ShotGeometry};
 use raytrace::rng::Pcg32;
 use raytrace::sampler::SamplerKind;
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
 use raytrace::sphere::intersect;
-use raytrace::world::StaticGeometry;
 
 /// `n` random spheres in a cube of side 20 (radius 0.05 to 0.55) and their velocities.
 fn spheres(n: usize) -> Vec<(DVec3, DVec3, f64)> {
@@ -126,11 +125,11 @@ fn small_render(c: &mut Criterion) {
             ..Overrides::default()
         };
         let scene = Scene::load_with(&path, &overrides).expect("scene");
-        let statics = StaticGeometry::new(&scene);
+        let statics = ShotGeometry::cpu(&scene);
         let frame = scene.shot.first_frame;
         let name = format!("render bouncing_spheres 64x36 4 spp {sampler}");
         c.bench_function(&name, |b| {
-            b.iter(|| render_frame(&scene, &statics, frame, &Budget::default(), &|_| {}))
+            b.iter(|| FrameJob::new(&scene, frame).sample(&statics).unwrap())
         });
     }
 }

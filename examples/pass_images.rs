@@ -16,10 +16,9 @@ use std::process::ExitCode;
 use raytrace::io::{FrameInfo, write_frame};
 use raytrace::pass::Pass;
 use raytrace::passes::PassImages;
-use raytrace::renderer::{Budget, render_frame};
+use raytrace::renderer::{FrameJob, ShotGeometry};
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
-use raytrace::world::StaticGeometry;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -45,8 +44,8 @@ fn main() -> ExitCode {
         eprintln!("not a frame number: {}", args[1]);
         return ExitCode::from(2);
     };
-    let statics = StaticGeometry::new(&scene);
-    let result = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
+    let statics = ShotGeometry::cpu(&scene);
+    let result = FrameJob::new(&scene, frame).sample(&statics).unwrap();
     let p = result.pass_images().expect("every pass was requested");
     let out = Path::new(&args[2]);
     let (w, h) = (p.width, p.height);

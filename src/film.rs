@@ -13,6 +13,8 @@
 
 use glam::DVec3;
 
+pub use crate::replicates::{Halves, replicate_counts};
+
 /// Side of the square tiles the image is split into for parallel work: a 400x225 frame has
 /// 375, handed to the threads one at a time.
 pub const TILE: u32 = 16;
@@ -76,11 +78,22 @@ impl Pixel {
         }
     }
 
+    /// The samples of the two replicates ([`replicate_counts`] of its samples).
+    #[inline]
+    pub fn replicate_counts(&self) -> (u32, u32) {
+        replicate_counts(self.taken)
+    }
+
+    /// The pixel's replicates as the denoiser and its estimate read them ([`Halves`]).
+    pub fn halves(&self) -> Halves {
+        let (a, b) = self.replicate_means();
+        Halves::new(a, b, self.taken, self.variance_of_mean())
+    }
+
     /// The means of the two replicates: `a` of the even samples, `b` of the odd ones (black
     /// where a replicate has no sample).
     pub fn replicate_means(&self) -> (DVec3, DVec3) {
-        let n_b = self.taken / 2;
-        let n_a = self.taken - n_b;
+        let (n_a, n_b) = self.replicate_counts();
         let odd = DVec3::new(self.odd[0] as f64, self.odd[1] as f64, self.odd[2] as f64);
         let mean = |sum: DVec3, n: u32| if n == 0 { DVec3::ZERO } else { sum / n as f64 };
         (mean(self.sum - odd, n_a), mean(odd, n_b))
@@ -110,8 +123,8 @@ impl Pixel {
             return DVec3::INFINITY;
         }
         let n = self.taken as f64;
-        let n_b = (self.taken / 2) as f64;
-        let n_a = n - n_b;
+        let (n_a, n_b) = self.replicate_counts();
+        let (n_a, n_b) = (n_a as f64, n_b as f64);
         let odd = DVec3::new(self.odd[0] as f64, self.odd[1] as f64, self.odd[2] as f64);
         let d = (self.sum - odd) / n_a - odd / n_b;
         d * d / ((1.0 / n_a + 1.0 / n_b) * n)
@@ -373,7 +386,14 @@ impl Film {
         self.row_major(Pixel::variance_of_mean)
     }
 
-    fn row_major<T: Copy + Default>(&self, f: impl Fn(&Pixel) -> T) -> Vec<T> {
+    /// Each pixel's replicates ([`Pixel::halves`]), row-major: what a denoiser reads of the
+    /// film.
+    pub fn halves(&self) -> Vec<Halves> {
+        self.row_major(Pixel::halves)
+    }
+
+    /// `f` of each pixel's sums, row-major, top row first.
+    pub fn row_major<T: Copy + Default>(&self, f: impl Fn(&Pixel) -> T) -> Vec<T> {
         let mut out = vec![T::default(); self.pixels.len()];
         for (rect, pixels) in self.tiles() {
             for (i, p) in pixels.iter().enumerate() {

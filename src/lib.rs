@@ -38,6 +38,7 @@ pub mod points;
 pub mod prepared;
 pub mod ray;
 pub mod renderer;
+pub mod replicates;
 pub mod rng;
 pub mod sampler;
 pub mod scene;

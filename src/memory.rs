@@ -98,7 +98,11 @@ pub fn memory_estimate(scene: &Scene, points: u64) -> u64 {
             0
         };
     let gpu = match scene.render.device {
-        crate::scene::Device::Gpu => crate::gpu::frame_bytes(scene),
+        crate::scene::Device::Gpu => {
+            let read = crate::renderer::passes_read(scene);
+            let kept = crate::passes::Layout::keeping(scene.output.passes, read);
+            crate::gpu::frame_bytes(scene, kept.stride)
+        }
         crate::scene::Device::Cpu => 0,
     };
     FLOOR_BYTES
@@ -213,23 +217,15 @@ mod tests {
             memory_estimate(&all, 0) - memory_estimate(&none, 0),
             pixels * (12 * 8 + 2 * 15 * 4 + 12)
         );
-        let statics = crate::world::StaticGeometry::new(&none);
-        let r = crate::renderer::render_frame(
-            &none,
-            &statics,
-            1,
-            &crate::renderer::Budget::default(),
-            &|_| {},
-        );
+        let statics = crate::renderer::ShotGeometry::cpu(&none);
+        let r = crate::renderer::FrameJob::new(&none, 1)
+            .sample(&statics)
+            .unwrap();
         assert!(r.pass_images().is_none());
-        let statics = crate::world::StaticGeometry::new(&all);
-        let r = crate::renderer::render_frame(
-            &all,
-            &statics,
-            1,
-            &crate::renderer::Budget::default(),
-            &|_| {},
-        );
+        let statics = crate::renderer::ShotGeometry::cpu(&all);
+        let r = crate::renderer::FrameJob::new(&all, 1)
+            .sample(&statics)
+            .unwrap();
         assert_eq!(r.pass_images().map(|p| p.channels.len()), Some(15));
     }
 }

@@ -33,15 +33,15 @@ pub fn write_frame(
             .push(("estimatedRelativeError".to_string(), st.relative_error));
     }
     if let Some(d) = &result.denoised {
-        info.denoiser = Some(match d.frames_averaged {
-            Some(mean) => {
-                info.extra.push(("temporalMeanFrames".to_string(), mean));
-                format!(
-                    "{DENOISER}; temporal: the frame's colour averaged with its two frames before along the motion vectors"
-                )
-            }
-            None => DENOISER.to_string(),
-        });
+        info.denoiser = Some(format!(
+            "{DENOISER}, quality {}; written: the raw and denoised frames blended per pixel by their estimated errors",
+            d.quality
+        ));
+        info.extra
+            .push(("denoisedShare".to_string(), d.denoised_share));
+        if let Some(h) = d.history_share {
+            info.extra.push(("historyShare".to_string(), h));
+        }
         if st.noisy_relative_error.is_finite() {
             info.extra
                 .push(("noisyRelativeError".to_string(), st.noisy_relative_error));
@@ -74,7 +74,7 @@ pub fn write_frame(
 
 /// How a denoised frame's file names its denoiser (the `denoiser` attribute).
 pub const DENOISER: &str =
-    "Intel Open Image Denoise 2.5 RT filter, HDR, prefiltered albedo and normal guides";
+    "Intel Open Image Denoise 2.5 RT filter, HDR, colour only, each replicate";
 
 /// The attributes of `result`, a frame of `scene`, rendered with `samples` per pixel.
 fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {

@@ -29,14 +29,13 @@ use crate::sphere::SphereDesc;
 /// Where each requested pass keeps its per-pixel sums in a pixel's run of `stride` numbers.
 /// Only the requested passes have sums: the hit count (alpha, depth, normal and motion divide
 /// by it), the depth, the normal (3), the albedo (3) and the motion (4). Variance comes from
-/// the colour's own accumulator and needs none. A denoised frame also keeps the denoiser's
-/// guides per replicate ([`Layout::with_guides`]).
+/// the colour's own accumulator and needs none. A stage that finishes frames may keep sums of
+/// passes it reads without writing them ([`Layout::keeping`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     /// The passes written.
     passes: PassSet,
-    /// The passes whose sums are kept: those written, and those a denoiser over several
-    /// frames reads (depth, normal, motion: [`Layout::for_denoising`]).
+    /// The passes whose sums are kept: those written, and those a finishing stage reads.
     kept: PassSet,
     /// Whether the hits are counted (alpha, depth, normal or motion kept).
     counts_hits: bool,
@@ -45,20 +44,13 @@ pub struct Layout {
     normal: usize,
     albedo: usize,
     motion: usize,
-    /// Where the denoiser's guides start, if kept: for the even samples (replicate `a`), then
-    /// the odd ones (`b`), the sums of the albedo (3) and of the normal (3) over every sample
-    /// (a miss adds the background's radiance as albedo and no normal). Per replicate, so that
-    /// a denoised replicate's guides carry none of the other's samples (see
-    /// `denoise::estimate`).
-    guides: Option<usize>,
     /// Numbers per pixel.
     pub stride: usize,
 }
 
 /// Where a [`Layout`] keeps each sum in a pixel's run of [`Layout::stride`] numbers, as
 /// [`PassContext::record`] adds them: the hit count (1), the depth (1), the normal (3), the
-/// albedo (3), the motion (forward u, v, backward u, v) and the guides (per replicate, even
-/// then odd: albedo 3, normal 3). `None` where the sum is not kept.
+/// albedo (3) and the motion (forward u, v, backward u, v). `None` where the sum is not kept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Slots {
     pub hits: Option<usize>,
@@ -66,62 +58,18 @@ pub struct Slots {
     pub normal: Option<usize>,
     pub albedo: Option<usize>,
     pub motion: Option<usize>,
-    pub guides: Option<usize>,
 }
-
-/// Numbers of the guides' sums per pixel: albedo and normal, for each replicate.
-const GUIDE_SUMS: usize = 12;
 
 impl Layout {
     /// The sums `passes` need.
     pub fn new(passes: PassSet) -> Layout {
-        Layout::build(passes, passes, false)
+        Layout::keeping(passes, PassSet::EMPTY)
     }
 
-    /// The sums `passes` need and the denoiser's guides; with `temporal`, also those that
-    /// carry a pixel to the frames before it and tell whether it shows the same surface
-    /// there (depth, normal and motion), written or not.
-    pub fn for_denoising(passes: PassSet, temporal: bool) -> Layout {
-        let kept = match temporal {
-            true => passes
-                .with(Pass::Depth)
-                .with(Pass::Normal)
-                .with(Pass::Motion),
-            false => passes,
-        };
-        Layout::build(passes, kept, true)
-    }
-
-    /// The passes written.
-    pub fn passes(&self) -> PassSet {
-        self.passes
-    }
-
-    /// The passes whose sums are kept (those written among them).
-    pub fn kept(&self) -> PassSet {
-        self.kept
-    }
-
-    /// Where the guides' sums start, if they are kept.
-    pub fn guides(&self) -> Option<usize> {
-        self.guides
-    }
-
-    /// Where each kept pass's sums start in a pixel's run (`None`: not kept), for a tracer
-    /// that adds them elsewhere (the GPU's, `crate::gpu`).
-    pub fn slots(&self) -> Slots {
-        let kept = self.kept;
-        Slots {
-            hits: self.counts_hits.then_some(self.hits),
-            depth: kept.contains(Pass::Depth).then_some(self.depth),
-            normal: kept.contains(Pass::Normal).then_some(self.normal),
-            albedo: kept.contains(Pass::Albedo).then_some(self.albedo),
-            motion: kept.contains(Pass::Motion).then_some(self.motion),
-            guides: self.guides,
-        }
-    }
-
-    fn build(passes: PassSet, kept: PassSet, guides: bool) -> Layout {
+    /// The sums `passes` need, and those of `read`, passes a finishing stage reads without
+    /// writing them.
+    pub fn keeping(passes: PassSet, read: PassSet) -> Layout {
+        let kept = read.iter().fold(passes, PassSet::with);
         let mut stride = 0;
         let mut slot = |used: bool, n: usize| {
             let at = stride;
@@ -136,7 +84,6 @@ impl Layout {
         let normal = slot(kept.contains(Pass::Normal), 3);
         let albedo = slot(kept.contains(Pass::Albedo), 3);
         let motion = slot(kept.contains(Pass::Motion), 4);
-        let guides = guides.then(|| slot(true, GUIDE_SUMS));
         Layout {
             passes,
             kept,
@@ -146,8 +93,30 @@ impl Layout {
             normal,
             albedo,
             motion,
-            guides,
             stride,
+        }
+    }
+
+    /// The passes written.
+    pub fn passes(&self) -> PassSet {
+        self.passes
+    }
+
+    /// The passes whose sums are kept (those written among them).
+    pub fn kept(&self) -> PassSet {
+        self.kept
+    }
+
+    /// Where each kept pass's sums start in a pixel's run (`None`: not kept), for a tracer
+    /// that adds them elsewhere (the GPU's, `crate::gpu`).
+    pub fn slots(&self) -> Slots {
+        let kept = self.kept;
+        Slots {
+            hits: self.counts_hits.then_some(self.hits),
+            depth: kept.contains(Pass::Depth).then_some(self.depth),
+            normal: kept.contains(Pass::Normal).then_some(self.normal),
+            albedo: kept.contains(Pass::Albedo).then_some(self.albedo),
+            motion: kept.contains(Pass::Motion).then_some(self.motion),
         }
     }
 }
@@ -214,27 +183,11 @@ impl<'a> PassContext<'a> {
 
     /// Adds one sample to a pixel's sums `slots` (its run of [`Layout::stride`] numbers): the
     /// camera `ray`, seen through `view` (the camera at the ray's time), and the ray's first
-    /// `hit` (`None`: it missed every sphere, or was not traced); `odd`: whether the sample's
-    /// index is odd (its replicate, for the guides).
+    /// `hit` (`None`: it missed every sphere, or was not traced).
     #[inline]
-    pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>, odd: bool) {
+    pub fn record(&self, slots: &mut [f64], ray: &Ray, view: &View, hit: Option<&Hit>) {
         let l = &self.layout;
         let passes = l.kept;
-        if let Some(at) = l.guides {
-            let g = &mut slots[at + if odd { 6 } else { 0 }..];
-            match hit {
-                Some(hit) => {
-                    add3(g, albedo(&hit.material));
-                    add3(&mut g[3..], hit.surface.normal);
-                }
-                None => {
-                    let b = self.background.radiance(ray.dir);
-                    if b.is_finite() {
-                        add3(g, b);
-                    }
-                }
-            }
-        }
         let Some(hit) = hit else {
             if passes.contains(Pass::Albedo) {
                 let b = self.background.radiance(ray.dir);

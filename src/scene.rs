@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 
 use crate::camera::CameraRig;
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::format::Format;
 use crate::material::{Background, Material};
 use crate::pass::PassSet;
@@ -33,8 +34,18 @@ pub struct OutputSettings {
     pub clip: Option<String>,
     /// The passes written beside the colour (`[output] passes`, or `--passes`).
     pub passes: PassSet,
-    /// `[output] denoise` (or `--denoise`): the colour written is denoised.
-    pub denoise: bool,
+    /// `[output] denoise` (or `--denoise`): the colour written is finished by the denoiser,
+    /// with these settings; `None`: the raw frame is written.
+    pub denoise: Option<DenoiseSettings>,
+}
+
+/// How a denoised shot is finished.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DenoiseSettings {
+    /// `[output] denoise_quality` (or `--denoise-quality`).
+    pub quality: DenoiseQuality,
+    /// `--temporal`: keep the denoised sequence from flickering.
+    pub temporal: bool,
 }
 
 /// Sampling settings.

@@ -53,15 +53,34 @@ pub fn radiance<S: Sampler>(
 pub fn radiance_packet<S: Sampler>(
     world: &World,
     rays: &[Ray],
-    (x, y, first): (u32, u32, u32),
+    at: (u32, u32, u32),
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
 ) -> [DVec3; PACKET] {
+    camera_radiance_packet(world, rays, at, max_depth, sampler, stats, false, |_, _| {})
+}
+
+/// [`radiance_packet`] handing each camera ray's first intersection to `first` (with the
+/// ray's index in `rays`), as [`camera_radiance`] does for one ray; with `transparent`, a
+/// camera ray that misses every sphere returns black. The same values, bit for bit, as
+/// [`camera_radiance`] of each ray in turn.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn camera_radiance_packet<S: Sampler, F: FnMut(usize, Option<&Hit>)>(
+    world: &World,
+    rays: &[Ray],
+    (x, y, first_sample): (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    mut first: F,
+) -> [DVec3; PACKET] {
     let hits = world.hit_packet(rays, &mut stats.stack);
     let mut out = [DVec3::ZERO; PACKET];
     for (k, (ray, hit)) in rays.iter().zip(hits).enumerate() {
-        sampler.start_sample(x, y, first + k as u32);
+        sampler.start_sample(x, y, first_sample + k as u32);
         out[k] = trace(
             world,
             *ray,
@@ -69,8 +88,8 @@ pub fn radiance_packet<S: Sampler>(
             max_depth,
             sampler,
             stats,
-            false,
-            |_| {},
+            transparent,
+            |h| first(k, h),
         );
     }
     out
@@ -104,7 +123,7 @@ pub fn camera_radiance<S: Sampler, F: FnOnce(Option<&Hit>)>(
     )
 }
 
-/// The loop of [`radiance`], [`radiance_packet`] and [`camera_radiance`]; `camera_hit`, if
+/// The loop of [`radiance`], [`camera_radiance`] and their packets; `camera_hit`, if
 /// given, is the ray's first intersection, found already.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]

@@ -164,12 +164,17 @@ fn render_lib(
     scene.render.sampler = sampler.parse().unwrap();
     scene.render.samples = samples;
     scene.render.seed = seed;
-    let statics = raytrace::world::StaticGeometry::new(&scene);
+    let statics = raytrace::renderer::ShotGeometry::cpu(&scene);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| raytrace::renderer::render_frame(&scene, &statics, 1, budget, &|_| {}))
+    pool.install(|| {
+        raytrace::renderer::FrameJob::new(&scene, 1)
+            .budget(*budget)
+            .sample(&statics)
+            .unwrap()
+    })
 }
 
 #[test]

@@ -15,9 +15,8 @@ use std::process::Command;
 
 use common::{exr_bits_and_attributes, exr_channels, exr_number, gpu, render, render_gpu, text};
 use raytrace::film::Film;
-use raytrace::renderer::{Budget, FrameResult, render_frame};
+use raytrace::renderer::{Budget, FrameJob, FrameResult, ShotGeometry};
 use raytrace::scene::Scene;
-use raytrace::world::StaticGeometry;
 
 /// How two independent renders of a frame agree.
 #[derive(Debug)]
@@ -356,9 +355,9 @@ fn passes_are_the_cpus_with_the_same_seed() {
     // pixel, up to a sample whose first hit rounding decides (a ray grazing a silhouette).
     let Some(gpu) = gpu() else { return };
     let scene = common::scene(MOVING);
-    let statics = StaticGeometry::new(&scene);
+    let statics = ShotGeometry::cpu(&scene);
     for frame in [1, 2] {
-        let cpu: FrameResult = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
+        let cpu: FrameResult = FrameJob::new(&scene, frame).sample(&statics).unwrap();
         let g = common::render_gpu_frame(gpu, &scene, frame, &Budget::default());
         let (cpu, g) = (cpu.pass_images().unwrap(), g.pass_images().unwrap());
         for (c, d) in cpu.channels.iter().zip(&g.channels) {
@@ -582,59 +581,25 @@ fn chunks_clips_and_time_limits_work_on_the_gpu() {
 
 #[test]
 fn denoising_and_a_transparent_background_work_on_the_gpu() {
-    // A denoised frame on the GPU: the film keeps the denoiser's guides (albedo and normal per
-    // replicate), the CPU's to f32 rounding with the same seed, and the frame is denoised with
-    // its estimated error. With a transparent background, camera rays that miss add nothing.
+    // A denoised frame on the GPU: finished as on the CPU (the raw and denoised frames
+    // blended), with an estimate of the CPU's within noise. With a transparent background,
+    // camera rays that miss add nothing.
     let Some(gpu) = gpu() else { return };
     let mut scene = common::scene(MOVING);
     scene.transparent = true;
     scene.output.passes = [raytrace::pass::Pass::Alpha].into_iter().collect();
+    scene.output.denoise = Some(raytrace::scene::DenoiseSettings::default());
     let denoiser = raytrace::denoise::denoiser::Denoiser::new().unwrap();
-    let statics = raytrace::renderer::ShotGeometry::new(&scene, None).unwrap();
-    let cpu = raytrace::renderer::render_shot_frame(
-        &scene,
-        &statics,
-        2,
-        &Budget::default(),
-        Some(&denoiser),
-        &|_| {},
-    )
-    .unwrap();
+    let finished = |scene: &Scene, gpu: Option<&raytrace::gpu::Gpu>| {
+        let shot = ShotGeometry::new(scene, gpu).unwrap();
+        let mut finishing = raytrace::renderer::Finishing::new(scene, Some(&denoiser)).unwrap();
+        let raw = FrameJob::new(scene, 2).sample(&shot).unwrap();
+        finishing.finish(raw).unwrap()
+    };
+    let cpu = finished(&scene, None);
     let mut on_gpu = scene.clone();
     on_gpu.render.device = raytrace::scene::Device::Gpu;
-    let shot = raytrace::renderer::ShotGeometry::new(&on_gpu, Some(gpu)).unwrap();
-    let g = raytrace::renderer::render_shot_frame(
-        &on_gpu,
-        &shot,
-        2,
-        &Budget::default(),
-        Some(&denoiser),
-        &|_| {},
-    )
-    .unwrap();
-    let guides = g
-        .layout
-        .guides()
-        .expect("a denoised frame keeps its guides");
-    let stride = g.layout.stride;
-    let (mut compared, mut differ) = (0, 0);
-    for ((_, _, a), (_, _, b)) in cpu
-        .film
-        .tiles_with_pass_sums()
-        .iter()
-        .zip(g.film.tiles_with_pass_sums())
-    {
-        for (pa, pb) in a.chunks(stride).zip(b.chunks(stride)) {
-            for k in guides..guides + 12 {
-                compared += 1;
-                differ += ((pa[k] - pb[k]).abs() > 1e-4 * (1.0 + pa[k].abs())) as usize;
-            }
-        }
-    }
-    assert!(
-        differ * 100 <= compared,
-        "{differ} of {compared} guide sums differ"
-    );
+    let g = finished(&on_gpu, Some(gpu));
     let d = g.denoised.as_ref().expect("denoised");
     assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
     // The same estimate as the CPU's frame, within its noise.
@@ -719,41 +684,41 @@ fn scenes_with_point_caches_are_refused_for_the_gpu() {
 }
 
 #[test]
-fn temporal_denoising_works_on_the_gpu() {
-    // `--temporal` on the GPU: the film keeps depth, normal and motion, which the frame does
-    // not write, and frame 3 is denoised with frames 1 and 2, rendered first. With the same
-    // seed as the CPU, its first hits are the CPU's to f32 rounding, so as many pixels find
-    // their surfaces in the earlier frames: the frames averaged agree closely.
+fn the_adapter_is_named_and_a_software_one_is_said() {
+    // `check --device gpu` names the adapter a render would take; `render --device gpu` says
+    // on standard error, with the word `software`, that a software device (lavapipe, where
+    // CI runs) is slower than `--device cpu`, and says nothing of it on a hardware GPU;
+    // `--stats` names the adapter and gives the host's share and the bytes read back.
     let Some(gpu) = gpu() else { return };
-    let mut scene = common::scene(MOVING);
-    scene.output.passes = raytrace::pass::PassSet::EMPTY;
-    let denoiser = raytrace::denoise::denoiser::Denoiser::new().unwrap();
-    let none = raytrace::points::FramePoints::none();
-    let temporal = |scene: &Scene, gpu: Option<&raytrace::gpu::Gpu>| {
-        let shot = raytrace::renderer::ShotGeometry::new(scene, gpu).unwrap();
-        let mut t = raytrace::renderer::TemporalDenoiser::new(&denoiser);
-        t.render(
-            scene,
-            &shot,
-            &none,
-            &|_| Ok(raytrace::points::FramePoints::none()),
-            3,
-            &Budget::default(),
-            &|_| {},
-        )
-        .unwrap()
-    };
-    let cpu = temporal(&scene, None);
-    let mut on_gpu = scene.clone();
-    on_gpu.render.device = raytrace::scene::Device::Gpu;
-    let g = temporal(&on_gpu, Some(gpu));
-    let kept = g.layout.slots();
-    assert!(kept.depth.is_some() && kept.normal.is_some() && kept.motion.is_some());
-    assert!(g.layout.passes().is_empty());
-    let frames = |r: &FrameResult| r.denoised.as_ref().unwrap().frames_averaged.unwrap();
-    let (fc, fg) = (frames(&cpu), frames(&g));
-    assert!(fg > 1.5, "frames averaged on the GPU: {fg}");
-    assert!((fg - fc).abs() <= 0.05, "GPU {fg}, CPU {fc}");
-    let d = g.denoised.as_ref().unwrap();
-    assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[output]\npath = \"f_####.png\"\nwidth = 16\nheight = 8\n[render]\nsamples = 4\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let o = raytrace(dir.path(), &["check", "s.toml", "--device", "gpu"], &[]);
+    let all = text(&o);
+    assert!(o.status.success(), "{all}");
+    let named = format!("device: gpu, adapter: {}", gpu.describe());
+    assert!(all.contains(&named), "{named}: {all}");
+    assert_eq!(
+        all.contains("a software device"),
+        gpu.is_software(),
+        "{all}"
+    );
+    let args = ["render", "s.toml", "--device", "gpu", "--stats"];
+    let o = raytrace(dir.path(), &args, &[]);
+    let (all, err) = (text(&o), String::from_utf8_lossy(&o.stderr).into_owned());
+    assert!(o.status.success(), "{all}");
+    let said = err.contains("software") && err.contains("--device cpu");
+    assert_eq!(said, gpu.is_software(), "{err}");
+    assert!(all.contains(&format!("gpu: {}", gpu.describe())), "{all}");
+    for words in ["host ", "% (", "ns a sample), read back "] {
+        assert!(all.contains(words), "{words}: {all}");
+    }
+    // The warning is given under --quiet too: a slow render is explained.
+    let o = raytrace(
+        dir.path(),
+        &["render", "s.toml", "--device", "gpu", "--quiet"],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.contains("software"), gpu.is_software(), "{err}");
 }

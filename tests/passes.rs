@@ -11,15 +11,14 @@ use std::process::Command;
 
 use glam::{DVec2, DVec3};
 use raytrace::passes::PassImages;
-use raytrace::renderer::{Budget, FrameResult, render_frame};
+use raytrace::renderer::{Budget, FrameJob, FrameResult, ShotGeometry};
 use raytrace::scene::Scene;
-use raytrace::world::StaticGeometry;
 
 use common::{ok, run, run_ok, scene};
 
 fn render(scene: &Scene, frame: u32) -> FrameResult {
-    let statics = StaticGeometry::new(scene);
-    render_frame(scene, &statics, frame, &Budget::default(), &|_| {})
+    let statics = ShotGeometry::cpu(scene);
+    FrameJob::new(scene, frame).sample(&statics).unwrap()
 }
 
 fn passes(r: &FrameResult) -> PassImages {
@@ -519,17 +518,17 @@ fn colour_with_passes_is_the_same_bits_as_without() {
 /// three after frame 1 (as in a range), and in passes of 1, 1, 2, 4 samples under a budget
 /// that stops at 8 (the scene's samples); returns it.
 fn same_bits_across_threads_ranges_and_budgets(s: &Scene) -> FrameResult {
-    let statics = StaticGeometry::new(s);
+    let statics = ShotGeometry::cpu(s);
     let pool = |n| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .unwrap()
     };
-    let one = pool(1).install(|| render_frame(s, &statics, 2, &Budget::default(), &|_| {}));
+    let one = pool(1).install(|| FrameJob::new(s, 2).sample(&statics).unwrap());
     let three = pool(3).install(|| {
-        render_frame(s, &statics, 1, &Budget::default(), &|_| {});
-        render_frame(s, &statics, 2, &Budget::default(), &|_| {})
+        FrameJob::new(s, 1).sample(&statics).unwrap();
+        FrameJob::new(s, 2).sample(&statics).unwrap()
     });
     assert_eq!(bits(&one), bits(&three));
     let budget = Budget {
@@ -537,7 +536,7 @@ fn same_bits_across_threads_ranges_and_budgets(s: &Scene) -> FrameResult {
         max_samples: Some(8),
         ..Budget::default()
     };
-    let budgeted = render_frame(s, &statics, 2, &budget, &|_| {});
+    let budgeted = FrameJob::new(s, 2).budget(budget).sample(&statics).unwrap();
     assert_eq!(budgeted.stats.rounds, 4);
     assert_eq!(bits(&budgeted), bits(&one));
     one

@@ -34,6 +34,51 @@ pub fn rel_mse(image: &[DVec3], reference: &[DVec3]) -> f64 {
     mean_over(terms, image.len())
 }
 
+/// The mean squared error of `image` against the truth, estimated from two references `a`
+/// and `b` of the same frame whose noise is independent of each other and of the image's:
+/// `mean((x - a)(x - b))`. With `a = t + e_a`, `b = t + e_b`, `x = t + e`,
+/// `(x - a)(x - b) = e^2 - e (e_a + e_b) + e_a e_b`, whose expectation over the references'
+/// noise is `e^2` whatever its size: unbiased for the true MSE, where `mean((x - a)^2)` is
+/// high by the reference's own variance. One frame's value may be negative when the image is
+/// much closer to the truth than the references are (its expectation is not).
+pub fn cross_mse(image: &[DVec3], a: &[DVec3], b: &[DVec3]) -> f64 {
+    assert!(
+        image.len() == a.len() && a.len() == b.len(),
+        "images of different sizes"
+    );
+    let terms = image
+        .iter()
+        .zip(a.iter().zip(b))
+        .map(|(x, (a, b))| (*x - *a) * (*x - *b));
+    mean_over(terms, image.len())
+}
+
+/// The relative mean squared error of `image` against the truth, estimated as [`cross_mse`]
+/// is: `mean((x - a)(x - b) / (m + 0.01)^2)`, with `m = (a + b) / 2` (clamped at 0) standing
+/// in for the truth in the denominator.
+///
+/// The denominator is the best estimate of the truth the two references give; it depends on
+/// their noise, so the estimate is unbiased only to first order. Expanding `1 / (t' + d)^2`
+/// (`t' = t + 0.01`) in the references' mean noise `d` (variance `s^2 / 2` for references of
+/// variance `s^2` each), a pixel's expectation is `e^2 / t'^2 (1 + 1.5 r) + 1.5 r^2`, with
+/// `r = s^2 / t'^2` the references' relative variance, plus `2 E[e] s^2 / t'^3` for an image
+/// that is biased (denoised). For references of 1% relative noise a pixel, `r = 1e-4`: the
+/// error is 0.015% of the measured value plus 1.5e-8, where the plain
+/// `mean((x - a)^2 / (a + 0.01)^2)` is high by `r` itself. (Another denominator from the two
+/// references, such as `(a + 0.01)(b + 0.01)`, has terms of the same order; one from a third
+/// reference removes the `r^2` term but not the bias of `1 / c^2`, for a third render.)
+pub fn cross_rel_mse(image: &[DVec3], a: &[DVec3], b: &[DVec3]) -> f64 {
+    assert!(
+        image.len() == a.len() && a.len() == b.len(),
+        "images of different sizes"
+    );
+    let terms = image.iter().zip(a.iter().zip(b)).map(|(x, (a, b))| {
+        let s = ((*a + *b) * 0.5).max(DVec3::ZERO) + RELATIVE_EPSILON;
+        (*x - *a) * (*x - *b) / (s * s)
+    });
+    mean_over(terms, image.len())
+}
+
 /// The mean squared error estimated from each pixel's variance of its mean (no reference):
 /// the mean of the variances, since `E[(mean - expected)^2]` is the variance of the mean.
 pub fn estimated_mse(variance_of_mean: &[DVec3]) -> f64 {
@@ -149,6 +194,60 @@ mod tests {
         assert!((flicker(&still, &noisy, &var) - expected).abs() < 1e-12);
         let exact_var = vec![vec![DVec3::splat(2.0 * d * d); 2]; 4];
         assert!(flicker(&still, &noisy, &exact_var) < 1e-6);
+    }
+
+    /// Triples of (image, reference a, reference b) around a known truth, with independent
+    /// noise of the given standard deviations (uniform noise from PCG32).
+    fn noisy(truth: &[DVec3], sigma: (f64, f64), seed: u64) -> [Vec<DVec3>; 3] {
+        let mut rng = crate::rng::Pcg32::new(seed, 7);
+        // A uniform number in [-1, 1) has variance 1/3.
+        let mut noise = |s: f64| {
+            let mut u = || (2.0 * rng.next_f64() - 1.0) * s * 3f64.sqrt();
+            DVec3::new(u(), u(), u())
+        };
+        let image = truth.iter().map(|t| *t + noise(sigma.0)).collect();
+        let a = truth.iter().map(|t| *t + noise(sigma.1)).collect();
+        let b = truth.iter().map(|t| *t + noise(sigma.1)).collect();
+        [image, a, b]
+    }
+
+    #[test]
+    fn cross_estimates_are_unbiased_where_the_plain_error_is_not() {
+        // Pixels of several brightnesses; references with half the image's noise, whose
+        // variance makes the plain error 25% high.
+        let truth: Vec<DVec3> = (0..64)
+            .map(|i| DVec3::new(0.5, 1.0, 2.0) * (1.0 + i as f64 / 16.0))
+            .collect();
+        let (sigma, sigma_ref) = (0.1, 0.05);
+        let (mut cross, mut plain, mut exact) = (0.0, 0.0, 0.0);
+        let (mut cross_rel, mut exact_rel) = (0.0, 0.0);
+        let trials = 2000;
+        for seed in 0..trials {
+            let [x, a, b] = noisy(&truth, (sigma, sigma_ref), seed);
+            cross += cross_mse(&x, &a, &b);
+            plain += mse(&x, &a);
+            exact += mse(&x, &truth);
+            cross_rel += cross_rel_mse(&x, &a, &b);
+            exact_rel += rel_mse(&x, &truth);
+        }
+        let n = trials as f64;
+        let (cross, plain, exact) = (cross / n, plain / n, exact / n);
+        // The true MSE is sigma^2; the plain one adds the reference's variance.
+        assert!((exact / (sigma * sigma) - 1.0).abs() < 0.01, "{exact}");
+        assert!(
+            (cross / exact - 1.0).abs() < 0.02,
+            "{cross} against {exact}"
+        );
+        let expected_plain = sigma * sigma + sigma_ref * sigma_ref;
+        assert!((plain / expected_plain - 1.0).abs() < 0.02, "{plain}");
+        // Relative: unbiased but for the references' relative variance r (at most
+        // 0.05^2 / 0.51^2 = 0.0096 here): 1.5 r = 1.4% on the darkest pixels, less on average.
+        let ratio = cross_rel / exact_rel;
+        assert!((ratio - 1.0).abs() < 0.02, "{ratio}");
+        // With exact references, the cross-estimate is the true error, bit for bit.
+        let [x, _, _] = noisy(&truth, (sigma, sigma_ref), 1);
+        assert_eq!(cross_mse(&x, &truth, &truth), mse(&x, &truth));
+        assert_eq!(cross_rel_mse(&x, &truth, &truth), rel_mse(&x, &truth));
     }
 
     #[test]

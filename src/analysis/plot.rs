@@ -12,7 +12,7 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::OnceLock;
 
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::element::ComposedElement;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, TextStyle, register_font};
@@ -36,6 +36,34 @@ pub(crate) struct Series {
     /// Fitted log-log slope shown in the legend, as from [`super::fit::log_log_slope`];
     /// a non-finite slope is not shown.
     pub(crate) slope: Option<f64>,
+    /// Each point's spread, drawn as bars through it (none when empty): its `x` and `y`
+    /// ranges. A bar's end that log axes cannot show is drawn to the axis' end.
+    pub(crate) bars: Vec<Bar>,
+}
+
+/// A point's spread: the ranges of its `x` and of its `y`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Bar {
+    pub(crate) x: (f64, f64),
+    pub(crate) y: (f64, f64),
+}
+
+/// What is drawn behind the series to read them by: horizontal levels, and a line of a
+/// given slope.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Guides {
+    /// Horizontal lines at these `y`, each labelled at its right end.
+    pub(crate) levels: Vec<(f64, String)>,
+    /// A straight line on the log-log axes through a point with a slope, named in the legend.
+    pub(crate) slope: Option<SlopeGuide>,
+}
+
+/// A dashed line of slope `slope` through `through`, named `name` in the legend.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SlopeGuide {
+    pub(crate) through: (f64, f64),
+    pub(crate) slope: f64,
+    pub(crate) name: String,
 }
 
 /// Width and height in pixels of every plot (PNG pixels, SVG user units).
@@ -59,6 +87,7 @@ pub(crate) fn write_plot(
     x_label: &str,
     y_label: &str,
     series: &[Series],
+    guides: &Guides,
 ) -> Result<(), String> {
     let format = Format::of(path, PLOT_FORMATS, "plot")?;
     register_embedded_font().map_err(|e| format!("cannot write plot {}: {e}", path.display()))?;
@@ -74,7 +103,7 @@ pub(crate) fn write_plot(
             let mut pixels = vec![255u8; width as usize * height as usize * 3];
             {
                 let root = BitMapBackend::with_buffer(&mut pixels, PLOT_SIZE).into_drawing_area();
-                draw(&root, &labels, series).map_err(drawing_error)?;
+                draw(&root, &labels, series, guides).map_err(drawing_error)?;
                 root.present().map_err(|e| drawing_error(e.to_string()))?;
             }
             let image = image::RgbImage::from_raw(width, height, pixels)
@@ -89,7 +118,7 @@ pub(crate) fn write_plot(
             let mut svg = String::new();
             {
                 let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
-                draw(&root, &labels, series).map_err(drawing_error)?;
+                draw(&root, &labels, series, guides).map_err(drawing_error)?;
                 root.present().map_err(|e| drawing_error(e.to_string()))?;
             }
             write(path, svg.as_bytes())
@@ -422,6 +451,7 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     labels: &Labels,
     series: &[Series],
+    guides: &Guides,
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
@@ -436,7 +466,12 @@ where
             .filter(|&p| usable(p))
     };
     let x_range = axis_range(usable_points().map(|p| p.0));
-    let y_range = axis_range(usable_points().map(|p| p.1));
+    let levels = guides
+        .levels
+        .iter()
+        .map(|l| l.0)
+        .filter(|&y| usable((1.0, y)));
+    let y_range = axis_range(usable_points().map(|p| p.1).chain(levels));
     let (x_major, x_minor) = log_ticks(&x_range);
     let (y_major, y_minor) = log_ticks(&y_range);
     let (x_format, y_format) = (tick_format(&x_major), tick_format(&y_major));
@@ -462,10 +497,12 @@ where
     let mut chart = builder
         .build_cartesian_2d(
             x_range
+                .clone()
                 .log_scale()
                 .with_key_points(x_major)
                 .with_light_points(x_minor),
             y_range
+                .clone()
                 .log_scale()
                 .with_key_points(y_major)
                 .with_light_points(y_minor),
@@ -487,6 +524,8 @@ where
         .axis_style(BLACK.mix(0.75))
         .draw()
         .map_err(err)?;
+
+    draw_guides(&mut chart, guides, (&x_range, &y_range)).map_err(err)?;
 
     let lines: Vec<Line> = series
         .iter()
@@ -514,6 +553,29 @@ where
                     + PathElement::new(rim, WHITE.stroke_width(1))
             });
     }
+    for (s, line) in series.iter().zip(&lines) {
+        let clamp = |v: f64, r: &Range<f64>| {
+            if v.is_nan() {
+                r.start
+            } else {
+                v.clamp(r.start, r.end)
+            }
+        };
+        let bars = s.points.iter().zip(&s.bars).filter(|(p, _)| usable(**p));
+        for (&(x, y), bar) in bars {
+            let (x0, x1) = (clamp(bar.x.0, &x_range), clamp(bar.x.1, &x_range));
+            let (y0, y1) = (clamp(bar.y.0, &y_range), clamp(bar.y.1, &y_range));
+            let (x, y) = (clamp(x, &x_range), clamp(y, &y_range));
+            for segment in [[(x0, y), (x1, y)], [(x, y0), (x, y1)]] {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        segment.to_vec(),
+                        line.colour.stroke_width(2),
+                    )))
+                    .map_err(err)?;
+            }
+        }
+    }
     for line in &lines {
         chart
             .draw_series(
@@ -528,14 +590,17 @@ where
         let legend_style = TextStyle::from((FAMILY, LEGEND_SIZE).into_font());
         let (margin, key_width) = (10u32, 40u32);
         let mut text_width = 0;
-        for s in series {
-            let (w, _) = root
-                .estimate_text_size(&legend_label(s), &legend_style)
-                .map_err(err)?;
+        let names = series
+            .iter()
+            .map(legend_label)
+            .chain(guides.slope.iter().map(|g| g.name.clone()));
+        for name in names {
+            let (w, _) = root.estimate_text_size(&name, &legend_style).map_err(err)?;
             text_width = text_width.max(w);
         }
         // Lines are spaced at 1.25 times the font size, as plotters lays them out.
-        let text_height = (series.len() as f64 * LEGEND_SIZE * 1.25).ceil() as u32;
+        let entries = series.len() + usize::from(guides.slope.is_some());
+        let text_height = (entries as f64 * LEGEND_SIZE * 1.25).ceil() as u32;
         let legend_size = (
             text_width + key_width + 2 * margin,
             text_height + 2 * margin,
@@ -567,6 +632,63 @@ where
             .map_err(err)?;
     }
     Ok(())
+}
+
+/// The colour of the guides: a bluish grey that stays behind the series (and that no text's
+/// antialiasing, grey on white, makes).
+const GUIDE: RGBColor = RGBColor(100, 112, 128);
+
+/// Draws the guides on `chart`, within its `ranges`: each level as a dotted line labelled at
+/// its right end, the slope guide as a dashed line (clipped to the ranges) in the legend.
+fn draw_guides<'a, DB: DrawingBackend + 'a, CT: CoordTranslate<From = (f64, f64)>>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    guides: &Guides,
+    (x_range, y_range): (&Range<f64>, &Range<f64>),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB::ErrorType: 'static,
+{
+    for (y, label) in &guides.levels {
+        if !usable((1.0, *y)) || !y_range.contains(y) {
+            continue;
+        }
+        let ends = [(x_range.start, *y), (x_range.end, *y)];
+        chart.draw_series(DashedLineSeries::new(ends, 3, 5, GUIDE.stroke_width(1)))?;
+        let style = TextStyle::from((FAMILY, TICK_LABEL_SIZE).into_font()).color(&GUIDE);
+        let text = EmptyElement::at((x_range.end, *y))
+            + Text::new(label.clone(), (-8 - 9 * label.len() as i32, -20), style);
+        chart.draw_series(std::iter::once(text))?;
+    }
+    if let Some(g) = &guides.slope
+        && let Some(ends) = clip_line(g, x_range, y_range)
+    {
+        chart
+            .draw_series(DashedLineSeries::new(ends, 10, 6, GUIDE.stroke_width(2)))?
+            .label(g.name.clone())
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 28, y)], GUIDE.stroke_width(2)));
+    }
+    Ok(())
+}
+
+/// The part of the slope guide's line inside the ranges, as its two ends; `None` when it
+/// misses them.
+fn clip_line(g: &SlopeGuide, x: &Range<f64>, y: &Range<f64>) -> Option<[(f64, f64); 2]> {
+    let (x0, y0) = g.through;
+    if !usable((x0, y0)) || !g.slope.is_finite() {
+        return None;
+    }
+    // On log axes the line is ln y = ln y0 + k (ln x - ln x0): where it meets each y bound.
+    let at_y = |v: f64| (x0.ln() + (v.ln() - y0.ln()) / g.slope).exp();
+    let (mut lo, mut hi) = (x.start, x.end);
+    if g.slope != 0.0 {
+        let (a, b) = (at_y(y.start), at_y(y.end));
+        lo = lo.max(a.min(b));
+        hi = hi.min(a.max(b));
+    } else if !y.contains(&y0) {
+        return None;
+    }
+    let line = |v: f64| y0 * (v / x0).powf(g.slope);
+    (lo < hi).then(|| [(lo, line(lo)), (hi, line(hi))])
 }
 
 #[cfg(test)]
@@ -679,6 +801,7 @@ mod tests {
             name: "independent".into(),
             points: vec![],
             slope: Some(-0.9812),
+            bars: Vec::new(),
         };
         assert_eq!(legend_label(&s), "independent (slope -0.98)");
         s.slope = None;
@@ -699,11 +822,13 @@ mod tests {
             Series {
                 name: "independent".into(),
                 slope: log_log_slope(&independent),
+                bars: Vec::new(),
                 points: independent,
             },
             Series {
                 name: "stratified".into(),
                 slope: log_log_slope(&stratified),
+                bars: Vec::new(),
                 points: stratified,
             },
         ]
@@ -720,7 +845,15 @@ mod tests {
     fn png_plot_decodes_with_each_series_drawn() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("plot.PNG");
-        write_plot(&path, "Convergence", "time (s)", "RMSE", &two_series()).unwrap();
+        write_plot(
+            &path,
+            "Convergence",
+            "time (s)",
+            "RMSE",
+            &two_series(),
+            &Guides::default(),
+        )
+        .unwrap();
         let image = image::open(&path).unwrap().to_rgb8();
         assert_eq!(image.dimensions(), (1000, 700));
 
@@ -730,7 +863,15 @@ mod tests {
             s.points.clear();
         }
         let empty_path = dir.path().join("empty.png");
-        write_plot(&empty_path, "Convergence", "time (s)", "RMSE", &no_points).unwrap();
+        write_plot(
+            &empty_path,
+            "Convergence",
+            "time (s)",
+            "RMSE",
+            &no_points,
+            &Guides::default(),
+        )
+        .unwrap();
         let empty = image::open(&empty_path).unwrap().to_rgb8();
         assert_eq!(empty.dimensions(), (1000, 700));
 
@@ -753,7 +894,15 @@ mod tests {
         let dark_pixels_in_title_area = |title: &str| {
             let dir = tempfile::tempdir().unwrap();
             let path = dir.path().join("plot.png");
-            write_plot(&path, title, "time (s)", "RMSE", &two_series()).unwrap();
+            write_plot(
+                &path,
+                title,
+                "time (s)",
+                "RMSE",
+                &two_series(),
+                &Guides::default(),
+            )
+            .unwrap();
             let image = image::open(&path).unwrap().to_rgb8();
             image
                 .enumerate_pixels()
@@ -776,8 +925,17 @@ mod tests {
             name: "a <b> & c".into(),
             points: vec![(0.05, 0.01)],
             slope: None,
+            bars: Vec::new(),
         });
-        write_plot(&path, "Convergence", "time (s)", "RMSE", &series).unwrap();
+        write_plot(
+            &path,
+            "Convergence",
+            "time (s)",
+            "RMSE",
+            &series,
+            &Guides::default(),
+        )
+        .unwrap();
         let svg = std::fs::read_to_string(&path).unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..100]);
         assert!(svg.trim_end().ends_with("</svg>"));
@@ -794,11 +952,61 @@ mod tests {
     }
 
     #[test]
+    fn bars_levels_and_the_slope_guide_are_drawn() {
+        let dir = tempfile::tempdir().unwrap();
+        let grey = |image: &image::RgbImage| count_pixels(image, GUIDE);
+        let draw = |name: &str, series: &[Series], guides: &Guides| {
+            let path = dir.path().join(name);
+            write_plot(&path, "t", "x", "y", series, guides).unwrap();
+            image::open(&path).unwrap().to_rgb8()
+        };
+        let plain = draw("plain.png", &two_series(), &Guides::default());
+        assert_eq!(grey(&plain), 0);
+        let guides = Guides {
+            levels: vec![(0.0004, "2%".into()), (-1.0, "unusable".into())],
+            slope: Some(SlopeGuide {
+                through: (0.04, 0.01),
+                slope: -1.0,
+                name: "ideal (slope -1)".into(),
+            }),
+        };
+        let guided = draw("guided.png", &two_series(), &guides);
+        // A dotted level across the plot and a dashed guide: hundreds of grey pixels.
+        assert!(grey(&guided) > 300, "{}", grey(&guided));
+        // The guide's line clipped to the plot: a guide far outside draws no line.
+        let far = SlopeGuide {
+            through: (1e6, 1e6),
+            slope: 0.0,
+            name: "far".into(),
+        };
+        assert_eq!(clip_line(&far, &(1.0..10.0), &(1.0..10.0)), None);
+        let ends = clip_line(&guides.slope.clone().unwrap(), &(0.01..1.0), &(1e-3..1e-2)).unwrap();
+        // y = 4e-4 / x meets y = 1e-2 at x = 0.04 and y = 1e-3 at x = 0.4.
+        assert!((ends[0].0 - 0.04).abs() < 1e-12 && (ends[1].0 - 0.4).abs() < 1e-12);
+        // Bars add the series' colour around the markers.
+        let mut barred = two_series();
+        barred[0].bars = barred[0]
+            .points
+            .iter()
+            .map(|&(x, y)| Bar {
+                x: (x * 0.8, x * 1.25),
+                y: (y * 0.5, y * 2.0),
+            })
+            .collect();
+        // A bar whose low end is below zero is drawn to the axis.
+        barred[0].bars[0].y.0 = -1.0;
+        let with_bars = draw("bars.png", &barred, &Guides::default());
+        let colour = PALETTE[0];
+        assert!(count_pixels(&with_bars, colour) > count_pixels(&plain, colour) + 7 * 20);
+    }
+
+    #[test]
     fn unknown_extensions_are_errors_naming_the_path() {
         let dir = tempfile::tempdir().unwrap();
         for name in ["plot.jpg", "plot", "plot.png.txt", "png"] {
             let path = dir.path().join(name);
-            let err = write_plot(&path, "t", "x", "y", &two_series()).unwrap_err();
+            let err =
+                write_plot(&path, "t", "x", "y", &two_series(), &Guides::default()).unwrap_err();
             assert!(err.contains(&path.display().to_string()), "{err}");
             assert!(!path.exists());
         }
@@ -811,7 +1019,8 @@ mod tests {
         std::fs::write(dir.path().join("blocker"), b"a file").unwrap();
         for name in ["blocker/plot.png", "blocker/plot.svg"] {
             let path = dir.path().join(name);
-            let err = write_plot(&path, "t", "x", "y", &two_series()).unwrap_err();
+            let err =
+                write_plot(&path, "t", "x", "y", &two_series(), &Guides::default()).unwrap_err();
             assert!(err.contains(&path.display().to_string()), "{err}");
         }
     }
@@ -829,11 +1038,12 @@ mod tests {
                 (1.0, f64::INFINITY),
             ],
             slope: None,
+            bars: Vec::new(),
         }];
         for (name, series) in [("none", Vec::new()), ("unusable", unusable)] {
             for ext in ["png", "svg"] {
                 let path = dir.path().join(format!("{name}.{ext}"));
-                write_plot(&path, "", "", "", &series).unwrap();
+                write_plot(&path, "", "", "", &series, &Guides::default()).unwrap();
                 if ext == "png" {
                     let image = image::open(&path).unwrap();
                     assert_eq!((image.width(), image.height()), (1000, 700));
@@ -853,21 +1063,24 @@ mod tests {
                 name: "extreme".into(),
                 points: vec![(f64::MIN_POSITIVE / 1e10, f64::MAX), (f64::MAX, 1e-300)],
                 slope: Some(f64::INFINITY),
+                bars: Vec::new(),
             },
             Series {
                 name: "one point".into(),
                 points: vec![(1.0, 1.0)],
                 slope: None,
+                bars: Vec::new(),
             },
             Series {
                 name: String::new(),
                 points: vec![(2.0, 3.0); 3],
                 slope: Some(0.0),
+                bars: Vec::new(),
             },
         ];
         for ext in ["png", "svg"] {
             let path = dir.path().join(format!("odd.{ext}"));
-            write_plot(&path, "odd", "x", "y", &series).unwrap();
+            write_plot(&path, "odd", "x", "y", &series, &Guides::default()).unwrap();
         }
         // Many series cycle through the colours and shapes.
         let many: Vec<Series> = (0..13)
@@ -875,8 +1088,17 @@ mod tests {
                 name: format!("s{i}"),
                 points: power_law(1.0 + f64::from(i), -0.5, &[1.0, 10.0]),
                 slope: None,
+                bars: Vec::new(),
             })
             .collect();
-        write_plot(&dir.path().join("many.png"), "many", "x", "y", &many).unwrap();
+        write_plot(
+            &dir.path().join("many.png"),
+            "many",
+            "x",
+            "y",
+            &many,
+            &Guides::default(),
+        )
+        .unwrap();
     }
 }

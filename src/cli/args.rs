@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::renderer::Budget;
 use crate::sampler::SamplerKind;
 use crate::scene::Device;
@@ -55,14 +56,17 @@ Exit status: 0 success, 2 bad arguments or bad scene (nothing written), 1 any ot
     Render(RenderArgs),
     /// Measure how a frame's error falls with render time, for each sampler.
     #[command(
-        after_help = "Renders a reference (or reads one), then the frame at 1, 2, 4, ... samples per
-pixel with each sampler, and prints RMSE, relative MSE, the error estimated from the
-samples alone, and efficiency 1/(MSE x seconds); fitted log-log slopes; and the MSE
-ratio at equal time.
+        after_help = "Renders two references of independent seeds (or reads them), then the frame at 1, 2,
+4, ... samples per pixel with each sampler (and denoised, and adaptively, if asked), each
+point with a few seeds and timed by the median of alternated repeats. Prints each point's
+errors against the truth (estimated from both references, free of their noise), the error
+the render estimates for itself, mean FLIP, wall and CPU time; fitted log-log slopes; the
+time each series takes to 5%, 2% and 1% relative error; and error ratios at equal time.
 
 Examples:
   raytrace converge scenes/defocus.toml --max-samples 256 --plot defocus.png --csv defocus.csv
-  raytrace converge shot.toml --frame 12 --reference ref.exr --budget 60
+  raytrace converge shot.toml --frame 12 --reference a.exr b.exr --budget 60
+  raytrace converge shot.toml --denoise --thresholds 0.05,0.02,0.01 --seeds 5
   raytrace converge shot.toml --sampler independent --reference-samples 16384"
     )]
     Converge(ConvergeArgs),
@@ -177,16 +181,28 @@ pub struct RenderArgs {
     /// writes colour only.
     #[arg(long, value_name = "LIST", value_parser = pass_list)]
     pub passes: Option<PassList>,
-    /// Denoise every frame with its albedo and normal (Intel Open Image Denoise), as `[output]
-    /// denoise = true`; the estimated error printed and recorded is the denoised frame's.
+    /// Denoise every frame (Intel Open Image Denoise), as `[output] denoise = true`: the frame
+    /// written blends the raw and denoised frames per pixel by their estimated errors, and
+    /// the estimated error printed and recorded is that frame's.
     #[arg(long)]
     pub denoise: bool,
-    /// With denoising: average each frame's noisy colour with the two frames before it,
-    /// followed along the motion vectors where they show the same surface, before denoising,
-    /// so that a denoised sequence does not flicker. A frame then depends on the two before
-    /// it, which are rendered first (not written) when the run does not render them.
+    /// The denoiser's quality, replacing `[output] denoise_quality`: fast (the default),
+    /// balanced or high.
+    #[arg(long, value_name = "QUALITY", value_parser = denoise_quality)]
+    pub denoise_quality: Option<DenoiseQuality>,
+    /// With denoising: keep the denoised sequence from flickering. Every frame of the shot
+    /// takes the same sample pattern (a still region has the same noise in every frame), so
+    /// a frame is the same rendered alone, in a sequence or in any chunk.
     #[arg(long)]
     pub temporal: bool,
+}
+
+/// Clap's value parser of `--denoise-quality`.
+fn denoise_quality(text: &str) -> Result<DenoiseQuality, String> {
+    DenoiseQuality::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = DenoiseQuality::ALL.iter().map(|q| q.name()).collect();
+        format!("expected one of {}", names.join(", "))
+    })
 }
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
@@ -241,36 +257,54 @@ pub struct ConvergeArgs {
     /// The frame to measure (default: the shot's first).
     #[arg(long, allow_negative_numbers = true)]
     pub frame: Option<u32>,
-    /// A reference image (EXR) of the frame, instead of rendering one.
-    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference_samples")]
-    pub reference: Option<PathBuf>,
-    /// Samples per pixel of the reference rendered first (default 4096).
+    /// Two reference images (EXR) of the frame, of independent seeds, instead of rendering
+    /// them: each render's error against the truth is estimated from both.
+    #[arg(long, num_args = 2, value_names = ["A.exr", "B.exr"], conflicts_with = "reference_samples")]
+    pub reference: Vec<PathBuf>,
+    /// Samples per pixel of each of the two references rendered first (default 4096).
     #[arg(long, value_name = "N", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_samples: Option<u32>,
-    /// Where to write the rendered reference (default: beside --csv or --plot, named
-    /// after the scene).
-    #[arg(long, value_name = "FILE.exr", conflicts_with = "reference")]
-    pub write_reference: Option<PathBuf>,
+    /// Where to write the two rendered references, EXR (default: beside --csv or --plot,
+    /// named after the scene).
+    #[arg(long, num_args = 2, value_names = ["A.exr", "B.exr"], conflicts_with = "reference")]
+    pub write_reference: Vec<PathBuf>,
     /// The largest samples per pixel measured (default: the scene's samples, or no limit
     /// with --budget).
     #[arg(long, value_name = "N", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub max_samples: Option<u32>,
-    /// Seconds of rendering per sampler, at most.
+    /// Seconds of rendering per series (sampler, raw or denoised, uniform or adaptive), at
+    /// most.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
     pub budget: Option<f64>,
     /// A sampler to measure; repeat for several (default: all).
     #[arg(long)]
     pub sampler: Vec<SamplerKind>,
-    /// Write the measurements as CSV.
+    /// Seeds each point is rendered with: its errors are the means over them (default 3).
+    #[arg(long, value_name = "K", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub seeds: Option<u32>,
+    /// Renders of each point for its time, at most: it is repeated until the interquartile
+    /// range of its times is within 5% of their median (at least 3 renders, and one per
+    /// seed), or N times; the median is taken (default 7).
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub repeats: Option<u32>,
+    /// Also measure adaptive renders (`render --noise-threshold E`) at each of these
+    /// thresholds, comma-separated (0.02 = 2%).
+    #[arg(long, value_name = "E,...", value_delimiter = ',', allow_negative_numbers = true,
+          value_parser = threshold)]
+    pub thresholds: Vec<f64>,
+    /// Write the measurements as CSV, one row per point; the times to error levels go to
+    /// the same name with `_levels` before `.csv`.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
-    /// Draw error against time on log-log axes, to a .png or .svg.
+    /// Draw the relative error against time on log-log axes, to a .png or .svg.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Also measure each render denoised: its true error, its estimated error (bias
-    /// included) and its time with the denoising.
+    /// Also measure each point denoised, rendered and timed on its own: its true error, its
+    /// estimated error (bias included) and its time with the denoising.
     #[arg(long)]
     pub denoise: bool,
     /// Measure a sequence instead of one frame: these frames (`1-12`, as render's --frames)
@@ -399,6 +433,8 @@ impl RenderArgs {
             clip: self.clip.clone(),
             passes: self.passes.as_ref().map(|p| p.0.clone()),
             denoise: self.denoise.then_some(true),
+            denoise_quality: self.denoise_quality,
+            temporal: self.temporal.then_some(true),
             ..self.scene_args.overrides()
         }
     }
@@ -464,6 +500,16 @@ fn positive(text: &str) -> Result<f64, String> {
 /// Clap's value parser of any finite number.
 fn finite(text: &str) -> Result<f64, String> {
     number(text, f64::is_finite, "finite", "a finite number")
+}
+
+/// Clap's value parser of a noise threshold: a number above 0 and below 1.
+fn threshold(text: &str) -> Result<f64, String> {
+    number(
+        text,
+        |v| v > 0.0 && v < 1.0,
+        "above 0 and below 1",
+        "a number above 0 and below 1",
+    )
 }
 
 /// Clap's value parser of a number from 0 to 1.

@@ -1,147 +1,57 @@
-//! `raytrace converge`: how a frame's error falls with run time, per sampler.
+//! `raytrace converge`: how a frame's error falls with run time, per series (a sampler, raw
+//! or denoised, every pixel the same samples or adaptive under a noise threshold).
 //!
-//! A reference render of many samples (or an EXR the user gives) stands in for the converged
-//! image. The frame is then rendered at 1, 2, 4, ... samples per pixel with each sampler,
-//! timing the rendering alone, and each render is compared with the reference: mean squared
-//! error, relative mean squared error, the error estimated from the pixels' replicates (which
-//! needs no reference; see `film::Pixel::variance_of_mean`), and the efficiency
-//! `1 / (MSE x seconds)`.
+//! Two references of many samples and independent seeds, `A` and `B` (rendered, or EXRs the
+//! user gives), stand in for the truth: a render's squared error against the truth is
+//! estimated by `(x - A)(x - B)`, which the references' noise does not bias
+//! (`analysis::metrics::cross_mse`). The frame is then rendered at 1, 2, 4, ... samples per
+//! pixel (and at each `--thresholds` adaptively), each point with `--seeds` seeds, its errors
+//! the means over them. Every render is timed (wall and process CPU time, no file I/O); the
+//! series take turns render by render, so that a change in the machine's load falls on all
+//! alike, and a point is rendered again until its times settle or `--repeats` times, its
+//! time their median. The module's children make the figures ([`series`]) and print and
+//! write them ([`table`]).
 
-use std::fmt::Write as _;
+mod series;
+mod table;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::DVec3;
 
-use super::args::ConvergeArgs;
+use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
-use crate::analysis::fit::log_log_slope;
-use crate::analysis::{metrics, plot};
+use crate::analysis::stats::{Figure, settled};
+use crate::analysis::{flip, metrics, plot};
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
-use crate::format::{FRAME_FORMATS, Format};
+use crate::format::Format;
 use crate::io;
 use crate::output;
 use crate::points::FramePoints;
-use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame_with};
+use crate::renderer::{Budget, Finishing, FrameJob, FrameResult, ShotGeometry};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::{Device, Scene};
-use crate::scene_file::{Overrides, SceneSource};
+use crate::scene_file::{Overrides, SceneSource, file_kind};
+use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 
-/// Default samples per pixel of the reference render.
+/// Default samples per pixel of each reference render.
 pub(crate) const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
-
-/// Renders shorter than this are repeated (up to [`MAX_REPEATS`] times) and their median
-/// time taken, because a single short run's time is mostly noise.
-const SHORT_RUN_SECONDS: f64 = 0.25;
-const MAX_REPEATS: usize = 5;
-
-/// One measured render.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Measurement {
-    pub(crate) sampler: SamplerKind,
-    pub(crate) samples: u32,
-    /// Median wall time of the render (preparation and tracing, no file I/O).
-    pub(crate) seconds: f64,
-    pub(crate) mse: f64,
-    pub(crate) rel_mse: f64,
-    /// The mean squared error estimated from the pixels' replicates.
-    pub(crate) estimated_mse: f64,
-    pub(crate) estimated_rel_mse: f64,
-    /// With `--denoise`: the same render denoised.
-    pub(crate) denoised: Option<DenoisedMeasurement>,
-}
-
-/// A measured render, denoised.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct DenoisedMeasurement {
-    /// Median wall time of the render and its denoising (the raw measurement's `seconds`
-    /// leave the denoising out).
-    pub(crate) seconds: f64,
-    pub(crate) mse: f64,
-    pub(crate) rel_mse: f64,
-    /// The square of the denoised frame's estimated relative error (bias included).
-    pub(crate) estimated_rel_mse: f64,
-}
-
-impl Measurement {
-    /// `1 / (MSE x seconds)`: higher is better; equal for two renders that trade time for
-    /// error at the rate of independent samples.
-    pub(crate) fn efficiency(&self) -> f64 {
-        1.0 / (self.mse * self.seconds)
-    }
-}
-
-/// Everything `converge` measured.
-#[derive(Clone, Debug)]
-pub(crate) struct Report {
-    pub(crate) runs: Vec<Measurement>,
-}
-
-impl Report {
-    /// The runs of one sampler, in order of samples.
-    pub(crate) fn series(&self, kind: SamplerKind) -> Vec<&Measurement> {
-        self.runs.iter().filter(|m| m.sampler == kind).collect()
-    }
-
-    /// The samplers measured, in order.
-    pub(crate) fn samplers(&self) -> Vec<SamplerKind> {
-        let mut kinds: Vec<SamplerKind> = Vec::new();
-        for m in &self.runs {
-            if !kinds.contains(&m.sampler) {
-                kinds.push(m.sampler);
-            }
-        }
-        kinds
-    }
-}
-
-/// The fitted log-log slope of MSE against samples and against seconds for `runs`.
-pub(crate) fn slopes(runs: &[&Measurement]) -> (Option<f64>, Option<f64>) {
-    let by_samples: Vec<(f64, f64)> = runs.iter().map(|m| (m.samples as f64, m.mse)).collect();
-    let by_time: Vec<(f64, f64)> = runs.iter().map(|m| (m.seconds, m.mse)).collect();
-    (log_log_slope(&by_samples), log_log_slope(&by_time))
-}
-
-/// `base`'s MSE over `other`'s at equal time, at each of `other`'s runs whose time lies
-/// within `base`'s range: `base`'s log MSE is interpolated linearly in log time (the curves
-/// are close to straight lines on log-log axes). Pairs of (seconds, factor).
-pub(crate) fn equal_time_factors(base: &[&Measurement], other: &[&Measurement]) -> Vec<(f64, f64)> {
-    let mut b: Vec<(f64, f64)> = base
-        .iter()
-        .filter(|m| m.mse > 0.0)
-        .map(|m| (m.seconds.ln(), m.mse.ln()))
-        .collect();
-    b.sort_by(|p, q| p.0.total_cmp(&q.0));
-    other
-        .iter()
-        .filter(|m| m.mse > 0.0)
-        .filter_map(|m| {
-            let t = m.seconds.ln();
-            let i = b.windows(2).position(|w| w[0].0 <= t && t <= w[1].0)?;
-            let (p, q) = (b[i], b[i + 1]);
-            let f = if q.0 > p.0 {
-                (t - p.0) / (q.0 - p.0)
-            } else {
-                0.0
-            };
-            let base_mse = (p.1 + f * (q.1 - p.1)).exp();
-            Some((m.seconds, base_mse / m.mse))
-        })
-        .collect()
-}
-
-/// The samples per pixel of the measured renders: powers of two up to `max_samples`, and
-/// `max_samples` itself.
-pub(crate) fn schedule(max_samples: u32) -> Vec<u32> {
-    let mut v: Vec<u32> = (0..32)
-        .map(|k| 1u32 << k)
-        .take_while(|&n| n < max_samples)
-        .collect();
-    v.push(max_samples);
-    v
-}
+/// Default seeds a point is rendered with.
+const DEFAULT_SEEDS: u32 = 3;
+/// Default most renders of a point for its time.
+const DEFAULT_REPEATS: u32 = 7;
+/// Fewest renders of a point for its time: a median and quartiles need a few.
+const MIN_RENDERS: usize = 3;
+/// A point's times have settled when their interquartile range is within this fraction of
+/// their median.
+const SETTLED: f64 = 0.05;
+/// Words hashed with the scene's seed into the references' seeds and the measured renders'
+/// further seeds, so that all are independent.
+const REFERENCE_SEED: u64 = 0x7265_6665_7265_6e63;
+const MEASURED_SEED: u64 = 0x6d65_6173_7572_6564;
 
 /// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
 pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
@@ -162,27 +72,127 @@ pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
     if let Some(path) = &args.csv {
         Format::of(path, &[Format::Csv], "measurements").map_err(Error::Usage)?;
     }
-    let variant = |samples: u32, seed: Option<u64>, sampler: SamplerKind| {
+    // Everything about the references is checked before anything is rendered or written.
+    let references = match args.reference.as_slice() {
+        [] => ReferenceSource::Render(reference_paths(&scene, frame, args)?),
+        paths => ReferenceSource::Read(checked_pair(paths, "--reference", check_readable)?),
+    };
+    let variant = |samples: u32, seed: u64, sampler: SamplerKind, finish: Finish| {
         source.scene(&Overrides {
             samples: Some(samples),
-            seed: seed.or(overrides.seed),
+            seed: Some(seed),
             sampler: Some(sampler),
+            denoise: Some(finish == Finish::Denoised),
             ..overrides.clone()
         })
     };
     super::threads::thread_pool(args.scene_args.threads)?
-        .install(|| measure(&scene, &variant, frame, args))
+        .install(|| measure(&scene, &variant, frame, &references, args))
 }
 
-/// A variant of the measured scene with other samples, seed (`None`: the scene's) and
-/// sampler, made from the scene file through the validator.
-type Variant<'a> = dyn Fn(u32, Option<u64>, SamplerKind) -> Result<Scene, Error> + Sync + 'a;
+/// A variant of the measured scene with other samples, seed, sampler and finish, made from the
+/// scene file through the validator.
+type Variant<'a> = dyn Fn(u32, u64, SamplerKind, Finish) -> Result<Scene, Error> + Sync + 'a;
 
-/// Measures `frame` of `scene`, rendering the `variant` of each sample count and sampler.
+/// What a frame is rendered with: the shot's geometry on its device, and the frame's points.
+type Shot<'a> = (&'a ShotGeometry, &'a FramePoints);
+
+/// Where the references come from: two files to read, or two renders to write there.
+enum ReferenceSource {
+    Read([PathBuf; 2]),
+    Render([PathBuf; 2]),
+}
+
+/// The two paths of `--reference` or `--write-reference`, each passing `check`, and not the
+/// same file twice (the cross-estimate needs two independent images).
+fn checked_pair(
+    paths: &[PathBuf],
+    option: &str,
+    check: fn(&Path) -> Result<(), String>,
+) -> Result<[PathBuf; 2], Error> {
+    let [a, b] = paths else {
+        return Err(Error::Usage(format!("{option} takes two files")));
+    };
+    for path in [a, b] {
+        check(path).map_err(|m| Error::Usage(format!("{option} {}: {m}", path.display())))?;
+    }
+    if a == b {
+        return Err(Error::Usage(format!(
+            "{option}: {} twice; the two references must be renders of independent seeds",
+            a.display()
+        )));
+    }
+    Ok([a.clone(), b.clone()])
+}
+
+/// A reference to read: an EXR that exists and is a regular file (a named pipe would block
+/// the read for ever, as it would a scene's).
+fn check_readable(path: &Path) -> Result<(), String> {
+    Format::of(path, &[Format::Exr], "reference")?;
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => {
+            "no such file (render the references with --reference-samples)".to_string()
+        }
+        _ => e.to_string(),
+    })?;
+    if !meta.is_file() {
+        return Err(format!(
+            "is {}, not a reference image (references are read from regular files only)",
+            file_kind(&meta.file_type())
+        ));
+    }
+    Ok(())
+}
+
+/// A reference to write: an EXR path that can be written.
+fn check_writable(path: &Path) -> Result<(), String> {
+    Format::of(path, &[Format::Exr], "reference")?;
+    io::check_target(path)
+}
+
+/// Where the rendered references go: `--write-reference`, or beside `--csv` or `--plot`,
+/// named after the scene, the frame and the samples.
+fn reference_paths(scene: &Scene, frame: u32, args: &ConvergeArgs) -> Result<[PathBuf; 2], Error> {
+    if !args.write_reference.is_empty() {
+        return checked_pair(&args.write_reference, "--write-reference", check_writable);
+    }
+    let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+    let stem = scene
+        .source
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let dir = [&args.csv, &args.plot]
+        .into_iter()
+        .flatten()
+        .next()
+        .and_then(|p| p.parent())
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    let path = |name: &str| {
+        dir.join(format!(
+            "{stem}_frame{frame}_reference_{samples}spp_{name}.exr"
+        ))
+    };
+    let paths = vec![path("a"), path("b")];
+    checked_pair(&paths, "the reference", check_writable)
+}
+
+/// The two references, as written (f32), and what the measured renders are compared with.
+struct References {
+    a: Vec<DVec3>,
+    b: Vec<DVec3>,
+    width: u32,
+    height: u32,
+    /// Their mean as 8-bit sRGB: FLIP's reference.
+    mean_srgb: Vec<u8>,
+}
+
+/// Measures `frame` of `scene`, rendering the `variant` of each point.
 fn measure(
     scene: &Scene,
     variant: &Variant,
     frame: u32,
+    references: &ReferenceSource,
     args: &ConvergeArgs,
 ) -> Result<Report, Error> {
     let say = |s: &str| {
@@ -207,104 +217,125 @@ fn measure(
         true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
         false => None,
     };
-    let reference = reference(scene, variant, shot, frame, args, &say)?;
-    say(&format!(
-        "relative errors against the reference, less its own estimated error ({:.3}%; \
-         the noise of the two is independent, so their squares add)",
-        100.0 * reference.rel_mse.sqrt()
-    ));
-
-    let samplers = if args.sampler.is_empty() {
-        SamplerKind::ALL.to_vec()
-    } else {
-        args.sampler.clone()
+    let references = match references {
+        ReferenceSource::Read(paths) => read_references(scene, paths, &say)?,
+        ReferenceSource::Render(paths) => {
+            render_references(scene, variant, shot, frame, paths, args, &say)?
+        }
     };
-    let max_samples = args.max_samples.unwrap_or(if args.budget.is_some() {
-        u32::MAX
-    } else {
-        scene.render.samples
-    });
-    // The samplers take turns at each sample count, so that a change in the machine's load
-    // during the measurement falls on all of them alike.
-    let mut runs = Vec::new();
-    let mut spent = vec![0.0; samplers.len()];
-    let mut active = vec![true; samplers.len()];
-    say(&header(args.denoise));
-    for n in schedule(max_samples) {
-        for (i, &kind) in samplers.iter().enumerate() {
-            if !active[i] {
-                continue;
-            }
-            let (result, seconds) =
-                timed_render(&variant(n, None, kind)?, shot, frame, denoiser.as_ref())?;
-            let denoised = result.denoised.as_ref().map(|d| {
-                let image: Vec<DVec3> = d
-                    .rgb
-                    .chunks_exact(3)
-                    .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-                    .collect();
-                DenoisedMeasurement {
-                    seconds,
-                    mse: reference.mse(&image),
-                    rel_mse: reference.rel_mse(&image),
-                    estimated_rel_mse: d.relative_error.powi(2),
-                }
-            });
-            // The raw render's time leaves its denoising out.
-            let seconds = seconds - result.stats.denoise_seconds;
-            let m = Measurement {
-                sampler: kind,
-                samples: n,
-                seconds,
-                mse: reference.mse(&result.film.means()),
-                rel_mse: reference.rel_mse(&result.film.means()),
-                estimated_mse: metrics::estimated_mse(&result.film.variances()),
-                // The square of the raw frame's estimated relative error.
-                estimated_rel_mse: result.stats.noisy_relative_error.powi(2),
-                denoised,
-            };
-            say(&row(&m));
-            runs.push(m);
-            spent[i] += seconds;
-            let seconds = runs.last().map_or(seconds, |m: &Measurement| {
-                m.denoised.as_ref().map_or(m.seconds, |d| d.seconds)
-            });
-            // The next render takes about twice as long as this one.
-            if args.budget.is_some_and(|b| spent[i] + 2.0 * seconds > b) {
-                active[i] = false;
-            }
-        }
-        if !active.contains(&true) {
-            break;
-        }
-    }
-    let report = Report { runs };
-    say(&summary(&report));
-    if let Some(path) = &args.csv {
-        io::write_file(path, csv(&report).as_bytes())?;
-        say(&format!("CSV written to {}", path.display()));
-    }
-    if let Some(path) = &args.plot {
-        let mut series: Vec<plot::Series> = Vec::new();
-        for k in report.samplers() {
-            let runs = report.series(k);
-            series.push(plot::Series {
-                name: k.name().to_string(),
-                points: runs.iter().map(|m| (m.seconds, m.mse)).collect(),
-                slope: slopes(&runs).1,
-            });
-            let denoised: Vec<(f64, f64)> = runs
-                .iter()
-                .filter_map(|m| m.denoised.as_ref().map(|d| (d.seconds, d.mse)))
-                .collect();
-            if !denoised.is_empty() {
-                series.push(plot::Series {
-                    name: format!("{} denoised", k.name()),
-                    slope: log_log_slope(&denoised),
-                    points: denoised,
+
+    let samplers = match args.sampler.is_empty() {
+        true => SamplerKind::ALL.to_vec(),
+        false => args.sampler.clone(),
+    };
+    let finishes = match args.denoise {
+        true => vec![Finish::Raw, Finish::Denoised],
+        false => vec![Finish::Raw],
+    };
+    let samplings = match args.thresholds.is_empty() {
+        true => vec![Sampling::Uniform],
+        false => vec![Sampling::Uniform, Sampling::Adaptive],
+    };
+    let mut kinds = Vec::new();
+    for &sampler in &samplers {
+        for &sampling in &samplings {
+            for &finish in &finishes {
+                kinds.push(SeriesKind {
+                    sampler,
+                    sampling,
+                    finish,
                 });
             }
         }
+    }
+    let max_samples = args.max_samples.unwrap_or(match args.budget {
+        Some(_) => u32::MAX,
+        None => scene.render.samples,
+    });
+    let uniform = schedule(max_samples);
+    let settings = |kind: &SeriesKind, step: usize| match kind.sampling {
+        Sampling::Uniform => uniform.get(step).map(|&n| Setting::Samples(n)),
+        Sampling::Adaptive => args.thresholds.get(step).map(|&e| Setting::Threshold(e)),
+    };
+    let seed_count = args.seeds.unwrap_or(DEFAULT_SEEDS) as usize;
+    let seeds: Vec<u64> = (0..seed_count as u64)
+        .map(|k| match k {
+            0 => scene.render.seed,
+            _ => hash_words(&[scene.render.seed, MEASURED_SEED, k]) >> 1,
+        })
+        .collect();
+    let most = (args.repeats.unwrap_or(DEFAULT_REPEATS) as usize).max(seed_count);
+    let fewest = MIN_RENDERS.max(seed_count).min(most);
+
+    let mut report = Report::default();
+    let mut spent = vec![0.0; kinds.len()];
+    let mut active = vec![true; kinds.len()];
+    say(&table::header());
+    for step in 0.. {
+        let mut runs = Vec::new();
+        for (i, kind) in kinds.iter().enumerate() {
+            if let (true, Some(setting)) = (active[i], settings(kind, step)) {
+                let scenes = seeds
+                    .iter()
+                    .map(|&seed| variant(setting_samples(setting), seed, kind.sampler, kind.finish))
+                    .collect::<Result<Vec<Scene>, Error>>()?;
+                runs.push(Run::new(i, *kind, setting, scenes));
+            }
+        }
+        if runs.is_empty() {
+            break;
+        }
+        // The points of this step take turns render by render.
+        for r in 0..most {
+            for run in runs.iter_mut().filter(|run| !run.done) {
+                let denoiser = match run.kind.finish {
+                    Finish::Raw => None,
+                    Finish::Denoised => denoiser.as_ref(),
+                };
+                let scene = &run.scenes[r % seed_count];
+                let (result, seconds) = render(scene, shot, frame, &run.budget(), denoiser)?;
+                run.times.push(seconds);
+                // Renders of a seed already measured are bit-identical: only their times count.
+                if r < seed_count {
+                    run.figures.push(figures(&result, &references));
+                }
+                let walls: Vec<f64> = run.times.iter().map(|t| t.0).collect();
+                run.done = r + 1 >= most || (r + 1 >= fewest && settled(&walls, SETTLED));
+            }
+            if runs.iter().all(|run| run.done) {
+                break;
+            }
+        }
+        for run in runs {
+            let point = run.point();
+            say(&table::row(&point));
+            let i = run.index;
+            let total: f64 = run.times.iter().map(|t| t.0).sum();
+            spent[i] += total;
+            // The next point takes about twice as long as this one.
+            if args.budget.is_some_and(|b| spent[i] + 2.0 * total > b) {
+                active[i] = false;
+            }
+            report.points.push(point);
+        }
+    }
+    for note in report.fit_times() {
+        say(&note);
+    }
+    let levels = series::level_times(&report);
+    say(&table::summary(&report, &levels));
+    if let Some(path) = &args.csv {
+        io::write_file(path, table::csv(&report).as_bytes())?;
+        let levels_path = levels_csv_path(path);
+        io::write_file(&levels_path, table::levels_csv(&levels).as_bytes())?;
+        say(&format!(
+            "CSV written to {} and {}",
+            path.display(),
+            levels_path.display()
+        ));
+    }
+    if let Some(path) = &args.plot {
+        let (series, guides) = table::plot_series(&report);
         let title = format!(
             "{} frame {frame}: error against render time",
             scene
@@ -315,9 +346,10 @@ fn measure(
         plot::write_plot(
             path,
             &title,
-            "render time (s)",
-            "MSE against reference",
+            "render time (s): median of alternated repeats",
+            "relative MSE against the truth (mean over seeds)",
             &series,
+            &guides,
         )
         .map_err(|message| Error::Output {
             path: path.clone(),
@@ -328,141 +360,248 @@ fn measure(
     Ok(report)
 }
 
-/// The reference image and its own estimated relative error, which every measured relative
-/// error, taken against it, holds too: the reference's noise is independent of a measured
-/// render's, so their squared errors add, and the reference's is subtracted from each
-/// measured one. (The MSE columns are against the reference as it is: a reference read back
-/// records its relative error, not its MSE, and both ways must give the same figures.)
-struct Reference {
-    pixels: Vec<DVec3>,
-    /// The square of its estimated relative error (0 when unknown).
-    rel_mse: f64,
+/// The samples per pixel of the measured uniform renders: powers of two up to `max_samples`,
+/// and `max_samples` itself.
+pub(crate) fn schedule(max_samples: u32) -> Vec<u32> {
+    let mut v: Vec<u32> = (0..32)
+        .map(|k| 1u32 << k)
+        .take_while(|&n| n < max_samples)
+        .collect();
+    v.push(max_samples);
+    v
 }
 
-impl Reference {
-    /// The mean squared error of `image` against the reference.
-    fn mse(&self, image: &[DVec3]) -> f64 {
-        metrics::mse(image, &self.pixels)
-    }
-
-    /// The relative mean squared error of `image` against the truth: against the reference,
-    /// less the reference's own (never below 0).
-    fn rel_mse(&self, image: &[DVec3]) -> f64 {
-        (metrics::rel_mse(image, &self.pixels) - self.rel_mse).max(0.0)
+/// The samples a render of `setting` is asked for: its count, or under a threshold the cap.
+fn setting_samples(setting: Setting) -> u32 {
+    match setting {
+        Setting::Samples(n) => n,
+        Setting::Threshold(_) => DEFAULT_MAX_SAMPLES_FOR_THRESHOLD,
     }
 }
 
-/// The reference image of `frame`: read from `--reference` (with its own error when its
-/// `estimatedRelativeError` attribute records it), or rendered with many samples and a seed
-/// of its own, written to EXR, and read back.
-fn reference(
-    scene: &Scene,
-    variant: &Variant,
-    (geometry, points): (&ShotGeometry, &FramePoints),
-    frame: u32,
-    args: &ConvergeArgs,
-    say: &dyn Fn(&str),
-) -> Result<Reference, Error> {
-    let (width, height) = (scene.output.width, scene.output.height);
-    if let Some(path) = &args.reference {
-        let rel_mse = io::read_exr_number(path, "estimatedRelativeError").map_or(0.0, |e| e * e);
-        return Ok(Reference {
-            pixels: read_reference(path, width, height)?,
-            rel_mse,
-        });
-    }
-    let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
-    let path = args
-        .write_reference
-        .clone()
-        .unwrap_or_else(|| default_reference_path(scene, frame, samples, args));
-    let format = Format::of(&path, FRAME_FORMATS, "reference").map_err(Error::Usage)?;
-    // A seed of its own, so the reference's noise is independent of every measured render's;
-    // 63 bits, as every seed a scene file or --seed can give.
-    let seed = hash_words(&[scene.render.seed, 0x7265_6665_7265_6e63]) >> 1;
-    let reference = variant(samples, Some(seed), SamplerKind::default())?;
-    say(&format!(
-        "reference: frame {frame}, {samples} samples per pixel, {} sampler...",
-        reference.render.sampler
-    ));
-    let result = render_shot_frame_with(
-        &reference,
-        geometry,
-        points,
-        frame,
-        &Budget::default(),
-        None,
-        &|_| {},
-    )?;
-    let non_finite = output::write_frame(&path, format, &reference, &result, &Budget::default())?;
-    if non_finite > 0 {
-        say(&format!(
-            "reference: {non_finite} non-finite pixels written as 0"
-        ));
-    }
-    say(&format!(
-        "reference: {:.2} s, written to {}",
-        result.stats.render_seconds + result.stats.prepare_seconds,
-        path.display()
-    ));
-    // Compare against what was written (f32), as a reused reference would be.
-    Ok(Reference {
-        pixels: read_reference(&path, width, height)?,
-        rel_mse: result.stats.relative_error.powi(2),
-    })
+/// `c.csv` -> `c_levels.csv`.
+fn levels_csv_path(path: &Path) -> PathBuf {
+    let stem = path.file_stem().map_or("".into(), |s| s.to_string_lossy());
+    let ext = path.extension().map_or("".into(), |s| s.to_string_lossy());
+    path.with_file_name(format!("{stem}_levels.{ext}"))
 }
 
-/// Renders `frame` of `scene` with no file I/O and returns it with its wall time: the median
-/// of several runs when one is short (the runs are bit-identical; the repeats only steady
-/// the clock).
-fn timed_render(
-    scene: &Scene,
-    (geometry, points): (&ShotGeometry, &FramePoints),
-    frame: u32,
-    denoiser: Option<&Denoiser>,
-) -> Result<(FrameResult, f64), Error> {
-    let mut times = Vec::new();
-    let mut result = None;
-    while times.len() < MAX_REPEATS {
-        let start = Instant::now();
-        let budget = Budget::default();
-        let r = render_shot_frame_with(scene, geometry, points, frame, &budget, denoiser, &|_| {})?;
-        times.push(start.elapsed().as_secs_f64());
-        result.get_or_insert(r);
-        if times.iter().sum::<f64>() >= SHORT_RUN_SECONDS * 2.0 || times[0] >= SHORT_RUN_SECONDS {
-            break;
+/// A point being measured: its renders' times and its seeds' figures so far.
+struct Run {
+    /// The series' index among the measured series.
+    index: usize,
+    kind: SeriesKind,
+    setting: Setting,
+    /// The scene of each seed.
+    scenes: Vec<Scene>,
+    /// Each render's (wall, CPU) seconds.
+    times: Vec<(f64, f64)>,
+    /// Each seed's figures.
+    figures: Vec<Figures>,
+    done: bool,
+}
+
+impl Run {
+    fn new(index: usize, kind: SeriesKind, setting: Setting, scenes: Vec<Scene>) -> Run {
+        Run {
+            index,
+            kind,
+            setting,
+            scenes,
+            times: Vec::new(),
+            figures: Vec::new(),
+            done: false,
         }
     }
-    times.sort_by(f64::total_cmp);
-    Ok((
-        result.expect("rendered at least once"),
-        times[times.len() / 2],
-    ))
+
+    /// The budget of a render of this point.
+    fn budget(&self) -> Budget {
+        match self.setting {
+            Setting::Samples(_) => Budget::default(),
+            Setting::Threshold(e) => Budget {
+                noise_threshold: Some(e),
+                max_samples: Some(DEFAULT_MAX_SAMPLES_FOR_THRESHOLD),
+                time_limit: None,
+            },
+        }
+    }
+
+    /// The point measured: medians of the times, means over the seeds.
+    fn point(&self) -> Point {
+        let over_seeds = |f: fn(&Figures) -> f64| {
+            Figure::mean_of(&self.figures.iter().map(f).collect::<Vec<_>>())
+        };
+        let wall = Figure::median_of(&self.times.iter().map(|t| t.0).collect::<Vec<_>>());
+        Point {
+            series: self.kind,
+            setting: self.setting,
+            samples: over_seeds(|f| f.samples).value,
+            seeds: self.figures.len(),
+            renders: self.times.len(),
+            seconds: wall.value,
+            wall,
+            cpu: Figure::median_of(&self.times.iter().map(|t| t.1).collect::<Vec<_>>()),
+            mse: over_seeds(|f| f.mse),
+            rel_mse: over_seeds(|f| f.rel_mse),
+            estimated_mse: over_seeds(|f| f.estimated_mse),
+            estimated_rel_mse: over_seeds(|f| f.estimated_rel_mse),
+            flip: over_seeds(|f| f.flip),
+            rel_mse_by_seed: self.figures.iter().map(|f| f.rel_mse).collect(),
+        }
+    }
 }
 
-fn default_reference_path(scene: &Scene, frame: u32, samples: u32, args: &ConvergeArgs) -> PathBuf {
-    let stem = scene
-        .source
-        .file_stem()
-        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
-    let dir = [&args.csv, &args.plot]
-        .into_iter()
-        .flatten()
-        .next()
-        .and_then(|p| p.parent())
-        .map(Path::to_path_buf)
-        .unwrap_or_default();
-    dir.join(format!("{stem}_frame{frame}_reference_{samples}spp.exr"))
+/// One render's figures.
+struct Figures {
+    samples: f64,
+    mse: f64,
+    rel_mse: f64,
+    estimated_mse: f64,
+    estimated_rel_mse: f64,
+    flip: f64,
+}
+
+/// The figures of one measured render against the references.
+fn figures(result: &FrameResult, references: &References) -> Figures {
+    let image = measured_image(result);
+    let (a, b) = (&references.a, &references.b);
+    let estimated_mse = match result.denoised {
+        // A denoised frame states its relative error only.
+        Some(_) => f64::NAN,
+        None => metrics::estimated_mse(&result.film.variances()),
+    };
+    Figures {
+        samples: result.stats.mean_samples_per_pixel,
+        mse: metrics::cross_mse(&image, a, b),
+        rel_mse: metrics::cross_rel_mse(&image, a, b),
+        estimated_mse,
+        estimated_rel_mse: result.stats.relative_error.powi(2),
+        flip: flip::mean_flip(
+            references.width,
+            references.height,
+            &references.mean_srgb,
+            &srgb8(&image),
+        ),
+    }
+}
+
+/// The image a render is measured by: the denoised frame when it was denoised, else the
+/// film's means.
+fn measured_image(result: &FrameResult) -> Vec<DVec3> {
+    match &result.denoised {
+        Some(d) => d
+            .rgb
+            .chunks_exact(3)
+            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+            .collect(),
+        None => result.film.means(),
+    }
+}
+
+/// An image as 8-bit sRGB, as a PNG frame holds it.
+fn srgb8(image: &[DVec3]) -> Vec<u8> {
+    image
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(|v| io::linear_to_srgb8(v as f32))
+        .collect()
+}
+
+/// Renders one variant of the frame, timed: the one place `converge` calls the renderer.
+/// Returns the frame and the wall and process CPU seconds of the call (preparation, tracing,
+/// and denoising when `denoiser` is given; no file I/O).
+fn render(
+    scene: &Scene,
+    (geometry, points): Shot,
+    frame: u32,
+    budget: &Budget,
+    denoiser: Option<&Denoiser>,
+) -> Result<(FrameResult, (f64, f64)), Error> {
+    let (wall, cpu) = (Instant::now(), cpu_seconds());
+    let job = FrameJob::new(scene, frame).points(points).budget(*budget);
+    let result = Finishing::new(scene, denoiser)?.render(job, geometry)?;
+    let times = (wall.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+    Ok((result, times))
+}
+
+/// The CPU time this process has used, all its threads (`CLOCK_PROCESS_CPUTIME_ID`).
+fn cpu_seconds() -> f64 {
+    let t = rustix::time::clock_gettime(rustix::time::ClockId::ProcessCPUTime);
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
+
+/// Renders the two references (the default sampler, seeds of their own, so that their noise
+/// is independent of each other's and of every measured render's), writes them to EXR and
+/// reads them back: the measurements are taken against the f32 values written, exactly as
+/// the same files given to `--reference` would give them.
+fn render_references(
+    scene: &Scene,
+    variant: &Variant,
+    shot: Shot,
+    frame: u32,
+    paths: &[PathBuf; 2],
+    args: &ConvergeArgs,
+    say: &dyn Fn(&str),
+) -> Result<References, Error> {
+    let samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
+    for (k, path) in paths.iter().enumerate() {
+        // 63 bits, as every seed a scene file or --seed can give.
+        let seed = hash_words(&[scene.render.seed, REFERENCE_SEED, k as u64]) >> 1;
+        let reference = variant(samples, seed, SamplerKind::default(), Finish::Raw)?;
+        say(&format!(
+            "reference {}: frame {frame}, {samples} samples per pixel, {} sampler...",
+            ["A", "B"][k],
+            reference.render.sampler
+        ));
+        let (result, (seconds, _)) = render(&reference, shot, frame, &Budget::default(), None)?;
+        let budget = Budget::default();
+        let non_finite = output::write_frame(path, Format::Exr, &reference, &result, &budget)?;
+        if non_finite > 0 {
+            say(&format!(
+                "reference: {non_finite} non-finite pixels written as 0"
+            ));
+        }
+        say(&format!(
+            "reference {}: {seconds:.2} s, estimated error {:.3}%, written to {}",
+            ["A", "B"][k],
+            100.0 * result.stats.relative_error,
+            path.display()
+        ));
+    }
+    read_references(scene, paths, say)
+}
+
+/// Reads the two references and checks them against the frame and each other.
+fn read_references(
+    scene: &Scene,
+    paths: &[PathBuf; 2],
+    say: &dyn Fn(&str),
+) -> Result<References, Error> {
+    let (width, height) = (scene.output.width, scene.output.height);
+    let a = read_reference(&paths[0], width, height)?;
+    let b = read_reference(&paths[1], width, height)?;
+    let mean: Vec<DVec3> = a.iter().zip(&b).map(|(a, b)| (*a + *b) * 0.5).collect();
+    // Their difference tells their own error: E[(A - B)^2] = 2 var, and the mean of the two
+    // has half the variance of one.
+    let own = metrics::rel_mse(&a, &b) / 4.0;
+    say(&format!(
+        "errors against the truth, estimated from the two references (their mean's own \
+         relative error {:.3}%, which the estimate leaves out)",
+        100.0 * own.sqrt()
+    ));
+    Ok(References {
+        mean_srgb: srgb8(&mean),
+        a,
+        b,
+        width,
+        height,
+    })
 }
 
 /// Reads the RGB channels of an EXR reference of the given size, as linear radiance.
 pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
     let bad = |message: String| Error::Usage(format!("reference {}: {message}", path.display()));
-    if !path.exists() {
-        return Err(bad(
-            "no such file (render one with --reference-samples)".into()
-        ));
-    }
+    check_readable(path).map_err(bad)?;
     let (w, h, pixels) = io::read_exr_rgb(path).map_err(bad)?;
     if (w, h) != (width as usize, height as usize) {
         return Err(bad(format!("is {w}x{h}, the frame is {width}x{height}")));
@@ -473,160 +612,9 @@ pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec
     Ok(pixels)
 }
 
-fn header(denoise: bool) -> String {
-    let denoised = if denoise {
-        format!(
-            " {:>9} {:>10} {:>10} {:>8}",
-            "dn. secs", "dn. error", "dn. est.", "est/true"
-        )
-    } else {
-        String::new()
-    };
-    format!(
-        "{:<12} {:>7} {:>9} {:>11} {:>11} {:>8} {:>10} {:>10} {:>8} {:>11}{denoised}",
-        "sampler",
-        "samples",
-        "seconds",
-        "RMSE",
-        "est. RMSE",
-        "est/RMSE",
-        "rel. error",
-        "est. error",
-        "est/true",
-        "efficiency"
-    )
-}
-
-/// One measurement's line: the absolute error (RMSE) and the relative error (the square
-/// root of the relative MSE, what a render prints as `est. error`), each against the
-/// reference and as estimated from the samples, with the estimate's ratio to the truth.
-fn row(m: &Measurement) -> String {
-    let ratio = |est: f64, truth: f64| {
-        if est.is_finite() {
-            format!("{:.3}", est / truth)
-        } else {
-            "-".into()
-        }
-    };
-    let (est, rel, est_rel) = (
-        m.estimated_mse.sqrt(),
-        m.rel_mse.sqrt(),
-        m.estimated_rel_mse.sqrt(),
-    );
-    let denoised = m.denoised.as_ref().map_or(String::new(), |d| {
-        let (true_rel, est) = (d.rel_mse.sqrt(), d.estimated_rel_mse.sqrt());
-        format!(
-            " {:>9.4} {:>9.3}% {:>9.3}% {:>8}",
-            d.seconds,
-            100.0 * true_rel,
-            100.0 * est,
-            ratio(est, true_rel)
-        )
-    });
-    format!(
-        "{:<12} {:>7} {:>9.4} {:>11.4e} {:>11.4e} {:>8} {:>9.3}% {:>9.3}% {:>8} {:>11.4e}{denoised}",
-        m.sampler.name(),
-        m.samples,
-        m.seconds,
-        m.mse.sqrt(),
-        est,
-        ratio(est, m.mse.sqrt()),
-        100.0 * rel,
-        100.0 * est_rel,
-        ratio(est_rel, rel),
-        m.efficiency()
-    )
-}
-
-fn fmt_slope(s: Option<f64>) -> String {
-    s.map_or("-".into(), |s| format!("{s:.3}"))
-}
-
-/// Slopes per sampler and equal-time comparisons with the first sampler.
-pub(crate) fn summary(report: &Report) -> String {
-    let mut s = String::new();
-    let kinds = report.samplers();
-    for &k in &kinds {
-        let runs = report.series(k);
-        let (by_samples, by_time) = slopes(&runs);
-        let _ = writeln!(
-            s,
-            "{k}: MSE slope {} against samples, {} against seconds",
-            fmt_slope(by_samples),
-            fmt_slope(by_time)
-        );
-    }
-    if let Some((&first, rest)) = kinds.split_first() {
-        for &k in rest {
-            let f = equal_time_factors(&report.series(first), &report.series(k));
-            if let Some(&(t, last)) = f.last() {
-                let mut all: Vec<f64> = f.iter().map(|p| p.1).collect();
-                all.sort_by(f64::total_cmp);
-                let _ = writeln!(
-                    s,
-                    "equal time: {first} MSE / {k} MSE = {last:.2} at {t:.3} s (median {:.2} over {} times)",
-                    all[all.len() / 2],
-                    all.len()
-                );
-            }
-        }
-    }
-    s.trim_end().to_string()
-}
-
-/// The measurements as CSV, one row per render.
-pub(crate) fn csv(report: &Report) -> String {
-    let mut s = String::from(
-        "sampler,samples,seconds,mse,rmse,rel_mse,estimated_mse,estimated_rmse,estimated_rel_mse,efficiency,denoised_seconds,denoised_mse,denoised_rel_mse,denoised_estimated_rel_mse\n",
-    );
-    let num = |v: f64| {
-        if v.is_finite() {
-            format!("{v:e}")
-        } else {
-            String::new()
-        }
-    };
-    for m in &report.runs {
-        let d = m.denoised.as_ref();
-        let dn = |f: fn(&DenoisedMeasurement) -> f64| d.map_or(String::new(), |d| num(f(d)));
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            m.sampler,
-            m.samples,
-            num(m.seconds),
-            num(m.mse),
-            num(m.mse.sqrt()),
-            num(m.rel_mse),
-            num(m.estimated_mse),
-            num(m.estimated_mse.sqrt()),
-            num(m.estimated_rel_mse),
-            num(m.efficiency()),
-            dn(|d| d.seconds),
-            dn(|d| d.mse),
-            dn(|d| d.rel_mse),
-            dn(|d| d.estimated_rel_mse)
-        );
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn m(sampler: SamplerKind, samples: u32, seconds: f64, mse: f64) -> Measurement {
-        Measurement {
-            sampler,
-            samples,
-            seconds,
-            mse,
-            rel_mse: mse,
-            estimated_mse: mse,
-            estimated_rel_mse: mse,
-            denoised: None,
-        }
-    }
 
     #[test]
     fn schedules_are_powers_of_two_then_the_maximum() {
@@ -637,60 +625,21 @@ mod tests {
     }
 
     #[test]
-    fn equal_time_factor_of_two_power_laws() {
-        // Base: MSE = 1 / t. Other: MSE = 1 / (4 t) at the same times, so 4x lower.
-        use SamplerKind::*;
-        let base: Vec<Measurement> = (0..5)
-            .map(|k| 2f64.powi(k))
-            .map(|t| m(Independent, 1, t, 1.0 / t))
-            .collect();
-        let other: Vec<Measurement> = [1.5, 3.0, 10.0, 100.0]
-            .into_iter()
-            .map(|t| m(Sobol, 1, t, 0.25 / t))
-            .collect();
-        let f = equal_time_factors(
-            &base.iter().collect::<Vec<_>>(),
-            &other.iter().collect::<Vec<_>>(),
+    fn the_levels_csv_sits_beside_the_points_csv() {
+        assert_eq!(
+            levels_csv_path(Path::new("data/c.csv")),
+            Path::new("data/c_levels.csv")
         );
-        // 100 s lies outside the base's times (1..16 s): not compared.
-        assert_eq!(f.len(), 3);
-        for (_, factor) in f {
-            assert!((factor - 4.0).abs() < 1e-9, "{factor}");
+    }
+
+    #[test]
+    fn cpu_time_counts_work() {
+        let start = cpu_seconds();
+        let mut x = 0u64;
+        for i in 0..20_000_000u64 {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(i));
         }
-    }
-
-    #[test]
-    fn efficiency_is_inverse_mse_times_seconds() {
-        assert_eq!(m(SamplerKind::Sobol, 4, 0.5, 0.01).efficiency(), 200.0);
-    }
-
-    #[test]
-    fn csv_has_a_row_per_run_and_leaves_unknowns_empty() {
-        let mut r = m(SamplerKind::Independent, 1, 0.5, 0.04);
-        r.estimated_mse = f64::INFINITY;
-        let report = Report {
-            runs: vec![r, m(SamplerKind::Sobol, 2, 1.0, 0.01)],
-        };
-        let text = csv(&report);
-        let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines.len(), 3);
-        // No denoised measurement: its four columns are empty.
-        assert_eq!(lines[1], "independent,1,5e-1,4e-2,2e-1,4e-2,,,4e-2,5e1,,,,");
-        assert!(lines[2].starts_with("sobol,2,1e0,1e-2,1e-1,"));
-        assert!(lines[2].ends_with(",,,,"));
-    }
-
-    #[test]
-    fn csv_rows_carry_the_denoised_measurement() {
-        let mut r = m(SamplerKind::Sobol, 4, 0.5, 0.04);
-        r.denoised = Some(DenoisedMeasurement {
-            seconds: 0.75,
-            mse: 0.01,
-            rel_mse: 0.0025,
-            estimated_rel_mse: 0.0016,
-        });
-        let text = csv(&Report { runs: vec![r] });
-        let row = text.lines().nth(1).unwrap();
-        assert!(row.ends_with(",7.5e-1,1e-2,2.5e-3,1.6e-3"), "{row}");
+        assert!(x != 1);
+        assert!(cpu_seconds() > start);
     }
 }

@@ -1,7 +1,8 @@
 //! `converge --flicker FRAMES`: how far a sequence is from the truth and how much it
 //! flickers, rendered raw, denoised frame by frame, and denoised with `--temporal`, against a
 //! reference of every frame (`analysis::metrics::flicker`), every render on the scene's
-//! device (`--device`).
+//! device (`--device`). Each frame is sampled once, keeping what `--temporal` reads, and
+//! finished three ways: raw, denoised, and denoised with its history.
 
 use std::time::Instant;
 
@@ -15,9 +16,7 @@ use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::gpu::Gpu;
 use crate::point_cache;
-use crate::renderer::{
-    Budget, FrameResult, ShotGeometry, TemporalDenoiser, render_shot_frame_with,
-};
+use crate::renderer::{Finishing, FrameJob, FrameResult, ShotGeometry};
 use crate::rng::hash_words;
 use crate::scene::{Device, Scene};
 use crate::scene_file::{Overrides, SceneSource};
@@ -61,19 +60,21 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         )));
     }
     let samples = args.max_samples.unwrap_or(base.render.samples);
-    let with = |samples: u32, seed: Option<u64>| {
+    let with = |samples: u32, seed: Option<u64>, temporal: Option<bool>| {
         source.scene(&Overrides {
             samples: Some(samples),
             seed: seed.or(overrides.seed),
             denoise: Some(true),
+            temporal,
             ..overrides.clone()
         })
     };
-    let scene = with(samples, None)?;
+    let scene = with(samples, None, None)?;
+    let temporal = with(samples, None, Some(true))?;
     let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
     let reference_seed = hash_words(&[scene.render.seed, 0x0066_6c69_636b_6572]) >> 1;
-    let reference = with(reference_samples, Some(reference_seed))?;
+    let reference = with(reference_samples, Some(reference_seed), None)?;
     let say = |s: &str| {
         if !args.scene_args.quiet {
             print_line(s);
@@ -90,7 +91,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
         ));
         let refs = references(&reference, &frames, gpu.as_ref())?;
-        measure(&scene, &frames, &refs, (&denoiser, gpu.as_ref()), &say)
+        measure([&scene, &temporal], &frames, &refs, (&denoiser, gpu.as_ref()), &say)
     })
 }
 
@@ -103,15 +104,10 @@ fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<Refere
     };
     for &frame in frames {
         let points = point_cache::read_frame(scene, frame)?;
-        let r = render_shot_frame_with(
-            scene,
-            &geometry,
-            &points,
-            frame,
-            &Budget::default(),
-            None,
-            &|_| {},
-        )?;
+        // Sampled and not finished: a reference is the raw frame.
+        let r = FrameJob::new(scene, frame)
+            .points(&points)
+            .sample(&geometry)?;
         refs.means.push(r.film.means());
         refs.variances.push(r.film.variances());
         refs.own.push(r.stats.relative_error.powi(2));
@@ -119,48 +115,40 @@ fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<Refere
     Ok(refs)
 }
 
+/// Renders the frames of `temporal` (`scene` with `--temporal`), each sampled once, and
+/// measures them finished raw, as `scene` finishes them and as `temporal` does.
 fn measure(
-    scene: &Scene,
+    [scene, temporal]: [&Scene; 2],
     frames: &[u32],
     refs: &References,
     (denoiser, gpu): (&Denoiser, Option<&Gpu>),
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
-    let geometry = ShotGeometry::new(scene, gpu)?;
-    let budget = Budget::default();
+    let geometry = ShotGeometry::new(temporal, gpu)?;
     let mut images: [Vec<Vec<DVec3>>; 3] = Default::default();
     let mut seconds = [0.0; 3];
-    let mut temporal = TemporalDenoiser::new(denoiser);
+    let mut denoised = Finishing::new(scene, Some(denoiser))?;
+    let mut history = Finishing::new(temporal, Some(denoiser))?;
     for &frame in frames {
+        // The frames before the first that its history reads: rendered, not measured.
+        for earlier in history.needs(frame) {
+            let points = point_cache::read_frame(temporal, earlier)?;
+            history.render(FrameJob::new(temporal, earlier).points(&points), &geometry)?;
+        }
+        let points = point_cache::read_frame(temporal, frame)?;
         let start = Instant::now();
-        let points = point_cache::read_frame(scene, frame)?;
-        let result = render_shot_frame_with(
-            scene,
-            &geometry,
-            &points,
-            frame,
-            &budget,
-            Some(denoiser),
-            &|_| {},
-        )?;
-        let denoise_seconds = result.stats.denoise_seconds;
-        let all = start.elapsed().as_secs_f64();
-        seconds[0] += all - denoise_seconds;
-        seconds[1] += all;
-        images[0].push(result.film.means());
-        images[1].push(denoised_image(&result));
-        let start = Instant::now();
-        let result = temporal.render(
-            scene,
-            &geometry,
-            &points,
-            &|k| point_cache::read_frame(scene, k),
-            frame,
-            &budget,
-            &|_| {},
-        )?;
-        seconds[2] += start.elapsed().as_secs_f64();
-        images[2].push(denoised_image(&result));
+        let raw = FrameJob::new(temporal, frame)
+            .points(&points)
+            .sample(&geometry)?;
+        let sampled = start.elapsed().as_secs_f64();
+        seconds[0] += sampled;
+        images[0].push(raw.film.means());
+        for (k, finishing) in [&mut denoised, &mut history].into_iter().enumerate() {
+            let start = Instant::now();
+            let result = finishing.finish(raw.clone())?;
+            seconds[k + 1] += sampled + start.elapsed().as_secs_f64();
+            images[k + 1].push(denoised_image(&result));
+        }
     }
     let names = ["raw", "denoised", "denoised --temporal"];
     say(&format!(

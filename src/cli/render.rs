@@ -17,9 +17,7 @@ use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
 use crate::point_cache;
-use crate::renderer::{
-    FrameResult, FrameStats, ShotGeometry, TemporalDenoiser, render_shot_frame_with,
-};
+use crate::renderer::{Finishing, FrameJob, FrameResult, FrameStats, ShotGeometry};
 use crate::scene::{Device, Scene};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
@@ -50,12 +48,6 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let shots = load_shots(&args.scenes, &args.overrides(), args.frames.as_ref(), chunk)?;
     let mut estimate = 0;
     for shot in &shots {
-        if args.temporal && !shot.scene.output.denoise {
-            return Err(Error::Usage(format!(
-                "{}: --temporal denoises each frame with the frames before it, and this shot is not denoised: add --denoise (or [output] denoise = true)",
-                elide_path(&shot.path)
-            )));
-        }
         estimate = estimate.max(check_memory(&shot.scene, shot.points)?);
         if let Some(c) = &shot.scene.output.clip
             && !args.no_clip
@@ -97,7 +89,7 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let mut run = RunSummary::default();
     // The denoiser is started once, before any frame is rendered: if it cannot start, nothing
     // is written.
-    let denoiser = match shots.iter().any(|s| s.scene.output.denoise) {
+    let denoiser = match shots.iter().any(|s| s.scene.output.denoise.is_some()) {
         true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
         false => None,
     };
@@ -190,9 +182,7 @@ fn render_shot(
     let start = Instant::now();
     let budget = args.budget.budget();
     let geometry = ShotGeometry::new(scene, gpu)?;
-    let mut temporal = denoiser
-        .filter(|_| args.temporal && scene.output.denoise)
-        .map(TemporalDenoiser::new);
+    let mut finishing = Finishing::new(scene, denoiser)?;
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
     for (frame, path) in targets.iter() {
@@ -218,6 +208,16 @@ fn render_shot(
                 )),
             }
         }
+        // Frames this one's history reads, where this run has not rendered them: rendered
+        // and finished as they would be in sequence, not written.
+        for earlier in finishing.needs(frame) {
+            let points = point_cache::read_frame(scene, earlier)?;
+            let job = FrameJob::new(scene, earlier).points(&points).budget(budget);
+            finishing.render(job, &geometry)?;
+            progress.line(&format!(
+                "frame {earlier}: rendered for frame {frame}'s history, not written"
+            ));
+        }
         // The frame's points, read and checked (their files were surveyed before the run).
         let read_start = Instant::now();
         let points = point_cache::read_frame(scene, frame)?;
@@ -226,26 +226,12 @@ fn render_shot(
             scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
         });
         let bar = progress.start_frame(frame, planned);
-        let result = match &mut temporal {
-            Some(t) => t.render(
-                scene,
-                &geometry,
-                &points,
-                &|k| point_cache::read_frame(scene, k),
-                frame,
-                &budget,
-                &|n| bar.inc(n),
-            ),
-            None => render_shot_frame_with(
-                scene,
-                &geometry,
-                &points,
-                frame,
-                &budget,
-                denoiser.filter(|_| scene.output.denoise),
-                &|n| bar.inc(n),
-            ),
-        };
+        let progress_bar = |n| bar.inc(n);
+        let job = FrameJob::new(scene, frame)
+            .points(&points)
+            .budget(budget)
+            .progress(&progress_bar);
+        let result = finishing.render(job, &geometry);
         let point_count = points.len();
         drop(points);
         bar.finish_and_clear();
@@ -299,15 +285,13 @@ fn spp_note(st: &FrameStats) -> String {
 }
 
 /// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
-/// (3.456% before)`, `1.234% denoised over 2.9 frames (3.456% before)` with --temporal.
+/// (3.456% before)`.
 fn error_note(result: &FrameResult) -> String {
     let st = &result.stats;
     match &result.denoised {
-        Some(d) => format!(
-            "{} denoised{} ({} before)",
+        Some(_) => format!(
+            "{} denoised ({} before)",
             percent(st.relative_error),
-            d.frames_averaged
-                .map_or(String::new(), |f| format!(" over {f:.1} frames")),
             percent(st.noisy_relative_error)
         ),
         None => percent(st.relative_error),
@@ -350,8 +334,13 @@ fn gpu_note(st: &FrameStats) -> String {
 fn stats_line(frame: u32, st: &FrameStats, device: Device, read: Option<(f64, usize)>) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
-    let denoise = if st.denoise_seconds > 0.0 {
-        format!(" (denoising {:.3} s)", st.denoise_seconds)
+    let denoise = if st.denoises > 0 {
+        format!(
+            " (denoising {:.3} s, {} denoise{})",
+            st.denoise_seconds,
+            st.denoises,
+            if st.denoises == 1 { "" } else { "s" }
+        )
     } else {
         String::new()
     };

@@ -1,90 +1,109 @@
-//! The denoised-error estimate against the truth, on synthetic frames denoised by OIDN: the
-//! estimate of `D(F)`'s relative error must be within 25 percent of its true relative error
-//! (`analysis::metrics::rel_mse` against the known image).
+//! The written frame and its stated error against the truth, on synthetic frames denoised by
+//! OIDN: the stated error must be within 25 percent of the written frame's true relative
+//! error (`analysis::metrics::rel_mse` against the known image), and the written frame no
+//! further from the truth than the raw one.
 
-use super::denoiser::{Denoiser, Guides};
-use super::estimate::{PixelInputs, frame_relative_error, relative_squared_errors, tile_means};
+use super::denoiser::{DenoiseQuality, Denoiser};
+use super::estimate::{Blend, Snapshot};
 use super::synthetic::{self, Frame, from_f32, to_f32};
 use crate::analysis::metrics::rel_mse;
-use glam::DVec3;
 
-/// (estimated, true) relative error of the denoised full frame, and the per-pixel estimates
-/// and true relative squared errors.
-fn estimate_and_truth(frame: &Frame) -> (f64, f64, Vec<f64>, Vec<f64>) {
+/// The frame written from `frame` (its halves denoised at the default quality) and its true
+/// relative error.
+fn written(frame: &Frame) -> (Blend, f64) {
     let denoiser = Denoiser::new().unwrap();
-    let (a, b, full) = (to_f32(&frame.a), to_f32(&frame.b), to_f32(&frame.full()));
-    let guides = Guides {
-        albedo: &frame.albedo,
-        normal: &frame.normal,
-    };
-    let d = denoiser
-        .denoise_all(frame.width, frame.height, &[&a, &b, &full], guides)
+    let filter = denoiser
+        .filter(frame.width, frame.height, DenoiseQuality::default())
         .unwrap();
-    let (da, db, df) = (from_f32(&d[0]), from_f32(&d[1]), from_f32(&d[2]));
-    let variances = frame.variances();
-    let pixels: Vec<PixelInputs> = (0..frame.truth.len())
-        .map(|i| PixelInputs {
-            a: frame.a[i],
-            b: frame.b[i],
-            samples: frame.samples,
-            variance_of_mean: variances[i],
-            denoised_a: da[i],
-            denoised_b: db[i],
-        })
-        .collect();
-    let estimate = frame_relative_error(&pixels, &df, frame.width);
-    let truth = rel_mse(&df, &frame.truth).sqrt();
-    let per_pixel_truth = df
+    let halves = frame.halves();
+    let da = filter.run(&to_f32(&frame.a)).unwrap();
+    let db = filter.run(&to_f32(&frame.b)).unwrap();
+    let blend = Snapshot::new(frame.width, &halves, &da, &db).blend(&halves);
+    let truth = rel_mse(&from_f32(&blend.rgb), &frame.truth).sqrt();
+    (blend, truth)
+}
+
+/// The written frame of `frame`, checked never further from the truth than the raw frame;
+/// returns it with its stated and true relative MSE.
+fn check(name: &str, frame: &Frame) -> (Blend, f64, f64) {
+    let noisy = rel_mse(&frame.full(), &frame.truth).sqrt();
+    let (blend, truth) = written(frame);
+    let stated = blend.relative_error;
+    eprintln!(
+        "{name}: raw {:.3}%, written {:.3}% (denoised share {:.2}), stated {:.3}% (ratio {:.3})",
+        noisy * 100.0,
+        truth * 100.0,
+        blend.denoised_share,
+        stated * 100.0,
+        stated / truth
+    );
+    assert!(truth <= noisy, "written {truth}, raw {noisy}");
+    (blend, stated * stated, truth * truth)
+}
+
+/// Checks the frames of `truth_at` with `noise` over eight seeds: each written frame no
+/// further from the truth than its raw frame, and the stated relative error (the root of the
+/// relative MSE summed over the seeds) within `bound` of the true one.
+///
+/// One frame's statement is itself noisy: where the denoiser removes nearly all of the noise,
+/// its error is a small difference of large noisy terms (their noise is the product of the
+/// two halves' noise, `η_a η_b`, per pixel: with the denoised error at a fiftieth of a half's
+/// variance, a 128x96 frame's statement is good to about half of itself). So the statement is
+/// checked for bias, over seeds, and the spread of one statement is printed.
+fn check_seeds(name: &str, truth_at: fn(usize, usize) -> glam::DVec3, noise: f64, bound: f64) {
+    let (mut stated, mut truth) = (0.0, 0.0);
+    for seed in 0..8 {
+        let (_, s, t) = check(
+            name,
+            &synthetic::frame(128, 96, truth_at, noise, 100 + seed),
+        );
+        stated += s;
+        truth += t;
+    }
+    let ratio = (stated / truth).sqrt();
+    eprintln!("{name}: stated / true relative error over 8 seeds {ratio:.3}");
+    assert!(
+        (ratio - 1.0).abs() < bound,
+        "{name}: stated {stated}, true {truth} (relative MSE, summed over the seeds)"
+    );
+}
+
+#[test]
+fn the_statement_is_unbiased_on_a_smooth_image() {
+    check_seeds("smooth", synthetic::smooth, 0.3, 0.1);
+    let (blend, _, _) = check(
+        "smooth",
+        &synthetic::frame(128, 96, synthetic::smooth, 0.3, 1),
+    );
+    // Smooth: the denoiser is nearly all of it.
+    assert!(blend.denoised_share > 0.8, "{}", blend.denoised_share);
+}
+
+#[test]
+fn the_statement_is_within_a_quarter_on_edges_and_on_a_very_noisy_frame() {
+    // A checkerboard of 8:1 contrast with a brighter disk on it: the relative error divides
+    // by a stand-in for the true value that edges blur (estimate.rs), and the statement
+    // reads low, measured 0.76 to 0.8 of the truth; real frames' edges are softer
+    // (tests/denoise_estimate.rs).
+    check_seeds("edges", synthetic::edges, 0.5, 0.25);
+    // 140 percent noise in the full frame: the denoiser blurs dark squares up beside the
+    // bright disk, which the stand-in for the true value must not follow (see estimate.rs).
+    check_seeds("edges, very noisy", synthetic::edges, 2.0, 0.25);
+}
+
+#[test]
+fn the_statement_sees_the_bias_at_edges() {
+    // The denoiser finds the edges in the noisy colour alone and blurs them, so bias is a
+    // large part of its error there: the per-pixel errors the adaptive rounds read rank the
+    // edges worst.
+    let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, 2);
+    let (blend, _, _) = check("edges", &frame);
+    let truth: Vec<f64> = from_f32(&blend.rgb)
         .iter()
         .zip(&frame.truth)
         .map(|(d, t)| rel_mse(&[*d], &[*t]))
         .collect();
-    (
-        estimate,
-        truth,
-        relative_squared_errors(&pixels, &df, frame.width),
-        per_pixel_truth,
-    )
-}
-
-fn check(name: &str, frame: &Frame) -> (Vec<f64>, Vec<f64>) {
-    let noisy = rel_mse(&frame.full(), &frame.truth).sqrt();
-    let (estimate, truth, map, true_map) = estimate_and_truth(frame);
-    eprintln!(
-        "{name}: noisy {:.3}%, denoised true {:.3}%, estimated {:.3}% (ratio {:.3})",
-        noisy * 100.0,
-        truth * 100.0,
-        estimate * 100.0,
-        estimate / truth
-    );
-    assert!(
-        truth < 0.75 * noisy,
-        "the denoiser did little: {truth} vs {noisy}"
-    );
-    assert!(
-        (estimate / truth - 1.0).abs() < 0.25,
-        "{name}: estimated {estimate}, true {truth}"
-    );
-    (map, true_map)
-}
-
-#[test]
-fn the_estimate_is_within_a_quarter_on_a_smooth_image() {
-    check(
-        "smooth",
-        &synthetic::frame(128, 96, synthetic::smooth, 0.3, false, 1),
-    );
-}
-
-#[test]
-fn the_estimate_sees_the_bias_at_edges() {
-    // Flat guides: the denoiser finds the edges in the noisy colour alone and blurs them,
-    // so bias is a large part of its error.
-    let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, false, 2);
-    let (map, true_map) = check("edges, flat guides", &frame);
-    // Per 16-pixel tile: the tiles the estimate ranks worst are the truly worst (the disk's
-    // rim and the squares' corners), compared by the mean true error of the top quarter.
-    let (est, truth) = (tile_means(&map, 128, 16), tile_means(&true_map, 128, 16));
+    let (est, truth) = (tile_means(&blend.pixel_errors), tile_means(&truth));
     let mut order: Vec<usize> = (0..est.len()).collect();
     order.sort_by(|&i, &j| est[j].total_cmp(&est[i]));
     let top = &order[..est.len() / 4];
@@ -95,62 +114,44 @@ fn the_estimate_sees_the_bias_at_edges() {
 }
 
 #[test]
-fn the_estimate_errs_high_where_the_albedo_shows_the_whole_image() {
-    // An albedo guide that holds the true image itself (no lighting of its own): the denoiser
-    // recovers nearly all of it, and its error falls faster with samples than the
-    // `n^(-2/3)` the estimate carries from a half to the full frame (estimate.rs), so the
-    // estimate errs high, by a bounded factor. Real frames' lighting is not in their albedo.
-    let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, true, 3);
-    let (estimate, truth, _, _) = estimate_and_truth(&frame);
-    eprintln!("edges, albedo is the image: estimated {estimate}, true {truth}");
-    assert!(
-        (1.0..1.5).contains(&(estimate / truth)),
-        "estimated {estimate}, true {truth}"
-    );
+fn with_little_noise_the_written_frame_keeps_the_raw_one() {
+    // At 2 percent noise the denoiser's bias at edges outweighs the noise it removes there:
+    // the written frame leans to the raw one, and is no further from the truth than it.
+    let frame = synthetic::frame(128, 96, synthetic::edges, 0.02, 6);
+    let (blend, _, _) = check("edges, 2 percent noise", &frame);
+    assert!(blend.denoised_share < 0.8, "{}", blend.denoised_share);
+}
+
+/// The mean of a 128-pixel-wide map over each 16 x 16 tile.
+fn tile_means(values: &[f64]) -> Vec<f64> {
+    let (width, tile) = (128, 16);
+    let height = values.len() / width;
+    let tiles_x = width / tile;
+    let mut sums = vec![0.0; tiles_x * height.div_ceil(tile)];
+    for (i, v) in values.iter().enumerate() {
+        sums[(i / width / tile) * tiles_x + (i % width) / tile] += v;
+    }
+    sums.into_iter().map(|s| s / (tile * tile) as f64).collect()
 }
 
 #[test]
-fn the_estimate_is_within_a_quarter_on_a_very_noisy_frame_with_edges() {
-    // 140 percent noise in the full frame: the denoiser blurs dark squares up beside the
-    // bright disk, which the stand-in for the true value must not follow (see estimate.rs).
-    check(
-        "edges, flat guides, very noisy",
-        &synthetic::frame(128, 96, synthetic::edges, 2.0, false, 5),
-    );
-}
-
-#[test]
-fn noise_only_is_not_all_the_error() {
-    // The denoised halves' difference alone (the noise left) misses the bias: on the edges
-    // with flat guides it is well below the true error, which the full estimate matches.
-    let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, false, 4);
+fn the_mean_of_denoised_halves_is_what_is_blended() {
+    // One pixel-level identity the module's derivation rests on: the snapshot's denoised
+    // frame is the halves' denoised images averaged by their shares.
+    let frame = synthetic::frame(32, 24, synthetic::smooth, 0.3, 7);
     let denoiser = Denoiser::new().unwrap();
-    let guides = Guides {
-        albedo: &frame.albedo,
-        normal: &frame.normal,
-    };
-    let (a, b, full) = (to_f32(&frame.a), to_f32(&frame.b), to_f32(&frame.full()));
-    let d = denoiser
-        .denoise_all(frame.width, frame.height, &[&a, &b, &full], guides)
-        .unwrap();
-    let (da, db, df) = (from_f32(&d[0]), from_f32(&d[1]), from_f32(&d[2]));
-    // The noise of D(F) alone: (D(a) - D(b))^2 / 4, relative.
-    let noise_only: Vec<DVec3> = da
-        .iter()
-        .zip(&db)
-        .map(|(x, y)| (*x - *y) * (*x - *y) / 4.0)
-        .collect();
-    let noise = noise_only
-        .iter()
-        .zip(&df)
-        .map(|(v, m)| crate::analysis::metrics::estimated_rel_mse_term(*m, *v))
-        .sum::<f64>()
-        / df.len() as f64;
-    let truth = rel_mse(&df, &frame.truth);
-    eprintln!(
-        "noise only {:.3}%, true {:.3}%",
-        noise.sqrt() * 100.0,
-        truth.sqrt() * 100.0
+    let filter = denoiser.filter(32, 24, DenoiseQuality::Fast).unwrap();
+    let (da, db) = (
+        filter.run(&to_f32(&frame.a)).unwrap(),
+        filter.run(&to_f32(&frame.b)).unwrap(),
     );
-    assert!(noise.sqrt() < 0.75 * truth.sqrt());
+    let snapshot = Snapshot::new(32, &frame.halves(), &da, &db);
+    let mean: Vec<f32> = da.iter().zip(&db).map(|(a, b)| 0.5 * a + 0.5 * b).collect();
+    let got = snapshot.denoised_rgb();
+    let worst = got
+        .iter()
+        .zip(&mean)
+        .map(|(g, m)| (g - m).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-5, "{worst}");
 }

@@ -1,9 +1,11 @@
-//! Denoising frames ([`denoiser`]: Intel Open Image Denoise), estimating the denoised
-//! frame's error, bias included, from the film's two replicates ([`estimate`]), and carrying
-//! a frame's pixels to the frames before it for temporal denoising ([`reproject`]).
+//! Denoising frames ([`denoiser`]: Intel Open Image Denoise), the written frame blended from
+//! the raw and denoised frames with its error estimated from the film's two replicates
+//! ([`estimate`]), and `--temporal`'s combination of a frame with its earlier frames
+//! ([`reproject`] carries them to its pixels, [`history`] weighs them).
 
 pub mod denoiser;
 pub mod estimate;
+pub mod history;
 pub mod reproject;
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
-//! Test images with a known truth: a true image, two replicates with seeded Gaussian noise of
-//! known variance, and guides. For the denoiser's and the estimate's tests.
+//! Test images with a known truth: a true image and two replicates with seeded noise of known
+//! variance. For the denoiser's and the estimate's tests.
 
 use crate::rng::Pcg32;
 use glam::DVec3;
@@ -14,8 +14,6 @@ pub struct Frame {
     pub b: Vec<DVec3>,
     /// Samples per pixel (half in each replicate).
     pub samples: u32,
-    pub albedo: Vec<f32>,
-    pub normal: Vec<f32>,
 }
 
 /// A smooth image: slow waves between about 0.1 and 0.7.
@@ -48,15 +46,12 @@ fn gaussian(rng: &mut Pcg32) -> f64 {
 
 /// A `width` x `height` frame of `truth` whose replicates each carry noise of standard
 /// deviation `noise * truth` per channel (noise growing with brightness, as a path tracer's):
-/// the truth times seeded log-normal factors. The guides: the truth's shape as albedo (scaled into [0, 1]) when
-/// `albedo_shows_truth`, else a flat 0.5 that tells the denoiser nothing; the normal faces the
-/// camera everywhere.
+/// the truth times seeded log-normal factors.
 pub fn frame(
     width: usize,
     height: usize,
     truth_at: fn(usize, usize) -> DVec3,
     noise: f64,
-    albedo_shows_truth: bool,
     seed: u64,
 ) -> Frame {
     let mut rng = Pcg32::new(seed, 7);
@@ -70,18 +65,6 @@ pub fn frame(
     let mut noisy = |t: DVec3| t * DVec3::new(factor(), factor(), factor());
     let a: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
     let b: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
-    let albedo = truth
-        .iter()
-        .flat_map(|t| {
-            let v = if albedo_shows_truth {
-                (*t / 2.0).min(DVec3::ONE)
-            } else {
-                DVec3::splat(0.5)
-            };
-            [v.x as f32, v.y as f32, v.z as f32]
-        })
-        .collect();
-    let normal = (0..width * height).flat_map(|_| [0.0, 0.0, 1.0]).collect();
     Frame {
         width,
         height,
@@ -89,8 +72,6 @@ pub fn frame(
         a,
         b,
         samples: 16,
-        albedo,
-        normal,
     }
 }
 
@@ -101,6 +82,16 @@ impl Frame {
             .iter()
             .zip(&self.b)
             .map(|(a, b)| (*a + *b) * 0.5)
+            .collect()
+    }
+
+    /// Each pixel's replicates as a film holds them.
+    pub fn halves(&self) -> Vec<crate::replicates::Halves> {
+        self.a
+            .iter()
+            .zip(&self.b)
+            .zip(self.variances())
+            .map(|((a, b), v)| crate::replicates::Halves::new(*a, *b, self.samples, v))
             .collect()
     }
 

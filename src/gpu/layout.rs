@@ -42,39 +42,39 @@ pub(super) const H_BACKGROUND: u32 = 11;
 pub(super) const H_PERIOD: u32 = 14;
 /// Pass sums per pixel.
 pub(super) const H_STRIDE: u32 = 15;
-/// Six words: where the hit count, depth, normal, albedo, motion and guides sums start in a
-/// pixel's run ([`NONE`]: not kept).
+/// Five words: where the hit count, depth, normal, albedo and motion sums start in a pixel's
+/// run ([`NONE`]: not kept), as [`crate::passes::Slots`] lists them.
 pub(super) const H_SLOTS: u32 = 16;
 /// The camera's view when it does not move during the frame, 19 words: lens centre, right,
 /// up, centre of pixel (0, 0), steps right and down (3 each), lens radius.
-pub(super) const H_VIEW: u32 = 22;
+pub(super) const H_VIEW: u32 = 21;
 /// The camera's motion records (look_from, look_at), prepared over the frame's interval
 /// widened by one frame period each side (for the motion pass).
-pub(super) const H_CAM_FROM: u32 = 41;
-pub(super) const H_CAM_AT: u32 = 42;
+pub(super) const H_CAM_FROM: u32 = 40;
+pub(super) const H_CAM_AT: u32 = 41;
 /// Three words: the camera's up vector.
-pub(super) const H_CAM_UP: u32 = 43;
+pub(super) const H_CAM_UP: u32 = 42;
 /// tan(vfov / 2).
-pub(super) const H_CAM_TAN: u32 = 46;
-pub(super) const H_CAM_LENS: u32 = 47;
+pub(super) const H_CAM_TAN: u32 = 45;
+pub(super) const H_CAM_LENS: u32 = 46;
 /// The focus distance, when the scene gives one ([`F_FOCUS`]).
-pub(super) const H_CAM_FOCUS: u32 = 48;
+pub(super) const H_CAM_FOCUS: u32 = 47;
 /// The still spheres and their hierarchy's entries, in the shot buffer.
-pub(super) const H_STILL_SPHERES: u32 = 49;
-pub(super) const H_STILL_ENTRIES: u32 = 50;
-pub(super) const H_STILL_ENTRY_N: u32 = 51;
+pub(super) const H_STILL_SPHERES: u32 = 48;
+pub(super) const H_STILL_ENTRIES: u32 = 49;
+pub(super) const H_STILL_ENTRY_N: u32 = 50;
 /// The animated spheres and their hierarchy's entries, in the frame buffer.
-pub(super) const H_MOVING_SPHERES: u32 = 52;
-pub(super) const H_MOVING_ENTRIES: u32 = 53;
-pub(super) const H_MOVING_ENTRY_N: u32 = 54;
+pub(super) const H_MOVING_SPHERES: u32 = 51;
+pub(super) const H_MOVING_ENTRIES: u32 = 52;
+pub(super) const H_MOVING_ENTRY_N: u32 = 53;
 /// The materials and the Sobol tables, in the shot buffer.
-pub(super) const H_MATERIALS: u32 = 55;
-pub(super) const H_TABLES: u32 = 56;
+pub(super) const H_MATERIALS: u32 = 54;
+pub(super) const H_TABLES: u32 = 55;
 /// Per sphere of the scene, its motion record over the widened interval for the motion
 /// pass ([`NONE`]: the sphere never moves).
-pub(super) const H_PASS_MOTIONS: u32 = 57;
+pub(super) const H_PASS_MOTIONS: u32 = 56;
 /// Words in the header.
-pub(super) const HEADER_WORDS: u32 = 58;
+pub(super) const HEADER_WORDS: u32 = 57;
 
 // Flags (`H_FLAGS`).
 pub(super) const F_SOBOL: u32 = 1;
@@ -216,8 +216,9 @@ pub(super) const SLOT_BYTES: u64 = 256;
 /// The test entry point's words per sample (trace.wgsl, numbers).
 pub(super) const NUMBERS: u32 = 17;
 
-/// Pass sums a pixel may have, at most (every pass and the guides).
-pub(super) const MAX_STRIDE: u32 = 24;
+/// Pass sums a pixel may have, at most: every pass's ([`crate::passes::Layout`]: the hit
+/// count, depth, normal, albedo and motion).
+pub(super) const MAX_STRIDE: u32 = 12;
 
 /// Threads of a workgroup.
 pub(super) const WORKGROUP: u32 = 64;
@@ -494,7 +495,7 @@ mod tests {
             (H_BACKGROUND, 3),
             (H_PERIOD, 1),
             (H_STRIDE, 1),
-            (H_SLOTS, 6),
+            (H_SLOTS, 5),
             (H_VIEW, 19),
             (H_CAM_FROM, 1),
             (H_CAM_AT, 1),
@@ -520,9 +521,9 @@ mod tests {
         assert_eq!(next, HEADER_WORDS);
         for counting in [Counting::Subgroups, Counting::Atomics] {
             let text = wgsl_prelude(counting);
-            assert!(text.contains("const H_VIEW: u32 = 22u;\n"));
-            assert!(text.contains("if g_stride > 23u { store_pass(23u, i, px); }"));
-            assert!(!text.contains("24u, i"));
+            assert!(text.contains("const H_VIEW: u32 = 21u;\n"));
+            assert!(text.contains("if g_stride > 11u { store_pass(11u, i, px); }"));
+            assert!(!text.contains("12u, i"));
             assert_eq!(
                 text.contains("subgroupAdd"),
                 counting == Counting::Subgroups

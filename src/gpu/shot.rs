@@ -9,8 +9,8 @@
 //! dispatches are in flight: the next is recorded and submitted while the last runs, and
 //! the host's work per dispatch is a few numbers, never a sample's.
 
-use std::cell::Cell;
 use std::collections::VecDeque;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use super::context::{Gpu, GpuError, classify};
@@ -30,8 +30,9 @@ pub struct GpuShot {
     gpu: Gpu,
     words: ShotWords,
     buffer: wgpu::Buffer,
-    /// The device's pace, carried from frame to frame.
-    pace: Cell<Pace>,
+    /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
+    /// the threads of a run, one frame at a time).
+    pace: Mutex<Pace>,
 }
 
 /// What one round on the GPU did.
@@ -57,7 +58,7 @@ impl GpuShot {
             gpu: gpu.clone(),
             words,
             buffer,
-            pace: Cell::new(Pace::default()),
+            pace: Mutex::new(Pace::default()),
         })
     }
 
@@ -206,7 +207,7 @@ impl GpuFrame<'_> {
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<(), GpuError> {
         let gpu = &self.shot.gpu;
-        let mut pace = self.shot.pace.get();
+        let mut pace = self.shot.pace();
         let mut in_flight: VecDeque<Submitted> = VecDeque::new();
         let mut slot = 0;
         // When the last dispatch came back.
@@ -253,7 +254,7 @@ impl GpuFrame<'_> {
             counts.non_finite += c.non_finite;
             progress(c.samples);
         }
-        self.shot.pace.set(pace);
+        self.shot.set_pace(pace);
         Ok(())
     }
 
@@ -269,11 +270,15 @@ impl GpuFrame<'_> {
     }
 }
 
-#[cfg(test)]
 impl GpuShot {
+    /// The device's pace the next frame begins with.
+    fn pace(&self) -> Pace {
+        *self.pace.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
     /// Sets the device's pace the next frame begins with.
     pub(super) fn set_pace(&self, pace: Pace) {
-        self.pace.set(pace);
+        *self.pace.lock().unwrap_or_else(|e| e.into_inner()) = pace;
     }
 }
 

@@ -243,21 +243,15 @@ fn buffer_bytes(scene: &Scene) -> u64 {
 
 /// Bytes a frame of `scene` holds for the GPU beyond what the CPU's path holds, counted on the
 /// host, where a software device (lavapipe) keeps its buffers and a hardware one its
-/// read-back buffers: the driver's own ([`GPU_FLOOR_BYTES`]); the shot's and the frame's
+/// read-back buffers, for a film of `stride` pass sums a pixel (those written and those its
+/// finishing reads): the driver's own ([`GPU_FLOOR_BYTES`]); the shot's and the frame's
 /// words, as written, as copied for the upload and on the device; the film on the device
 /// with its read-back buffers and work entries; each round's per-pixel targets.
-pub fn frame_bytes(scene: &Scene) -> u64 {
-    use crate::passes::Layout;
+pub fn frame_bytes(scene: &Scene, stride: usize) -> u64 {
     let pixels = scene.output.width as u64 * scene.output.height as u64;
-    // The most pass sums a frame of the scene keeps: with denoising, the guides and what
-    // temporal denoising keeps.
-    let layout = match scene.output.denoise {
-        true => Layout::for_denoising(scene.output.passes, true),
-        false => Layout::new(scene.output.passes),
-    };
     GPU_FLOOR_BYTES
         + 3 * buffer_bytes(scene)
-        + super::device_film::film_bytes(pixels, layout.stride as u32)
+        + super::device_film::film_bytes(pixels, stride as u32)
         + 4 * pixels
 }
 

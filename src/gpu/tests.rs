@@ -11,7 +11,7 @@ use crate::pass::PassSet;
 use crate::passes::Layout;
 use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
-use crate::renderer::{Budget, FrameResult, ShotGeometry, render_shot_frame};
+use crate::renderer::{FrameJob, FrameResult, ShotGeometry};
 use crate::sampler::{CameraUse, IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::{Device, Scene};
 use crate::world::StaticGeometry;
@@ -99,7 +99,8 @@ fn render(gpu: &Gpu, scene: &Scene, frame: u32, pace: Option<Pace>) -> FrameResu
     if let (ShotGeometry::Gpu(_, shot), Some(pace)) = (&geometry, pace) {
         shot.set_pace(pace);
     }
-    render_shot_frame(scene, &geometry, frame, &Budget::default(), None, &|_| {})
+    FrameJob::new(scene, frame)
+        .sample(&geometry)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -160,7 +161,7 @@ fn paths_take_max_depth_bounces_or_the_device_says_it_cannot() {
     assert_eq!(r.stats.rays, 12 * 2000);
     let scene = on_gpu(&text(40_000));
     let geometry = ShotGeometry::new(&scene, Some(gpu)).unwrap();
-    let result = render_shot_frame(&scene, &geometry, 1, &Budget::default(), None, &|_| {});
+    let result = FrameJob::new(&scene, 1).sample(&geometry);
     match (gpu.is_software(), result) {
         (true, Err(e)) => {
             let e = e.to_string();

@@ -209,7 +209,7 @@ impl FrameWords {
         w.set_f(H_PERIOD, period);
         w.set(H_STRIDE, layout.stride as u32);
         let s = layout.slots();
-        for (i, slot) in [s.hits, s.depth, s.normal, s.albedo, s.motion, s.guides]
+        for (i, slot) in [s.hits, s.depth, s.normal, s.albedo, s.motion]
             .into_iter()
             .enumerate()
         {

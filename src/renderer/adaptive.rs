@@ -18,12 +18,13 @@ pub(super) enum Plan<'w> {
 
 /// What weighs a pixel in an adaptive round: its estimated relative variance per sample.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum Weights<'w> {
+pub enum Weights<'w> {
     /// The raw frame's, from the film ([`smoothed_variances`]).
     Raw,
-    /// The denoised frame's, row-major, `width` pixels a row (see
-    /// `Denoised::weights`): samples go where the denoised frame is still wrong.
-    Denoised { width: u32, values: &'w [f64] },
+    /// Given for every pixel, row-major, `width` pixels a row: the written frame's when it
+    /// is denoised (`finish::Denoising`), so samples go where the frame written is still
+    /// wrong.
+    Map { width: u32, values: &'w [f64] },
 }
 
 impl Weights<'_> {
@@ -31,7 +32,7 @@ impl Weights<'_> {
     fn of_tile(&self, rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
         match *self {
             Weights::Raw => smoothed_variances(rect, pixels),
-            Weights::Denoised { width, values } => (0..pixels.len())
+            Weights::Map { width, values } => (0..pixels.len())
                 .map(|i| {
                     let (x, y) = rect.position(i);
                     values[y as usize * width as usize + x as usize]

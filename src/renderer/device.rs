@@ -42,6 +42,11 @@ impl ShotGeometry {
         }
     }
 
+    /// The CPU's: `scene`'s static geometry, whatever device the scene names.
+    pub fn cpu(scene: &Scene) -> ShotGeometry {
+        ShotGeometry::Cpu(Box::new(StaticGeometry::new(scene)))
+    }
+
     /// The device's state, borrowed.
     pub(super) fn on(&self) -> On<'_> {
         match self {
@@ -168,7 +173,7 @@ impl<'a> Rounds<'a> {
 
 /// Why a frame could not be rendered.
 #[derive(Debug)]
-pub(super) enum FrameError {
+pub enum FrameError {
     Denoise(DenoiseError),
     Gpu(GpuError),
 }

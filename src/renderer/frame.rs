@@ -3,12 +3,12 @@
 
 use std::time::Instant;
 
-use super::adaptive::{Plan, Weights, plan_adaptive};
+use super::adaptive::{Plan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
-use super::denoised::{self, Denoised};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
+use super::finish::{Denoised, passes_read};
+use super::stop::{RawStop, StopRule, relative_error};
 use super::tiles::FrameRequest;
-use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
 use crate::passes::{Layout, PassImages};
@@ -16,14 +16,13 @@ use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::world::StaticGeometry;
 
 /// Figures of one rendered frame.
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
     /// Seconds spent preparing the frame's world (motion bounds, hierarchy build).
     pub prepare_seconds: f64,
-    /// Seconds spent tracing.
+    /// Seconds spent tracing, and denoising the frame when it is denoised.
     pub render_seconds: f64,
     /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
     /// count, how busy the cores were. On the GPU: seconds the host waited for the device,
@@ -51,16 +50,20 @@ pub struct FrameStats {
     pub non_finite: u64,
     /// Spheres moving during the frame's shutter.
     pub moving_spheres: usize,
-    /// The relative error estimated from the pixels' replicates ([`relative_error`]): the
-    /// square root of the estimated relative mean squared error. Infinite with fewer than two
-    /// samples per pixel. Of the denoised frame, bias included, when the frame is denoised.
+    /// The relative error estimated from the pixels' replicates
+    /// ([`relative_error`](super::relative_error)): the square root of the estimated relative
+    /// mean squared error. Infinite with fewer than two samples per pixel. Of the frame
+    /// written: when the frame is denoised, the raw and denoised frames blended, bias
+    /// included (`denoise::estimate`).
     pub relative_error: f64,
     /// The raw (noisy) frame's estimated relative error: [`relative_error`](Self::relative_error)
     /// before denoising.
     pub noisy_relative_error: f64,
     /// Seconds spent denoising (every run of the denoiser, estimates included), within
-    /// [`render_seconds`](Self::render_seconds).
+    /// [`render_seconds`](Self::render_seconds) when the stop rule denoised.
     pub denoise_seconds: f64,
+    /// Times the frame was denoised: at most two under a noise threshold, one otherwise.
+    pub denoises: u32,
 }
 
 /// A rendered frame.
@@ -72,11 +75,12 @@ pub struct FrameResult {
     /// file records as its shutter's opening and closing.
     pub interval: Interval,
     /// The pixels' sums (their means, sample counts and estimated errors), and the sums of
-    /// the scene's `[output] passes`, if it asks for any, and of the denoiser's guides.
+    /// the scene's `[output] passes`, if it asks for any.
     pub film: Film,
     /// Where the film keeps which pass sums.
     pub layout: Layout,
-    /// The denoised frame, when the scene asks for denoising.
+    /// The frame as finished for writing when the scene asks for denoising: the raw and
+    /// denoised frames blended ([`Finishing`](super::Finishing)); `None` for a raw frame.
     pub denoised: Option<Denoised>,
     pub stats: FrameStats,
 }
@@ -88,142 +92,92 @@ impl FrameResult {
     }
 }
 
-/// Renders frame `frame` of `scene` with the scene's settings (`[output]` size, `[render]`
-/// samples, depth, seed and sampler): exactly its samples in every pixel, in one round, when
-/// `budget` is not set; else in rounds until the budget stops it. `progress` is called with
-/// the number of samples of each finished tile, from worker threads. Runs on the current rayon
-/// pool.
+/// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
+/// `[render]` samples, depth, seed and sampler), built up and then sampled
+/// ([`FrameJob::sample`]).
 ///
-/// Under a budget, every pixel first takes the same samples, in rounds that double them
+/// Without a budget, every pixel takes exactly the scene's samples, in one round. Under a
+/// budget, every pixel first takes the same samples, in rounds that double them
 /// ([`next_round`]), up to [`MIN_SAMPLES_FOR_THRESHOLD`]; then rounds are adaptive: each pixel
-/// doubles its samples or stops by its own estimated error ([`Adaptive`]), until the frame's
-/// estimate meets the noise threshold, the time runs out or no pixel may take more.
+/// doubles its samples or stops by its weight ([`StopRule::weights`]), until the stop rule
+/// finds the frame within the noise threshold, the time runs out or no pixel may take more.
 ///
 /// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
 /// plain sum of its samples over their count: a pixel that stopped at N samples is
 /// bit-identical to the same pixel rendered with exactly N samples.
 ///
-/// The frame is not denoised, whatever `[output] denoise` says: see [`render_frame_denoised`].
+/// The frame comes out raw: finishing it (denoising, history) is [`Finishing`](super::Finishing)'s.
 /// The scene's point caches are not read here (reading files is not the frame's business):
-/// a scene with `[[points]]` renders through [`render_frame_with`], given the frame's points.
-pub fn render_frame(
-    scene: &Scene,
-    statics: &StaticGeometry,
+/// the frame's points are given ([`FrameJob::points`]).
+pub struct FrameJob<'a> {
+    scene: &'a Scene,
     frame: u32,
-    budget: &Budget,
-    progress: &(dyn Fn(u64) + Sync),
-) -> FrameResult {
-    render_frame_with(
-        scene,
-        statics,
-        &FramePoints::none(),
-        frame,
-        budget,
-        progress,
-    )
+    points: &'a FramePoints,
+    budget: Budget,
+    progress: &'a (dyn Fn(u64) + Sync),
 }
 
-/// [`render_frame`] with `points`, the frame's points of the scene's point caches (as
-/// `point_cache::read_frame` reads them), among its spheres.
-pub fn render_frame_with(
-    scene: &Scene,
-    statics: &StaticGeometry,
-    points: &FramePoints,
-    frame: u32,
-    budget: &Budget,
-    progress: &(dyn Fn(u64) + Sync),
-) -> FrameResult {
-    match render(
-        scene,
-        On::Cpu(statics),
-        points,
-        frame,
-        budget,
-        Denoising::Off,
-        progress,
-    ) {
-        Ok(result) => result,
-        Err(_) => unreachable!("a frame on the CPU without a denoiser cannot fail"),
+/// The points of a frame without point caches.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
+
+impl<'a> FrameJob<'a> {
+    /// Frame `frame` of `scene`: no points, no budget, no progress, the raw stop rule.
+    pub fn new(scene: &'a Scene, frame: u32) -> FrameJob<'a> {
+        FrameJob {
+            scene,
+            frame,
+            points: &NO_POINTS,
+            budget: Budget::default(),
+            progress: &|_| {},
+        }
     }
-}
 
-/// [`render_frame`], and the frame denoised by `denoiser` ([`FrameResult::denoised`]) with its
-/// estimated error, bias included, as the frame's [`FrameStats::relative_error`]. Under a
-/// noise threshold, sampling stops when the *denoised* estimate meets it, and the adaptive
-/// rounds send samples where the denoised frame's estimated error is largest. The raw film
-/// and its passes are the same bits as [`render_frame`]'s at the same sample counts.
-/// `points`: the frame's points, as for [`render_frame_with`].
-pub fn render_frame_denoised(
-    scene: &Scene,
-    statics: &StaticGeometry,
-    points: &FramePoints,
-    frame: u32,
-    budget: &Budget,
-    denoiser: &Denoiser,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<FrameResult, Error> {
-    render(
-        scene,
-        On::Cpu(statics),
-        points,
-        frame,
-        budget,
-        Denoising::Frame(denoiser),
-        progress,
-    )
-    .map_err(|e| frame_failed(frame, e))
-}
+    /// The frame's points of the scene's point caches (as `point_cache::read_frame` reads
+    /// them), among its spheres.
+    pub fn points(self, points: &'a FramePoints) -> FrameJob<'a> {
+        FrameJob { points, ..self }
+    }
 
-/// [`render_frame`] or [`render_frame_denoised`] on the device `geometry` was made for (the
-/// scene's `[render] device`): the same rounds, budgets and film either way, the samples
-/// traced by the CPU's threads or by the GPU. A GPU that fails mid-frame (lost, out of
-/// memory) is an [`Error::Resource`] naming the frame, and nothing of the frame is kept.
-/// The scene's point caches are not read: see [`render_shot_frame_with`].
-pub fn render_shot_frame(
-    scene: &Scene,
-    geometry: &ShotGeometry,
-    frame: u32,
-    budget: &Budget,
-    denoiser: Option<&Denoiser>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<FrameResult, Error> {
-    render_shot_frame_with(
-        scene,
-        geometry,
-        &FramePoints::none(),
-        frame,
-        budget,
-        denoiser,
-        progress,
-    )
-}
+    /// Samples in rounds until `budget` stops them, instead of exactly the scene's samples.
+    pub fn budget(self, budget: Budget) -> FrameJob<'a> {
+        FrameJob { budget, ..self }
+    }
 
-/// [`render_shot_frame`] with `points`, the frame's points, as for [`render_frame_with`]. The
-/// GPU renders no point caches (a scene with `[[points]]` is refused for it when validated,
-/// and by [`ShotGeometry::new`]): on the GPU, points are an error.
-pub fn render_shot_frame_with(
-    scene: &Scene,
-    geometry: &ShotGeometry,
-    points: &FramePoints,
-    frame: u32,
-    budget: &Budget,
-    denoiser: Option<&Denoiser>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<FrameResult, Error> {
-    let denoising = match denoiser {
-        Some(d) => Denoising::Frame(d),
-        None => Denoising::Off,
-    };
-    render(
-        scene,
-        geometry.on(),
-        points,
-        frame,
-        budget,
-        denoising,
-        progress,
-    )
-    .map_err(|e| frame_failed(frame, e))
+    /// Called with the number of samples of each finished tile (or GPU batch), from worker
+    /// threads.
+    pub fn progress(self, progress: &'a (dyn Fn(u64) + Sync)) -> FrameJob<'a> {
+        FrameJob { progress, ..self }
+    }
+
+    /// Samples the frame on the device `geometry` was made for (the scene's `[render]
+    /// device`), judged under a noise threshold by the raw film's own estimate
+    /// ([`RawStop`]): see [`sample_with`](Self::sample_with).
+    pub fn sample(self, geometry: &ShotGeometry) -> Result<FrameResult, Error> {
+        self.sample_with(geometry, &mut RawStop)
+    }
+
+    /// Samples the frame on the device `geometry` was made for (the scene's `[render]
+    /// device`), judged under a noise threshold by `stop` (the frame that will be written:
+    /// [`Finishing::stop_rule`](super::Finishing::stop_rule)): the same rounds, budgets and
+    /// film either way, the samples traced by the CPU's threads or by the GPU. A GPU that
+    /// fails mid-frame (lost, out of memory), or a denoiser that fails while the stop rule
+    /// judges the frame, is an [`Error::Resource`] naming the frame, and nothing of the frame
+    /// is kept. Runs on the current rayon pool.
+    pub fn sample_with(
+        self,
+        geometry: &ShotGeometry,
+        stop: &mut dyn StopRule,
+    ) -> Result<FrameResult, Error> {
+        let FrameJob {
+            scene,
+            frame,
+            points,
+            budget,
+            progress,
+        } = self;
+        sample(scene, geometry.on(), points, frame, &budget, stop, progress)
+            .map_err(|e| frame_failed(frame, e))
+    }
 }
 
 /// The error of a frame that failed: its denoising, or its device.
@@ -231,42 +185,18 @@ pub(super) fn frame_failed(frame: u32, e: FrameError) -> Error {
     Error::Resource(format!("frame {frame}: {e}"))
 }
 
-/// How a frame is denoised.
-#[derive(Clone, Copy)]
-pub(super) enum Denoising<'d> {
-    /// Not at all.
-    Off,
-    /// On its own.
-    Frame(&'d Denoiser),
-    /// With the frames before it, by the caller (`renderer::temporal`): the film keeps what
-    /// carries its pixels to earlier frames (depth, normal, motion), and the finished frame is
-    /// left undenoised (the rounds under a noise threshold still decide by the frame denoised
-    /// on its own).
-    Temporal(&'d Denoiser),
-}
-
-pub(super) fn render(
+fn sample(
     scene: &Scene,
     on: On<'_>,
     points: &FramePoints,
     frame: u32,
     budget: &Budget,
-    denoising: Denoising<'_>,
+    stop: &mut dyn StopRule,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrameResult, FrameError> {
-    let denoiser = match denoising {
-        Denoising::Off => None,
-        Denoising::Frame(d) | Denoising::Temporal(d) => Some(d),
-    };
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene);
-    let layout = match denoiser {
-        Some(_) => Layout::for_denoising(
-            scene.output.passes,
-            matches!(denoising, Denoising::Temporal(_)),
-        ),
-        None => Layout::new(scene.output.passes),
-    };
+    let layout = Layout::keeping(scene.output.passes, passes_read(scene));
     // One prepared frame, whichever device traces it.
     let prepared = PreparedFrame::new(scene, on.statics(), points, frame);
     let interval = prepared.interval();
@@ -283,16 +213,15 @@ pub(super) fn render(
         ..FrameStats::default()
     };
 
+    stop.begin();
     // Samples every pixel has taken in the uniform rounds.
     let mut done = 0u32;
     // Seconds a round took per sample of every pixel, and per sample of one pixel.
     let mut seconds_per_sample = None;
     let mut seconds_per_pixel_sample = f64::INFINITY;
     let warm_up = MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX));
-    // The denoised frame of the last round, when it was denoised to decide.
-    let mut denoised: Option<Denoised> = None;
-    let mut weights: Vec<f64>;
     loop {
+        let weights = stop.weights();
         let plan = if !budget.is_set() {
             if done >= req.samples {
                 break;
@@ -312,24 +241,14 @@ pub(super) fn render(
                 }
             }
         } else {
-            let w = match &denoised {
-                Some(d) => {
-                    weights = d.weights(&film);
-                    Weights::Denoised {
-                        width: film.width,
-                        values: &weights,
-                    }
-                }
-                None => Weights::Raw,
-            };
             match plan_adaptive(
                 &film,
-                &w,
+                &weights,
                 budget,
                 frame_start.elapsed().as_secs_f64(),
                 seconds_per_pixel_sample,
             ) {
-                Ok(a) => Plan::Adaptive(a, w),
+                Ok(a) => Plan::Adaptive(a, weights),
                 Err(reason) => {
                     stats.stop = reason;
                     break;
@@ -351,47 +270,17 @@ pub(super) fn render(
         stats.non_finite += counts.non_finite;
         stats.tile_seconds += counts.seconds;
         stats.rounds += 1;
-        denoised = None;
         if let Some(threshold) = budget.noise_threshold
             && done >= warm_up
+            && stop.reached(&film, threshold)?
         {
-            let error = match denoiser {
-                Some(d) => {
-                    let start = Instant::now();
-                    let made = denoised::denoise(&film, &layout, d)?;
-                    stats.denoise_seconds += start.elapsed().as_secs_f64();
-                    let error = made.relative_error;
-                    denoised = Some(made);
-                    error
-                }
-                None => relative_error(&film),
-            };
-            if error <= threshold {
-                stats.stop = StopReason::NoiseThreshold;
-                break;
-            }
+            stats.stop = StopReason::NoiseThreshold;
+            break;
         }
     }
 
     stats.noisy_relative_error = relative_error(&film);
     stats.relative_error = stats.noisy_relative_error;
-    if let Denoising::Frame(d) = denoising {
-        let made = match denoised {
-            // The last round's film, denoised to decide to stop.
-            Some(made) if stats.stop == StopReason::NoiseThreshold => made,
-            _ => {
-                let start = Instant::now();
-                let made = denoised::denoise(&film, &layout, d)?;
-                stats.denoise_seconds += start.elapsed().as_secs_f64();
-                made
-            }
-        };
-        stats.relative_error = made.relative_error;
-        denoised = Some(made);
-    } else {
-        // Denoised by the caller, with the frames before it.
-        denoised = None;
-    }
     let taken = film.all_pixels().iter().map(Pixel::taken);
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
     stats.min_samples_per_pixel = taken.min().unwrap_or(0);
@@ -403,21 +292,9 @@ pub(super) fn render(
         interval,
         film,
         layout,
-        denoised,
+        denoised: None,
         stats,
     })
-}
-
-/// The relative error estimated from the film's pixels ([`FrameStats::relative_error`]):
-/// the square root of the mean of their
-/// [`film::relative_variances`](crate::film::relative_variances), summed in storage order.
-pub fn relative_error(film: &Film) -> f64 {
-    let sum: f64 = film
-        .tiles()
-        .iter()
-        .flat_map(|(rect, pixels)| crate::film::relative_variances(rect, pixels))
-        .sum();
-    (sum / film.all_pixels().len().max(1) as f64).sqrt()
 }
 
 #[cfg(test)]
@@ -444,9 +321,9 @@ material = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
         let mut scene = Scene::parse(text, std::path::Path::new("degenerate.toml")).unwrap();
         // Looking at where it stands: every camera ray's direction is NaN.
         scene.camera.look_at = scene.camera.look_from.clone();
-        let statics = StaticGeometry::new(&scene);
+        let statics = ShotGeometry::cpu(&scene);
         let frame = scene.shot.first_frame;
-        let result = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
+        let result = FrameJob::new(&scene, frame).sample(&statics).unwrap();
         assert_eq!(result.stats.non_finite, 8 * 4 * 3);
         assert_eq!(result.stats.rays, 0);
         assert!(result.film.means().iter().all(|p| *p == glam::DVec3::ZERO));

@@ -15,7 +15,7 @@ use crate::prepared::PreparedFrame;
 use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
-use crate::tracer::{TraceStats, camera_radiance, radiance, radiance_packet};
+use crate::tracer::{TraceStats, camera_radiance_packet, radiance, radiance_packet};
 
 /// The settings of one frame, copied from the scene's (`[output]` size, `[render]` samples
 /// and depth) so the per-sample loop reads them from one small struct; the sampler's are the
@@ -66,7 +66,7 @@ impl FrameSetup<'_> {
             time: prepared.sample_time,
         };
         // Frames with passes or a transparent background take each camera ray's first hit
-        // from the tracer, in a function of its own (`observed_sample`), so that this loop
+        // from the tracer, in a function of its own (`observed_packet`), so that this loop
         // is compiled for frames without them as it would be without passes at all.
         let observed = self.passes.is_some() || prepared.scene.transparent;
         let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
@@ -82,20 +82,17 @@ impl FrameSetup<'_> {
             let sums = sums.unwrap_or_default();
             let mut s = acc.taken();
             while s < target {
-                // Without passes, a pixel's camera rays go in packets of up to `PACKET`
-                // samples: coherent rays, one traversal (`radiance_packet`, the same values).
-                let n = if observed {
-                    1
-                } else {
-                    (target - s).min(PACKET as u32)
-                };
+                // A pixel's camera rays go in packets of up to `PACKET` samples: coherent
+                // rays, one traversal (`radiance_packet`, the same values as one by one).
+                let n = (target - s).min(PACKET as u32);
                 let mut rays = [Ray {
                     origin: DVec3::ZERO,
                     dir: DVec3::ZERO,
                     time: 0.0,
                 }; PACKET];
-                let mut view = prepared.fixed_view;
-                for (k, ray) in rays.iter_mut().enumerate().take(n as usize) {
+                let mut views = [prepared.fixed_view; PACKET];
+                for (k, (ray, view)) in rays.iter_mut().zip(&mut views).enumerate().take(n as usize)
+                {
                     let s = s + k as u32;
                     sampler.start_sample(x, y, s);
                     // The pixel position, and the lens position and the time (one joint
@@ -110,26 +107,27 @@ impl FrameSetup<'_> {
                         interval.open
                     };
                     if prepared.camera_moves {
-                        view = prepared.scene.camera.view_at(time, req.width, req.height);
+                        *view = prepared.scene.camera.view_at(time, req.width, req.height);
                     }
                     *ray = view.ray(x, y, camera.pixel, camera.lens, time);
                 }
-                let mut v = [DVec3::ZERO; PACKET];
-                if observed {
-                    v[0] =
-                        self.observed_sample(rays[0], &view, sampler, &mut stats, sums, s % 2 == 1);
+                let rays = &rays[..n as usize];
+                let v = if observed {
+                    self.observed_packet(rays, &views, (x, y, s), sampler, &mut stats, sums)
                 } else if n == 1 {
+                    let mut v = [DVec3::ZERO; PACKET];
                     v[0] = radiance(&prepared.world, rays[0], req.max_depth, sampler, &mut stats);
+                    v
                 } else {
-                    v = radiance_packet(
+                    radiance_packet(
                         &prepared.world,
-                        &rays[..n as usize],
+                        rays,
                         (x, y, s),
                         req.max_depth,
                         sampler,
                         &mut stats,
-                    );
-                }
+                    )
+                };
                 for v in &v[..n as usize] {
                     if !acc.add(*v) {
                         counts.non_finite += 1;
@@ -142,32 +140,33 @@ impl FrameSetup<'_> {
         counts
     }
 
-    /// One camera sample of a frame with passes or a transparent background: its radiance,
-    /// and its passes into the pixel's sums `sums` (`odd`: the sample's index is odd).
+    /// The camera samples `first..first + rays.len()` of pixel (`x`, `y`) of a frame with
+    /// passes or a transparent background: their radiance, and their passes into the
+    /// pixel's sums `sums` (each ray seen through its view in `views`).
     #[inline(never)]
-    fn observed_sample<S: Sampler>(
+    fn observed_packet<S: Sampler>(
         &self,
-        ray: Ray,
-        view: &View,
+        rays: &[Ray],
+        views: &[View; PACKET],
+        at: (u32, u32, u32),
         sampler: &mut S,
         stats: &mut TraceStats,
         sums: &mut [f64],
-        odd: bool,
-    ) -> DVec3 {
-        let mut first = None;
-        let v = camera_radiance(
+    ) -> [DVec3; PACKET] {
+        camera_radiance_packet(
             &self.prepared.world,
-            ray,
+            rays,
+            at,
             self.req.max_depth,
             sampler,
             stats,
             self.prepared.scene.transparent,
-            |hit| first = hit.copied(),
-        );
-        if let Some(passes) = &self.passes {
-            passes.record(sums, &ray, view, first.as_ref(), odd);
-        }
-        v
+            |k, hit| {
+                if let Some(passes) = &self.passes {
+                    passes.record(sums, &rays[k], &views[k], hit);
+                }
+            },
+        )
     }
 
     /// Takes the samples of one round (`plan`) in every tile of `film`, in parallel.

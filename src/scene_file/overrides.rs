@@ -1,5 +1,6 @@
 //! Values given on the command line in place of a scene file's.
 
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::pass::Pass;
 use crate::sampler::SamplerKind;
 use crate::scene::Device;
@@ -28,6 +29,10 @@ pub struct Overrides {
     pub passes: Option<Vec<Pass>>,
     /// `--denoise`: replaces `[output] denoise`.
     pub denoise: Option<bool>,
+    /// `--denoise-quality`: replaces `[output] denoise_quality`.
+    pub denoise_quality: Option<DenoiseQuality>,
+    /// `--temporal`: a denoised shot kept from flickering (needs denoising).
+    pub temporal: Option<bool>,
     /// `--device`: replaces `[render] device`.
     pub device: Option<Device>,
 }

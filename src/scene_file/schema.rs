@@ -214,7 +214,20 @@ pub(super) struct RawOutput {
     pub(super) clip: Option<String>,
     pub(super) passes: Option<Vec<RawPass>>,
     pub(super) denoise: Option<bool>,
+    pub(super) denoise_quality: Option<crate::denoise::denoiser::DenoiseQuality>,
 }
+
+impl Keyword for crate::denoise::denoiser::DenoiseQuality {
+    const NAMES: &'static [(&'static str, Self)] = {
+        use crate::denoise::denoiser::DenoiseQuality;
+        &[
+            ("fast", DenoiseQuality::Fast),
+            ("balanced", DenoiseQuality::Balanced),
+            ("high", DenoiseQuality::High),
+        ]
+    };
+}
+keyword!(crate::denoise::denoiser::DenoiseQuality);
 
 /// A pass name of `[output] passes`.
 #[derive(Clone, Copy)]

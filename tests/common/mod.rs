@@ -7,9 +7,8 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use raytrace::film::Film;
-use raytrace::renderer::{Budget, render_frame};
+use raytrace::renderer::{Budget, FrameJob, ShotGeometry};
 use raytrace::scene::Scene;
-use raytrace::world::StaticGeometry;
 
 /// Parses a scene from TOML text, panicking with the error message if it is invalid.
 pub fn scene(toml: &str) -> Scene {
@@ -18,8 +17,8 @@ pub fn scene(toml: &str) -> Scene {
 
 /// Renders frame `frame` of `scene` with its own settings.
 pub fn render(scene: &Scene, frame: u32) -> Film {
-    let statics = StaticGeometry::new(scene);
-    render_frame(scene, &statics, frame, &Budget::default(), &|_| {}).film
+    let statics = ShotGeometry::cpu(scene);
+    FrameJob::new(scene, frame).sample(&statics).unwrap().film
 }
 
 /// Renders with a given seed and sample count.
@@ -59,7 +58,9 @@ pub fn render_gpu_frame(
     let mut scene = scene.clone();
     scene.render.device = raytrace::scene::Device::Gpu;
     let geometry = raytrace::renderer::ShotGeometry::new(&scene, Some(gpu)).unwrap();
-    raytrace::renderer::render_shot_frame(&scene, &geometry, frame, budget, None, &|_| {})
+    FrameJob::new(&scene, frame)
+        .budget(*budget)
+        .sample(&geometry)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -97,24 +97,13 @@ fn motion_vectors(p: vec3<f32>, id: u32, t: f32, view: View) -> vec4<f32> {
 
 // What a camera ray's first intersection adds to the passes (passes.rs, PassContext::record):
 // `hit` false for a ray that missed or was not traced.
-fn record_first(view: View, dir: vec3<f32>, hit: bool, s: Surface, m: u32, id: u32, t: f32, odd: bool) {
-    let guides = slot(5u);
+fn record_first(view: View, dir: vec3<f32>, hit: bool, s: Surface, m: u32, id: u32, t: f32) {
     if !hit {
         let b = background(dir);
-        if finite3(b) {
-            if guides != NONE {
-                add_pass(guides + select(0u, 6u, odd), b, 3u);
-            }
-            if slot(3u) != NONE {
-                add_pass(slot(3u), b, 3u);
-            }
+        if finite3(b) && slot(3u) != NONE {
+            add_pass(slot(3u), b, 3u);
         }
         return;
-    }
-    if guides != NONE {
-        let g = guides + select(0u, 6u, odd);
-        add_pass(g, albedo_of(m), 3u);
-        add_pass(g + 3u, s.normal, 3u);
     }
     if slot(0u) != NONE {
         add_slot(slot(0u), 1.0);
@@ -157,12 +146,11 @@ fn radiance(x: u32, y: u32, index: u32) -> Radiance {
         view = fixed_view();
     }
     let ray = camera_ray(view, x, y, cam.pixel, cam.lens);
-    let odd = (index & 1u) == 1u;
     let passes = g_stride > 0u;
     let none = Surface(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     if !(finite3(ray.origin) && finite3(ray.dir) && finite3(vec3<f32>(t))) {
         if passes {
-            record_first(view, ray.dir, false, none, 0u, 0u, t, odd);
+            record_first(view, ray.dir, false, none, 0u, 0u, t);
         }
         return Radiance(vec3<f32>(0.0), false);
     }
@@ -187,7 +175,7 @@ fn radiance(x: u32, y: u32, index: u32) -> Radiance {
             id = sphere.id;
         }
         if depth == 0u && passes {
-            record_first(view, d, found, s, m, id, t, odd);
+            record_first(view, d, found, s, m, id, t);
         }
         if !found {
             if depth == 0u && flag(F_TRANSPARENT) {

@@ -29,7 +29,7 @@ use crate::motion::{Key, Motion, Orbit};
 use crate::pass::{Pass, PassSet};
 use crate::path_pattern;
 use crate::sampler::SamplerKind;
-use crate::scene::{MAX_SIDE, OutputSettings, RenderSettings, Scene};
+use crate::scene::{DenoiseSettings, MAX_SIDE, OutputSettings, RenderSettings, Scene};
 use crate::shutter::{
     ReadoutDirection, RollingShutter, Shot, ShutterCurve, ShutterPosition, shutter_from_angle,
 };
@@ -79,7 +79,7 @@ pub(super) struct Check<'a> {
 }
 
 /// The fields the command line can override, and the flag that does.
-const FLAGS: [(&str, &str); 10] = [
+const FLAGS: [(&str, &str); 12] = [
     ("output.path", "--output"),
     ("output.width", "--width"),
     ("output.height", "--height"),
@@ -90,6 +90,8 @@ const FLAGS: [(&str, &str); 10] = [
     ("output.passes", "--passes"),
     ("output.denoise", "--denoise"),
     ("render.device", "--device"),
+    ("output.denoise_quality", "--denoise-quality"),
+    ("output.temporal", "--temporal"),
 ];
 
 impl<'a> Check<'a> {
@@ -128,6 +130,9 @@ impl<'a> Check<'a> {
         if let Some(d) = o.device {
             raw.render.device = Some(d);
         }
+        if let Some(q) = o.denoise_quality {
+            raw.output.denoise_quality = Some(q);
+        }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
                 SamplerKind::Independent => RawSampler::Independent,
@@ -150,6 +155,8 @@ impl<'a> Check<'a> {
             o.passes.is_some(),
             o.denoise.is_some(),
             o.device.is_some(),
+            o.denoise_quality.is_some(),
+            o.temporal.is_some(),
         ];
         match FLAGS
             .iter()
@@ -502,10 +509,22 @@ impl<'a> Check<'a> {
             }
         };
         let denoise = o.denoise.unwrap_or(false);
+        let temporal = self.overrides.temporal.unwrap_or(false);
+        if temporal && !denoise {
+            return self.err(format_args!(
+                "{} is off, and {} blends a denoised frame with its history: turn denoising on (--denoise or [output] denoise = true), or leave {} out",
+                self.name("output.denoise"),
+                self.name("output.temporal"),
+                self.name("output.temporal")
+            ));
+        }
         Ok(OutputSettings {
             clip,
             passes: self.passes(o.passes.as_deref().unwrap_or(&[]), format, denoise)?,
-            denoise,
+            denoise: denoise.then(|| DenoiseSettings {
+                quality: o.denoise_quality.unwrap_or_default(),
+                temporal,
+            }),
             path,
             format,
             width: self.int("output.width", o.width, 400, 1, MAX_SIDE.into())? as u32,
