@@ -30,7 +30,7 @@ use std::time::Instant;
 
 use super::adaptive::Weights;
 use super::device::{FrameError, ShotGeometry};
-use super::frame::{FrameJob, FrameResult, frame_failed};
+use super::frame::{Denoised, FrameJob, FrameResult, frame_failed, history_passes};
 use super::stop::{RawStop, StopRule, relative_error};
 use crate::denoise::denoiser::{DenoiseQuality, Denoiser, Filter};
 use crate::denoise::estimate::{Blend, Snapshot, WrittenPixel};
@@ -38,7 +38,6 @@ use crate::denoise::history;
 use crate::denoise::reproject::{HISTORY, TemporalFrame, reproject};
 use crate::error::Error;
 use crate::film::{Film, Halves};
-use crate::pass::{Pass, PassSet};
 use crate::passes::PassImages;
 use crate::scene::Scene;
 
@@ -48,32 +47,6 @@ pub const MAX_DENOISES: u32 = 2;
 /// The exponent of the mean samples by which the written frame's error over the raw frame's
 /// (as squares) grows between denoises: see the module's notes.
 const RATIO_GROWTH: f64 = 1.0 / 3.0;
-
-/// A finished frame's written colour when the scene asks for denoising.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Denoised {
-    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
-    /// row-major, every value finite).
-    pub rgb: Vec<f32>,
-    /// Its estimated relative error, bias included.
-    pub relative_error: f64,
-    /// The mean weight of the denoised frame in the written one, in [0, 1].
-    pub denoised_share: f64,
-    /// With `--temporal`: the mean weight of the earlier frames in the written one, in
-    /// [0, 1].
-    pub history_share: Option<f64>,
-    /// The filter's quality.
-    pub quality: DenoiseQuality,
-}
-
-/// The passes the finishing stages of `scene` read from the film, written or not: with
-/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
-pub fn passes_read(scene: &Scene) -> PassSet {
-    match scene.output.denoise {
-        Some(d) if d.temporal => history_passes(),
-        _ => PassSet::EMPTY,
-    }
-}
 
 /// The stages that finish a shot's frames.
 pub struct Finishing<'d> {
@@ -217,7 +190,7 @@ impl History {
 
 /// What a later frame's history reads of a finished frame: its written colour (before its
 /// own history) and its first hits' depth, normal and backward motion (the film keeps them:
-/// [`passes_read`]).
+/// [`passes_read`](super::passes_read)).
 fn temporal_frame(result: &FrameResult, pixels: &[WrittenPixel]) -> TemporalFrame {
     let film = &result.film;
     let images = PassImages::of(history_passes(), &result.layout, film);
@@ -236,14 +209,6 @@ fn temporal_frame(result: &FrameResult, pixels: &[WrittenPixel]) -> TemporalFram
         normal: interleave(&["N.X", "N.Y", "N.Z"]),
         backward: interleave(&["backward.u", "backward.v"]),
     }
-}
-
-/// The passes history reads.
-fn history_passes() -> PassSet {
-    PassSet::EMPTY
-        .with(Pass::Depth)
-        .with(Pass::Normal)
-        .with(Pass::Motion)
 }
 
 /// The denoise stage of a shot: its filter, and what the frame being finished has of it.

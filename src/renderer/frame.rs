@@ -6,11 +6,12 @@ use std::time::Instant;
 use super::adaptive::{Plan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
-use super::finish::{Denoised, passes_read};
 use super::stop::{RawStop, StopRule, relative_error};
 use super::tiles::FrameRequest;
+use crate::denoise::denoiser::DenoiseQuality;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
+use crate::pass::{Pass, PassSet};
 use crate::passes::{Layout, PassImages};
 use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
@@ -90,6 +91,40 @@ impl FrameResult {
     pub fn pass_images(&self) -> Option<PassImages> {
         (!self.layout.passes().is_empty()).then(|| PassImages::from_film(&self.layout, &self.film))
     }
+}
+
+/// A finished frame's written colour when the scene asks for denoising.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Denoised {
+    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
+    /// row-major, every value finite).
+    pub rgb: Vec<f32>,
+    /// Its estimated relative error, bias included.
+    pub relative_error: f64,
+    /// The mean weight of the denoised frame in the written one, in [0, 1].
+    pub denoised_share: f64,
+    /// With `--temporal`: the mean weight of the earlier frames in the written one, in
+    /// [0, 1].
+    pub history_share: Option<f64>,
+    /// The filter's quality.
+    pub quality: DenoiseQuality,
+}
+
+/// The passes the finishing stages of `scene` read from the film, written or not: with
+/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
+pub fn passes_read(scene: &Scene) -> PassSet {
+    match scene.output.denoise {
+        Some(d) if d.temporal => history_passes(),
+        _ => PassSet::EMPTY,
+    }
+}
+
+/// The passes history reads.
+pub(super) fn history_passes() -> PassSet {
+    PassSet::EMPTY
+        .with(Pass::Depth)
+        .with(Pass::Normal)
+        .with(Pass::Motion)
 }
 
 /// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
