@@ -53,11 +53,11 @@ impl Pixel {
     }
 
     /// Adds a run of `count` consecutive samples, from index [`taken`](Self::taken) on, summed
-    /// by a tracer elsewhere (the GPU's, in `f32`): `sum` over all of them, `odd` over those
-    /// of odd index (the second replicate). Non-finite samples must already be counted as
-    /// black in both.
-    pub fn add_run(&mut self, sum: [f32; 3], odd: [f32; 3], count: u32) {
-        self.sum += DVec3::new(sum[0] as f64, sum[1] as f64, sum[2] as f64);
+    /// by a tracer elsewhere (the GPU's): `sum` over all of them, `odd` over those of odd
+    /// index (the second replicate). Non-finite samples must already be counted as black in
+    /// both.
+    pub fn add_run(&mut self, sum: DVec3, odd: [f32; 3], count: u32) {
+        self.sum += sum;
         for (o, v) in self.odd.iter_mut().zip(odd) {
             *o += v;
         }

@@ -36,6 +36,7 @@ pub mod path_pattern;
 pub mod ply;
 pub mod point_cache;
 pub mod points;
+pub mod prepared;
 mod preview;
 pub mod ray;
 pub mod renderer;

@@ -81,9 +81,11 @@ impl From<u64> for PointLoad {
 /// per point of the frame's point caches (`load.points`), [`BYTES_PER_POINT`] (and with
 /// `interpolate` [`INTERPOLATE_BYTES_PER_POINT`]), per point of the next snapshots
 /// (`load.next`), [`NEXT_BYTES_PER_POINT`]; with point caches, what reading one of their
-/// files holds ([`crate::ply::READ_BUFFER_BYTES`]); on the GPU, its driver, its batches and
-/// per pixel a target ([`crate::gpu::FIXED_BYTES`]). It grows linearly
-/// in pixels, spheres and points, and errs high for scenes whose spheres are mostly still.
+/// files holds ([`crate::ply::READ_BUFFER_BYTES`]); on the GPU, what its path adds
+/// ([`crate::gpu::frame_bytes`]: the driver, the scene's words, the film on the device and
+/// its read-back buffers, counted on the host, where a software device keeps them). It grows
+/// linearly in pixels, spheres and points, and errs high for scenes whose spheres are mostly
+/// still.
 pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
     use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
@@ -121,18 +123,18 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
         true => 0,
         false => crate::ply::READ_BUFFER_BYTES,
     };
-    // On the GPU: its driver, its batches and each pixel's target (crate::gpu).
-    let (gpu_fixed, gpu_per_pixel) = match scene.render.device {
-        crate::scene::Device::Cpu => (0, 0),
-        crate::scene::Device::Gpu => (
-            crate::gpu::DRIVER_BYTES + crate::gpu::FIXED_BYTES,
-            crate::gpu::BYTES_PER_PIXEL,
-        ),
+    let gpu = match scene.render.device {
+        crate::scene::Device::Gpu => {
+            let read = crate::renderer::passes_read(scene);
+            let kept = crate::passes::Layout::keeping(scene.output.passes, read);
+            crate::gpu::frame_bytes(scene, kept.stride)
+        }
+        crate::scene::Device::Cpu => 0,
     };
     FLOOR_BYTES
-        + gpu_fixed
+        + gpu
         + reading
-        + pixels * (per_pixel + gpu_per_pixel)
+        + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
         + load.points * per_point

@@ -140,6 +140,17 @@ impl SamplerKind {
             SamplerKind::Sobol => "sobol",
         }
     }
+
+    /// The key this sampler starts every hash of frame `frame` of a render with seed `seed`
+    /// from: the one place it is made, for the CPU's samplers ([`IndependentSampler::from_key`],
+    /// [`SobolSampler::from_key`]) and the GPU's, which draw the same numbers.
+    pub fn key(self, seed: u64, frame: u32) -> u64 {
+        match self {
+            SamplerKind::Independent => hash_words(&[seed, frame as u64]),
+            // Distinct from the independent sampler's key, so the two never share numbers.
+            SamplerKind::Sobol => hash_words(&[seed, frame as u64, 0x0005_0b01]),
+        }
+    }
 }
 
 impl fmt::Display for SamplerKind {
@@ -180,8 +191,13 @@ pub struct IndependentSampler {
 impl IndependentSampler {
     /// A sampler for frame `frame` of a render with seed `seed`.
     pub fn new(seed: u64, frame: u32) -> IndependentSampler {
+        IndependentSampler::from_key(SamplerKind::Independent.key(seed, frame))
+    }
+
+    /// A sampler starting from `key` ([`SamplerKind::key`]).
+    pub fn from_key(key: u64) -> IndependentSampler {
         IndependentSampler {
-            key: hash_words(&[seed, frame as u64]),
+            key,
             rng: Pcg32::new(0, 0),
             next_dimension: 0,
             bounce: 0,
@@ -313,9 +329,13 @@ pub struct SobolSampler {
 impl SobolSampler {
     /// A sampler for frame `frame` of a render with seed `seed`.
     pub fn new(seed: u64, frame: u32) -> SobolSampler {
+        SobolSampler::from_key(SamplerKind::Sobol.key(seed, frame))
+    }
+
+    /// A sampler starting from `key` ([`SamplerKind::key`]).
+    pub fn from_key(key: u64) -> SobolSampler {
         SobolSampler {
-            // Distinct from the independent sampler's key, so the two never share numbers.
-            key: hash_words(&[seed, frame as u64, 0x0005_0b01]),
+            key,
             replicate: 0,
             index: 0,
             bounce: 0,

@@ -275,6 +275,22 @@ impl FrameTimes {
     pub fn is_rolling(&self) -> bool {
         self.rolling.is_some()
     }
+
+    /// Seconds each row is open.
+    pub fn shutter(&self) -> f64 {
+        self.shutter
+    }
+
+    /// The shutter curve's table, `None` for a box (or a zero shutter).
+    pub fn curve(&self) -> Option<&CurveTable> {
+        self.table.as_ref()
+    }
+
+    /// A rolling shutter's readout (seconds, more than 0) and direction, `None` for a global
+    /// shutter.
+    pub fn rolling(&self) -> Option<(f64, ReadoutDirection)> {
+        self.rolling
+    }
 }
 
 #[cfg(test)]

@@ -108,6 +108,37 @@ impl MovingPrim {
     }
 }
 
+/// Whether `scene` is traced through one hierarchy over every sphere, each prepared per frame
+/// as an animated one: it has animated spheres (or point caches, whose points are animated
+/// spheres of every frame) and at most [`MERGE_LIMIT`] spheres in all, or at least
+/// [`SHARED_FRACTION`] of them animated. The one rule for which spheres a frame prepares, for
+/// the world and for what the GPU's buffers hold.
+pub(crate) fn one_hierarchy(scene: &Scene) -> bool {
+    let n = scene.spheres.len();
+    let animated = scene
+        .spheres
+        .iter()
+        .filter(|s| s.motion.is_animated())
+        .count();
+    // A scene's points have a hierarchy of their own, per frame.
+    animated > 0 && (n <= MERGE_LIMIT || animated as f64 >= SHARED_FRACTION * n as f64)
+}
+
+/// A sphere as a frame's world traces it, for a device that copies the world (the GPU's
+/// buffers): its centre at the frame's opening and its velocity (the centre at time `t` is
+/// `center + velocity * (t - open)`), or its curved path prepared for the frame.
+#[derive(Clone, Copy, Debug)]
+pub struct TracedSphere<'w> {
+    pub center: DVec3,
+    pub velocity: DVec3,
+    pub radius: f64,
+    pub material: u32,
+    /// Its index in the scene.
+    pub id: u32,
+    /// Its curved path (a circle, several keyframe segments), if it has one.
+    pub path: Option<&'w FrameMotion>,
+}
+
 /// What is built once per sequence: the spheres that never move during the shot, with their
 /// hierarchy, and, for a large scene with many animated spheres, the topology of a hierarchy
 /// over every sphere that each frame refits. Read-only once built.
@@ -137,22 +168,15 @@ impl StaticGeometry {
     /// parallel on the current rayon pool).
     pub fn new(scene: &Scene) -> StaticGeometry {
         let n = scene.spheres.len();
-        let animated_count = scene
-            .spheres
-            .iter()
-            .filter(|s| s.motion.is_animated())
-            .count();
-        // (A scene's points have a hierarchy of their own, per frame.)
-        let one_hierarchy = animated_count > 0
-            && (n <= MERGE_LIMIT || animated_count as f64 >= SHARED_FRACTION * n as f64);
-        let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy {
+        let merged = one_hierarchy(scene);
+        let (still, animated): (Vec<u32>, Vec<u32>) = if merged {
             // One hierarchy over everything, one traversal per ray: rebuilt per frame for a
             // few thousand spheres (well under a millisecond), refitted for more.
             (Vec::new(), (0..n as u32).collect())
         } else {
             (0..n as u32).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
         };
-        let shared = (one_hierarchy && n > MERGE_LIMIT).then(|| {
+        let shared = (merged && n > MERGE_LIMIT).then(|| {
             let first = scene.shot.interval(scene.shot.first_frame);
             let prepared = prepare_spheres(scene, &animated, first);
             let (topology, boxes) = build_animated(&prepared, first);
@@ -192,6 +216,25 @@ impl StaticGeometry {
     /// Number of spheres.
     pub fn len(&self) -> usize {
         self.prims.len()
+    }
+
+    /// The spheres that never move, in their hierarchy's leaf order (its leaves' ranges index
+    /// this order), and that hierarchy.
+    pub fn still_spheres(
+        &self,
+    ) -> (
+        impl ExactSizeIterator<Item = TracedSphere<'_>> + '_,
+        BvhView<'_>,
+    ) {
+        let spheres = self.prims.iter().map(|p| TracedSphere {
+            center: p.center,
+            velocity: DVec3::ZERO,
+            radius: p.radius,
+            material: p.material,
+            id: p.id,
+            path: None,
+        });
+        (spheres, self.bvh.view())
     }
 
     /// Whether there are none.
@@ -363,6 +406,33 @@ impl<'a> World<'a> {
     /// Whether anything moves during the frame's shutter.
     pub fn has_motion(&self) -> bool {
         self.moving > 0
+    }
+
+    /// What the shot's spheres that never move are held in.
+    pub fn statics(&self) -> &StaticGeometry {
+        self.statics
+    }
+
+    /// The frame's animated spheres, prepared for its interval, in their hierarchy's leaf
+    /// order (its leaves' ranges index this order), and that hierarchy.
+    pub fn animated_spheres(
+        &self,
+    ) -> (
+        impl ExactSizeIterator<Item = TracedSphere<'_>> + '_,
+        BvhView<'_>,
+    ) {
+        let spheres = self.animated.iter().map(|p| TracedSphere {
+            center: p.center,
+            velocity: p.velocity,
+            radius: p.radius,
+            material: p.material,
+            id: p.id,
+            path: (p.general != LINEAR).then(|| &self.motions[p.general as usize]),
+        });
+        (
+            spheres,
+            BvhView::new(&self.animated_topology, &self.animated_boxes),
+        )
     }
 
     /// Bytes held by this frame's animated spheres and points and their hierarchies (the

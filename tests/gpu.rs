@@ -682,3 +682,43 @@ fn scenes_with_point_caches_are_refused_for_the_gpu() {
         assert!(e.to_string().contains("point caches"), "{e}");
     }
 }
+
+#[test]
+fn the_adapter_is_named_and_a_software_one_is_said() {
+    // `check --device gpu` names the adapter a render would take; `render --device gpu` says
+    // on standard error, with the word `software`, that a software device (lavapipe, where
+    // CI runs) is slower than `--device cpu`, and says nothing of it on a hardware GPU;
+    // `--stats` names the adapter and gives the host's share and the bytes read back.
+    let Some(gpu) = gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[output]\npath = \"f_####.png\"\nwidth = 16\nheight = 8\n[render]\nsamples = 4\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let o = raytrace(dir.path(), &["check", "s.toml", "--device", "gpu"], &[]);
+    let all = text(&o);
+    assert!(o.status.success(), "{all}");
+    let named = format!("device: gpu, adapter: {}", gpu.describe());
+    assert!(all.contains(&named), "{named}: {all}");
+    assert_eq!(
+        all.contains("a software device"),
+        gpu.is_software(),
+        "{all}"
+    );
+    let args = ["render", "s.toml", "--device", "gpu", "--stats"];
+    let o = raytrace(dir.path(), &args, &[]);
+    let (all, err) = (text(&o), String::from_utf8_lossy(&o.stderr).into_owned());
+    assert!(o.status.success(), "{all}");
+    let said = err.contains("software") && err.contains("--device cpu");
+    assert_eq!(said, gpu.is_software(), "{err}");
+    assert!(all.contains(&format!("gpu: {}", gpu.describe())), "{all}");
+    for words in ["host ", "% (", "ns a sample), read back "] {
+        assert!(all.contains(words), "{words}: {all}");
+    }
+    // The warning is given under --quiet too: a slow render is explained.
+    let o = raytrace(
+        dir.path(),
+        &["render", "s.toml", "--device", "gpu", "--quiet"],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.contains("software"), gpu.is_software(), "{err}");
+}

@@ -22,12 +22,18 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         ..Overrides::default()
     };
     let shots = load_shots(&args.scenes, &overrides, None, None, Depth::Values)?;
+    // The adapter a render on the GPU would take, found once.
+    let gpu = shots
+        .iter()
+        .any(|s| s.scene.render.device == crate::scene::Device::Gpu)
+        .then(super::device::adapter_line);
+    let gpu = gpu.as_deref();
     if let [shot] = &shots[..] {
-        return describe(shot, args.chunk_size);
+        return describe(shot, args.chunk_size, gpu);
     }
     let mut s = String::new();
     for shot in &shots {
-        s.push_str(&describe(shot, None)?);
+        s.push_str(&describe(shot, None, gpu)?);
     }
     let frames: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
     let _ = writeln!(s, "batch: {} scenes, {frames} frames", shots.len());
@@ -41,8 +47,9 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     Ok(s)
 }
 
-/// The description of one shot (with its chunk count when `chunk_size` is given).
-fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
+/// The description of one shot (with its chunk count when `chunk_size` is given; `gpu`: the
+/// GPU's line, [`super::device::adapter_line`], when a shot renders on it).
+fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<String, Error> {
     let (scene_path, scene) = (&shot.path, &shot.scene);
     let selected = &shot.targets.frames;
     let memory = check_memory(scene, shot.points)?;
@@ -135,8 +142,8 @@ fn describe(shot: &Job, chunk_size: Option<u64>) -> Result<String, Error> {
         scene.render.seed,
         elide(&scene.output.path)
     );
-    if scene.render.device == crate::scene::Device::Gpu {
-        let _ = writeln!(s, "device: gpu (a GPU is needed to render; none to check)");
+    if let (crate::scene::Device::Gpu, Some(gpu)) = (scene.render.device, gpu) {
+        let _ = writeln!(s, "device: gpu, adapter: {gpu}");
     }
     if !scene.output.passes.is_empty() || scene.transparent {
         let mut passes = vec!["colour"];

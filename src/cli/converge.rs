@@ -27,7 +27,6 @@ use crate::analysis::{flip, metrics, plot};
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::format::Format;
-use crate::gpu::Gpu;
 use crate::io;
 use crate::output;
 use crate::points::FramePoints;
@@ -204,7 +203,7 @@ fn measure(
     // The scene's device: the GPU opened before anything is measured, as the denoiser is
     // started: if either cannot start, nothing is written.
     let gpu = match scene.render.device {
-        Device::Gpu => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+        Device::Gpu => Some(super::device::open_gpu()?),
         Device::Cpu => None,
     };
     let geometry = ShotGeometry::new(scene, gpu.as_ref())?;

@@ -83,7 +83,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     super::threads::thread_pool(args.scene_args.threads)?.install(|| {
         // The scene's device, opened before anything is measured, as the denoiser is started.
         let gpu = match scene.render.device {
-            Device::Gpu => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+            Device::Gpu => Some(super::device::open_gpu()?),
             Device::Cpu => None,
         };
         let denoiser = Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?;

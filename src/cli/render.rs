@@ -80,7 +80,7 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let start = Instant::now();
     // The GPU is opened once, before anything is written: without one, nothing is.
     let gpu = match shots.iter().any(|s| s.scene.render.device == Device::Gpu) {
-        true => Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?),
+        true => Some(super::device::open_gpu()?),
         false => None,
     };
     if let Some(g) = &gpu
@@ -322,6 +322,19 @@ fn percent(relative_error: f64) -> String {
     }
 }
 
+/// The GPU's figures of a frame's `--stats` line: the host's share of the frame's time (the
+/// time it did not wait for the device) and per sample, and the bytes read back.
+fn gpu_note(st: &FrameStats) -> String {
+    let frame = st.prepare_seconds + st.render_seconds;
+    let host = (frame - st.tile_seconds).max(0.0);
+    format!(
+        ", host {:.1}% ({:.2} ns a sample), read back {}",
+        100.0 * host / frame.max(1e-9),
+        host * 1e9 / st.samples.max(1) as f64,
+        mib(st.readback_bytes)
+    )
+}
+
 /// The `--stats` line of a frame rendered on `device`; `read`: the seconds its point caches
 /// took to read, and their points.
 fn stats_line(frame: u32, st: &FrameStats, device: Device, read: Option<(f64, usize)>) -> String {
@@ -350,8 +363,12 @@ fn stats_line(frame: u32, st: &FrameStats, device: Device, read: Option<(f64, us
     let read = read.map_or(String::new(), |(s, n)| {
         format!("read {s:.3} s ({n} points), ")
     });
+    let host = match device {
+        Device::Cpu => String::new(),
+        Device::Gpu => gpu_note(st),
+    };
     format!(
-        "frame {frame} stats: {read}prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, {what} busy {:.1}%, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
+        "frame {frame} stats: {read}prepare {:.4} s ({} moving spheres), render {:.3} s in {} rounds{denoise}, {what} busy {:.1}%{host}, rays {} ({:.2} M/s), samples {} ({:.2} M/s), peak memory {memory}",
         st.prepare_seconds,
         st.moving_spheres,
         st.render_seconds,

@@ -4,7 +4,7 @@
 use std::fmt;
 use std::sync::{Arc, Mutex};
 
-use super::layout::{WORKGROUP, wgsl_constants};
+use super::layout::{COUNTER_WORDS, Counting, PARAMS_WORDS, WORKGROUP, wgsl_prelude};
 use super::quiet::without_stray_lines;
 
 /// The shaders' text, put after the layout's constants: the 64-bit words and samplers, the
@@ -65,6 +65,7 @@ pub struct Gpu {
     #[cfg(test)]
     pub(super) numbers: wgpu::ComputePipeline,
     pub(super) layout: wgpu::BindGroupLayout,
+    adapter: wgpu::Adapter,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
     fault: Arc<Mutex<Option<GpuError>>>,
@@ -72,25 +73,104 @@ pub struct Gpu {
     dispatches: Arc<Mutex<(u64, Option<u64>)>>,
 }
 
-impl Gpu {
-    /// Finds an adapter (the best performing one wgpu offers on Vulkan, Metal or DirectX 12),
-    /// opens a device and compiles the tracer. Without an adapter: [`GpuError::NoAdapter`],
-    /// naming what was looked for and how to get it.
-    pub fn new() -> Result<Gpu, GpuError> {
+/// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
+/// by kind (a discrete GPU, an integrated one, a virtual one, another, and last a software
+/// device such as lavapipe, llvmpipe or WARP, which run on the CPU).
+#[derive(Debug)]
+pub struct Adapter {
+    adapter: wgpu::Adapter,
+    info: wgpu::AdapterInfo,
+}
+
+impl Adapter {
+    /// Finds the adapter. Without one: [`GpuError::NoAdapter`], naming what was looked for and
+    /// how to get it.
+    pub fn find() -> Result<Adapter, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::PRIMARY,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
-        let adapter = without_stray_lines(|| {
-            pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                ..Default::default()
-            }))
+        let adapters = without_stray_lines(|| {
+            pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY))
+        });
+        let rank = |t: wgpu::DeviceType| match t {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Other => 3,
+            wgpu::DeviceType::Cpu => 4,
+        };
+        // The first of the best kind, in wgpu's order.
+        let best = adapters
+            .into_iter()
+            .map(|adapter| {
+                let info = adapter.get_info();
+                Adapter { adapter, info }
+            })
+            .min_by_key(|a| rank(a.info.device_type));
+        match best {
+            Some(a) => Ok(a),
+            None => {
+                // wgpu's own account of why there is none.
+                let why = without_stray_lines(|| {
+                    pollster::block_on(instance.request_adapter(&Default::default()))
+                })
+                .err()
+                .map_or("none listed".to_string(), |e| e.to_string());
+                Err(GpuError::NoAdapter(no_adapter(&why)))
+            }
+        }
+    }
+
+    /// The adapter, as frame lines and docs name it: `llvmpipe (LLVM 15.0.6, 256 bits)
+    /// (vulkan, Mesa 22.3.6 (LLVM 15.0.6))`.
+    pub fn describe(&self) -> String {
+        let driver = if self.info.driver_info.is_empty() {
+            self.info.driver.clone()
+        } else {
+            self.info.driver_info.clone()
+        };
+        format!("{} ({}, {driver})", self.info.name, self.info.backend)
+    }
+
+    /// Whether the adapter is a software one (a device that runs on the CPU: lavapipe,
+    /// llvmpipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// For a software adapter, what the user should know: it runs on the CPU, where the CPU
+    /// tracer is faster, and no hardware GPU was found.
+    pub fn software_note(&self) -> Option<String> {
+        self.is_software().then(|| {
+            format!(
+                "the GPU device found is a software one, {}: it runs on this machine's CPU, \
+                 where --device cpu renders the same image faster. No hardware GPU was found: \
+                 is its Vulkan driver installed, and visible here (a container needs the GPU's \
+                 graphics capability)?",
+                self.describe()
+            )
         })
-        .map_err(|e| GpuError::NoAdapter(no_adapter(&e.to_string())))?;
-        let info = adapter.get_info();
+    }
+}
+
+impl Gpu {
+    /// Opens the adapter [`Adapter::find`] takes and compiles the tracer. Without an
+    /// adapter: [`GpuError::NoAdapter`], naming what was looked for and how to get it.
+    pub fn new() -> Result<Gpu, GpuError> {
+        Gpu::open(Adapter::find()?)
+    }
+
+    /// Opens a device on `adapter` and compiles the tracer.
+    pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
+        let Adapter { adapter, info } = adapter;
+        let (counting, features) = match adapter.features().contains(wgpu::Features::SUBGROUP) {
+            true => (Counting::Subgroups, wgpu::Features::SUBGROUP),
+            false => (Counting::Atomics, wgpu::Features::empty()),
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("raytrace"),
+            required_features: features,
             required_limits: wgpu::Limits::default(),
             ..Default::default()
         }))
@@ -107,27 +187,23 @@ impl Gpu {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("tracer"),
-            source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_constants()).into()),
+            source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_prelude(counting)).into()),
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tracer"),
             entries: &[
                 storage(0, true),
                 storage(1, true),
-                storage(2, true),
+                storage(2, false),
                 storage(3, false),
                 storage(5, true),
                 storage(6, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
+                slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
+                slot(
+                    7,
+                    wgpu::BufferBindingType::Storage { read_only: false },
+                    COUNTER_WORDS,
+                ),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -165,26 +241,33 @@ impl Gpu {
             #[cfg(test)]
             numbers,
             layout,
+            adapter,
             info,
             fault,
             dispatches: Arc::new(Mutex::new((0, lose_after))),
         })
     }
 
-    /// The adapter, as frame lines and docs name it: `llvmpipe (LLVM 15.0.6, 256 bits)
-    /// (Vulkan, Mesa 22.3.6 (LLVM 15.0.6))`.
+    /// The adapter, as [`Adapter::describe`] names it.
     pub fn describe(&self) -> String {
-        let driver = if self.info.driver_info.is_empty() {
-            self.info.driver.clone()
-        } else {
-            self.info.driver_info.clone()
-        };
-        format!("{} ({}, {driver})", self.info.name, self.info.backend)
+        self.adapter().describe()
     }
 
-    /// Whether the adapter is a software one (a CPU device such as lavapipe).
+    /// Whether the adapter is a software one ([`Adapter::is_software`]).
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// For a software adapter, what the user should know ([`Adapter::software_note`]).
+    pub fn software_note(&self) -> Option<String> {
+        self.adapter().software_note()
+    }
+
+    fn adapter(&self) -> Adapter {
+        Adapter {
+            adapter: self.adapter.clone(),
+            info: self.info.clone(),
+        }
     }
 
     /// The fault the device reported on its own, if any.
@@ -229,6 +312,20 @@ fn no_adapter(why: &str) -> String {
          software Vulkan device (lavapipe) serves, on Debian or Ubuntu: `apt-get install \
          mesa-vulkan-drivers`. Or render on the CPU: --device cpu"
     )
+}
+
+/// A binding of the compute stage at a dynamic offset (a dispatch's slot), `words` long.
+fn slot(binding: u32, ty: wgpu::BufferBindingType, words: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: true,
+            min_binding_size: std::num::NonZeroU64::new(4 * words as u64),
+        },
+        count: None,
+    }
 }
 
 /// A storage buffer binding of the compute stage.

@@ -1,7 +1,7 @@
 //! Where everything lies in the GPU's buffers: every record is a run of 32-bit words (`u32`,
 //! or `f32` by its bits), read by the shaders with `bitcast`, so no WGSL struct layout rule
 //! (alignment, padding) can differ from what the CPU writes. The offsets are the constants
-//! here, and the shaders get the same constants from [`wgsl_constants`]: one source for both.
+//! here, and the shaders get the same constants from [`wgsl_prelude`]: one source for both.
 //!
 //! Records are read four words at a time (the shaders also see each buffer as `vec4<u32>`),
 //! so every record starts at a multiple of four words and keeps its fields in quads: a
@@ -11,7 +11,9 @@
 //! Two storage buffers hold the scene: the *shot* buffer, written once per shot (materials,
 //! the Sobol tables, the spheres that never move and their hierarchy), and the *frame*
 //! buffer, written per frame (the header below, the shutter curve, the camera's motion, the
-//! animated spheres prepared for the frame's interval, their hierarchy and motions).
+//! animated spheres prepared for the frame's interval, their hierarchy and motions). Beside
+//! them: the film on the device (its sums), a round's work entries, each dispatch's
+//! parameters and counts.
 
 /// A word that stands for no offset or no slot.
 pub(super) const NONE: u32 = u32::MAX;
@@ -40,39 +42,39 @@ pub(super) const H_BACKGROUND: u32 = 11;
 pub(super) const H_PERIOD: u32 = 14;
 /// Pass sums per pixel.
 pub(super) const H_STRIDE: u32 = 15;
-/// Six words: where the hit count, depth, normal, albedo, motion and guides sums start in a
-/// pixel's run ([`NONE`]: not kept).
+/// Five words: where the hit count, depth, normal, albedo and motion sums start in a pixel's
+/// run ([`NONE`]: not kept), as [`crate::passes::Slots`] lists them.
 pub(super) const H_SLOTS: u32 = 16;
 /// The camera's view when it does not move during the frame, 19 words: lens centre, right,
 /// up, centre of pixel (0, 0), steps right and down (3 each), lens radius.
-pub(super) const H_VIEW: u32 = 22;
+pub(super) const H_VIEW: u32 = 21;
 /// The camera's motion records (look_from, look_at), prepared over the frame's interval
 /// widened by one frame period each side (for the motion pass).
-pub(super) const H_CAM_FROM: u32 = 41;
-pub(super) const H_CAM_AT: u32 = 42;
+pub(super) const H_CAM_FROM: u32 = 40;
+pub(super) const H_CAM_AT: u32 = 41;
 /// Three words: the camera's up vector.
-pub(super) const H_CAM_UP: u32 = 43;
+pub(super) const H_CAM_UP: u32 = 42;
 /// tan(vfov / 2).
-pub(super) const H_CAM_TAN: u32 = 46;
-pub(super) const H_CAM_LENS: u32 = 47;
+pub(super) const H_CAM_TAN: u32 = 45;
+pub(super) const H_CAM_LENS: u32 = 46;
 /// The focus distance, when the scene gives one ([`F_FOCUS`]).
-pub(super) const H_CAM_FOCUS: u32 = 48;
+pub(super) const H_CAM_FOCUS: u32 = 47;
 /// The still spheres and their hierarchy's entries, in the shot buffer.
-pub(super) const H_STILL_SPHERES: u32 = 49;
-pub(super) const H_STILL_ENTRIES: u32 = 50;
-pub(super) const H_STILL_ENTRY_N: u32 = 51;
+pub(super) const H_STILL_SPHERES: u32 = 48;
+pub(super) const H_STILL_ENTRIES: u32 = 49;
+pub(super) const H_STILL_ENTRY_N: u32 = 50;
 /// The animated spheres and their hierarchy's entries, in the frame buffer.
-pub(super) const H_MOVING_SPHERES: u32 = 52;
-pub(super) const H_MOVING_ENTRIES: u32 = 53;
-pub(super) const H_MOVING_ENTRY_N: u32 = 54;
+pub(super) const H_MOVING_SPHERES: u32 = 51;
+pub(super) const H_MOVING_ENTRIES: u32 = 52;
+pub(super) const H_MOVING_ENTRY_N: u32 = 53;
 /// The materials and the Sobol tables, in the shot buffer.
-pub(super) const H_MATERIALS: u32 = 55;
-pub(super) const H_TABLES: u32 = 56;
+pub(super) const H_MATERIALS: u32 = 54;
+pub(super) const H_TABLES: u32 = 55;
 /// Per sphere of the scene, its motion record over the widened interval for the motion
 /// pass ([`NONE`]: the sphere never moves).
-pub(super) const H_PASS_MOTIONS: u32 = 57;
+pub(super) const H_PASS_MOTIONS: u32 = 56;
 /// Words in the header.
-pub(super) const HEADER_WORDS: u32 = 58;
+pub(super) const HEADER_WORDS: u32 = 57;
 
 // Flags (`H_FLAGS`).
 pub(super) const F_SOBOL: u32 = 1;
@@ -152,19 +154,71 @@ pub(super) const E_UPPER_CHANGE: u32 = 12;
 /// The Sobol tables: 512 entries of four words (the low byte's 256, then the high byte's).
 pub(super) const TABLE_WORDS: u32 = 512 * 4;
 
-/// Samples of a pixel one invocation takes at most: a pixel's samples are cut into runs at
-/// multiples of this index, each summed in `f32` on the GPU.
-pub(super) const RUN: u32 = 16;
+// The film on the device (device_film.rs): a part of the film's pixels (a run of the film's
+// storage order), each sum a plane of words, word `k` of the part's pixel `i` at
+// `k * pixels + i` (neighbouring invocations touch neighbouring words). The colour's sum is
+// compensated, a high and a low f32 (trace.wgsl, two_sum); the odd samples' sum is a plain
+// f32, as the CPU's film keeps it; the pass sums are compensated, their highs then their lows.
+/// Three planes: the colour sum's high words.
+pub(super) const FILM_SUM: u32 = 0;
+/// Three planes: its low words.
+pub(super) const FILM_SUM_LOW: u32 = 3;
+/// Three planes: the odd samples' sum.
+pub(super) const FILM_ODD: u32 = 6;
+/// The pass sums' planes: `stride` high, then `stride` low.
+pub(super) const FILM_PASSES: u32 = 9;
 
-// The output record of one run: the colour's sum, the odd samples' sum, the samples that
-// were not finite, the rays traced (two words), then the pass sums.
-pub(super) const O_SUM: u32 = 0;
-pub(super) const O_ODD: u32 = 3;
-pub(super) const O_NON_FINITE: u32 = 6;
-pub(super) const O_RAYS: u32 = 7;
-pub(super) const O_PASSES: u32 = 9;
-/// Pass sums a pixel may have, at most (every pass and the guides).
-pub(super) const MAX_STRIDE: u32 = 24;
+/// Planes of a film keeping `stride` pass sums a pixel.
+pub(super) const fn film_planes(stride: u32) -> u32 {
+    FILM_PASSES + 2 * stride
+}
+
+// A work entry: one pixel's samples in a round, four words.
+/// The pixel's place in its part.
+pub(super) const W_INDEX: u32 = 0;
+/// Its position, `x | y << 16`.
+pub(super) const W_XY: u32 = 1;
+/// Its next sample, advanced on the device as samples are added.
+pub(super) const W_NEXT: u32 = 2;
+/// The sample its round stops before.
+pub(super) const W_END: u32 = 3;
+
+// A dispatch's parameters: eight words, a uniform at a dynamic offset (PARAMS_SLOT bytes
+// apart).
+/// The first work entry, and the entries, one invocation each.
+pub(super) const P_FIRST: u32 = 0;
+pub(super) const P_ENTRIES: u32 = 1;
+/// Samples an invocation takes at most.
+pub(super) const P_SAMPLES: u32 = 2;
+/// Pixels of the part: words a plane.
+pub(super) const P_PIXELS: u32 = 3;
+/// Loop iterations after which an invocation starts no other sample.
+pub(super) const P_BUDGET: u32 = 4;
+/// Zero, which the shader cannot know before it runs (trace.wgsl, opaque).
+pub(super) const P_ZERO: u32 = 5;
+pub(super) const PARAMS_WORDS: u32 = 8;
+
+// A dispatch's counts, pairs of words (low, high), at a dynamic offset (COUNTS_SLOT bytes apart).
+/// Samples added.
+pub(super) const C_SAMPLES: u32 = 0;
+/// Rays traced for them.
+pub(super) const C_RAYS: u32 = 2;
+/// Samples that were not finite, counted as black.
+pub(super) const C_NON_FINITE: u32 = 4;
+/// Invocations cut by the device's loop limit (trace.wgsl, window): windows discarded.
+pub(super) const C_CUT: u32 = 6;
+pub(super) const COUNTER_WORDS: u32 = 8;
+
+/// Bytes between two dispatches' parameters, and their counts: the largest offset alignment
+/// a device may ask for a dynamic binding (WebGPU's limits allow 256).
+pub(super) const SLOT_BYTES: u64 = 256;
+
+/// The test entry point's words per sample (trace.wgsl, numbers).
+pub(super) const NUMBERS: u32 = 17;
+
+/// Pass sums a pixel may have, at most: every pass's ([`crate::passes::Layout`]: the hit
+/// count, depth, normal, albedo and motion).
+pub(super) const MAX_STRIDE: u32 = 12;
 
 /// Threads of a workgroup.
 pub(super) const WORKGROUP: u32 = 64;
@@ -283,22 +337,83 @@ const CONSTANTS: &[(&str, u32)] = &[
     ("E_LOWER_CHANGE", E_LOWER_CHANGE),
     ("E_FIRST", E_FIRST),
     ("E_UPPER_CHANGE", E_UPPER_CHANGE),
-    ("O_SUM", O_SUM),
-    ("O_ODD", O_ODD),
-    ("O_NON_FINITE", O_NON_FINITE),
-    ("O_RAYS", O_RAYS),
-    ("O_PASSES", O_PASSES),
+    ("FILM_SUM", FILM_SUM),
+    ("FILM_SUM_LOW", FILM_SUM_LOW),
+    ("FILM_ODD", FILM_ODD),
+    ("FILM_PASSES", FILM_PASSES),
+    ("W_INDEX", W_INDEX),
+    ("W_XY", W_XY),
+    ("W_NEXT", W_NEXT),
+    ("W_END", W_END),
+    ("P_FIRST", P_FIRST),
+    ("P_ENTRIES", P_ENTRIES),
+    ("P_SAMPLES", P_SAMPLES),
+    ("P_PIXELS", P_PIXELS),
+    ("P_BUDGET", P_BUDGET),
+    ("P_ZERO", P_ZERO),
+    ("C_SAMPLES", C_SAMPLES),
+    ("C_RAYS", C_RAYS),
+    ("C_NON_FINITE", C_NON_FINITE),
+    ("C_CUT", C_CUT),
+    ("COUNTER_WORDS", COUNTER_WORDS),
+    ("NUMBERS", NUMBERS),
     ("MAX_STRIDE", MAX_STRIDE),
     ("WORKGROUP", WORKGROUP),
 ];
 
-/// The constants as WGSL declarations (`const H_WIDTH: u32 = 0u;`), put before the shaders'
-/// text.
-pub(super) fn wgsl_constants() -> String {
-    CONSTANTS
-        .iter()
-        .map(|(name, value)| format!("const {name}: u32 = {value}u;\n"))
-        .collect()
+/// How a dispatch's invocations add to its counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Counting {
+    /// A subgroup's values summed first, then one atomic addition (devices with subgroups).
+    Subgroups,
+    /// An atomic addition per invocation of what it counted, when not zero.
+    Atomics,
+}
+
+/// What the shaders' text is put after: the constants as WGSL declarations
+/// (`const H_WIDTH: u32 = 0u;`);
+/// `store_passes(i, px)`, which stores pixel `i`'s pass sums one by one without a loop
+/// (trace.wgsl, window: a loop there could be cut halfway); `count(k, v)`, which adds an
+/// invocation's `v` to the dispatch's count `k` (trace.wgsl, dispatch_add).
+pub(super) fn wgsl_prelude(counting: Counting) -> String {
+    // (naga takes subgroup operations where the device was opened with wgpu's `SUBGROUP`
+    // feature, without WGSL's `enable subgroups`, which it does not parse yet.)
+    let mut text = String::new();
+    for (name, value) in CONSTANTS {
+        text += &format!("const {name}: u32 = {value}u;\n");
+    }
+    text += "fn store_passes(i: u32, px: u32) {\n";
+    for k in 0..MAX_STRIDE {
+        text += &format!("    if g_stride > {k}u {{ store_pass({k}u, i, px); }}\n");
+    }
+    text += "}\n";
+    text + match counting {
+        // Each count an invocation adds is below 2^32 (its samples, rays, non-finite samples,
+        // cuts): summed as 16-bit halves, a subgroup's sums stay below 2^32 too.
+        Counting::Subgroups => {
+            "fn count(k: u32, v: vec2<u32>) {
+    let low = subgroupAdd(v.x & 0xffffu);
+    let mid = subgroupAdd(v.x >> 16u);
+    let high = subgroupAdd(v.y);
+    // The subgroup's first active invocation (naga has no subgroupElect).
+    if subgroupExclusiveAdd(1u) == 0u {
+        let sum = add64(vec2<u32>(low, high), vec2<u32>(mid << 16u, mid >> 16u));
+        if sum.x != 0u || sum.y != 0u {
+            dispatch_add(k, sum);
+        }
+    }
+}
+"
+        }
+        Counting::Atomics => {
+            "fn count(k: u32, v: vec2<u32>) {
+    if v.x != 0u || v.y != 0u {
+        dispatch_add(k, v);
+    }
+}
+"
+        }
+    }
 }
 
 /// A buffer's words as it is written, with the offsets of what was appended.
@@ -380,7 +495,7 @@ mod tests {
             (H_BACKGROUND, 3),
             (H_PERIOD, 1),
             (H_STRIDE, 1),
-            (H_SLOTS, 6),
+            (H_SLOTS, 5),
             (H_VIEW, 19),
             (H_CAM_FROM, 1),
             (H_CAM_AT, 1),
@@ -404,6 +519,15 @@ mod tests {
             next += len;
         }
         assert_eq!(next, HEADER_WORDS);
-        assert!(wgsl_constants().contains("const H_VIEW: u32 = 22u;\n"));
+        for counting in [Counting::Subgroups, Counting::Atomics] {
+            let text = wgsl_prelude(counting);
+            assert!(text.contains("const H_VIEW: u32 = 21u;\n"));
+            assert!(text.contains("if g_stride > 11u { store_pass(11u, i, px); }"));
+            assert!(!text.contains("12u, i"));
+            assert_eq!(
+                text.contains("subgroupAdd"),
+                counting == Counting::Subgroups
+            );
+        }
     }
 }

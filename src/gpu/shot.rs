@@ -1,52 +1,28 @@
 //! A shot on the GPU ([`GpuShot`]: what its frames share, uploaded once) and one frame of it
-//! ([`GpuFrame`]): rounds of samples traced on the GPU and added to the frame's film.
+//! ([`GpuFrame`]): rounds of samples traced on the GPU into the film on the device
+//! ([`super::device_film`]), read back once a round and added to the frame's film.
 //!
-//! A round's samples are cut into *runs*: a pixel's samples from its count so far to its
-//! target, cut at every multiple of [`RUN`] of the sample index. One GPU invocation traces a
-//! run, summing its samples in order in `f32` (and its odd samples, its non-finite ones, its
-//! rays, its pass sums), and the CPU adds each run's sums to its pixel in `f64`, runs in
-//! sample order ([`Pixel::add_run`]). Runs are sent in batches of a size fitted to the
-//! device's speed, which changes nothing in the result: a run's sums depend only on the run.
+//! A round takes every pixel to its target: the pixels with samples to take become work
+//! entries, part by part of the film, and windows of dispatches ([`super::schedule`]) add
+//! their samples, each pixel's in sample order by one invocation at a time, so a pixel's sums
+//! depend on its samples alone, never on how they were split into dispatches. Two
+//! dispatches are in flight: the next is recorded and submitted while the last runs, and
+//! the host's work per dispatch is a few numbers, never a sample's.
 
+use std::collections::VecDeque;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use super::context::{Gpu, GpuError, classify};
-use super::dispatch::{Batches, Run};
-use super::layout::{MAX_STRIDE, O_NON_FINITE, O_ODD, O_PASSES, O_RAYS, O_SUM, RUN, Words};
+use super::device_film::{DeviceFilm, SLOTS, Submitted, merge};
+use super::layout::{MAX_STRIDE, Words};
+use super::schedule::{Pace, Windows};
 use super::upload::{FrameWords, ShotWords};
-use crate::film::{Film, Pixel};
+use crate::film::Film;
 use crate::passes::Layout;
+use crate::prepared::PreparedFrame;
 use crate::scene::Scene;
-
-/// Bytes of output a batch may hold: its runs' records, and as much again read back.
-const BATCH_BYTES: u64 = 64 << 20;
-
-/// The most runs a batch holds.
-const MAX_RUNS: u64 = 1 << 20;
-
-/// Pixels listed at once as pending in a round ([`GpuFrame::round`]): 5 MiB of list. The list
-/// held every pixel of the frame (20 bytes a pixel), which the memory estimate did not count.
-const WINDOW_PIXELS: usize = 1 << 18;
-
-/// Bytes a frame on the GPU holds beyond the CPU's frame, whatever the frame's size: a
-/// window's pending pixels, and a batch at its largest: its output (on the device, its
-/// staging copy, and the words read back), and its runs (on the device, as listed with their
-/// owners, as words, as bytes, and the queue's copy of them). The device's buffers count
-/// because a GPU without memory of its own (lavapipe, integrated GPUs) keeps them in the
-/// process's; with its own, this errs high.
-pub const FIXED_BYTES: u64 = WINDOW_PIXELS as u64 * std::mem::size_of::<Pending>() as u64
-    + 3 * BATCH_BYTES
-    + MAX_RUNS * (5 * std::mem::size_of::<Run>() as u64 + 4);
-
-/// Bytes a frame on the GPU holds per pixel beyond the CPU's frame: each pixel's target
-/// sample count for the round, and its tile's copy while the targets are gathered
-/// ([`crate::renderer`]).
-pub const BYTES_PER_PIXEL: u64 = 2 * std::mem::size_of::<u32>() as u64;
-
-/// Seconds a batch should take: long enough that a dispatch's fixed cost is small, short
-/// enough for progress to move and for drivers that stop long dispatches (two seconds on
-/// Windows).
-const BATCH_SECONDS: f64 = 0.15;
+use crate::world::StaticGeometry;
 
 /// A shot's data on the GPU: what every frame of it shares.
 #[derive(Debug)]
@@ -54,6 +30,9 @@ pub struct GpuShot {
     gpu: Gpu,
     words: ShotWords,
     buffer: wgpu::Buffer,
+    /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
+    /// the threads of a run, one frame at a time).
+    pace: Mutex<Pace>,
 }
 
 /// What one round on the GPU did.
@@ -65,20 +44,21 @@ pub struct RoundCounts {
     pub samples: u64,
     /// Samples that were not finite (counted as black).
     pub non_finite: u64,
-    /// Seconds spent waiting for the GPU.
-    pub seconds: f64,
+    /// Seconds the host spent waiting for the device.
+    pub wait_seconds: f64,
 }
 
 impl GpuShot {
-    /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
-    /// that never move with their hierarchy (built here, as the CPU tracer builds its own).
-    pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
-        let words = ShotWords::new(scene).map_err(GpuError::Failed)?;
+    /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and `statics`
+    /// (the shot's spheres that never move, with their hierarchy, built for `scene`).
+    pub fn new(gpu: &Gpu, scene: &Scene, statics: &StaticGeometry) -> Result<GpuShot, GpuError> {
+        let words = ShotWords::new(scene, statics).map_err(GpuError::Failed)?;
         let buffer = upload(gpu, "shot", &words.words)?;
         Ok(GpuShot {
             gpu: gpu.clone(),
             words,
             buffer,
+            pace: Mutex::new(Pace::default()),
         })
     }
 
@@ -87,29 +67,34 @@ impl GpuShot {
         &self.gpu
     }
 
-    /// Prepares frame `frame` of `scene` (the scene this shot was made from) for a film kept
-    /// by `layout`: its animated spheres for the frame's interval, their hierarchy, its
-    /// camera and shutter, uploaded.
+    /// Uploads the frame `prepared` (of the scene this shot was made from), for a film kept
+    /// by `layout`.
     pub fn frame(
         &self,
-        scene: &Scene,
-        frame: u32,
+        prepared: &PreparedFrame,
         layout: &Layout,
     ) -> Result<GpuFrame<'_>, GpuError> {
         assert!(
             layout.stride <= MAX_STRIDE as usize,
             "more pass sums than the GPU keeps"
         );
-        let words = FrameWords::new(scene, &self.words, frame, layout).map_err(GpuError::Failed)?;
+        let words = FrameWords::new(prepared, &self.words, layout);
         let buffer = upload(&self.gpu, "frame", &words.words)?;
+        let scene = prepared.scene;
+        let pixels = scene.output.width as usize * scene.output.height as usize;
+        let film = DeviceFilm::new(
+            &self.gpu,
+            &self.buffer,
+            &buffer,
+            pixels,
+            layout.stride as u32,
+        )?;
         Ok(GpuFrame {
             shot: self,
-            buffer,
-            batches: None,
-            record: O_PASSES + layout.stride as u32,
+            _buffer: buffer,
+            film,
             stride: layout.stride,
-            moving: words.moving,
-            batch: 4096,
+            max_depth: scene.render.max_depth,
         })
     }
 }
@@ -143,36 +128,22 @@ fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<wgpu::Buffer, GpuErro
 /// One frame prepared on the GPU.
 pub struct GpuFrame<'s> {
     shot: &'s GpuShot,
-    buffer: wgpu::Buffer,
-    batches: Option<Batches>,
-    /// Words of a run's output record.
-    record: u32,
+    /// The frame's words, bound in the film's dispatches.
+    _buffer: wgpu::Buffer,
+    film: DeviceFilm,
     stride: usize,
-    moving: usize,
-    /// Runs in the next batch.
-    batch: usize,
-}
-
-/// A pixel with samples to take in a round.
-struct Pending {
-    /// Its place in the film's storage.
-    index: u32,
-    x: u32,
-    y: u32,
-    /// Its next sample, and the sample it stops before.
-    next: u32,
-    end: u32,
+    max_depth: u32,
 }
 
 impl GpuFrame<'_> {
-    /// Spheres moving during the frame's exposure.
-    pub fn moving(&self) -> usize {
-        self.moving
+    /// Bytes read back from the device so far.
+    pub fn readback_bytes(&self) -> u64 {
+        self.film.readback
     }
 
     /// Takes every pixel of `film` to its target sample count, `targets` in the film's
-    /// storage order (a pixel already there takes none), adding each run's sums to its
-    /// pixel. `progress` is called with the samples of each finished batch.
+    /// storage order (a pixel already there takes none). `progress` is called with the
+    /// samples of each finished dispatch.
     pub fn round(
         &mut self,
         film: &mut Film,
@@ -182,131 +153,132 @@ impl GpuFrame<'_> {
         let rects = film.tile_rects();
         let (pixels, sums) = film.storage_mut();
         assert_eq!(targets.len(), pixels.len(), "a target for every pixel");
+        let mut positions = rects
+            .iter()
+            .flat_map(|r| (0..r.len()).map(move |i| r.position(i)));
         let mut counts = RoundCounts::default();
-        // Pixels are taken a window at a time, so that the list of pending pixels is bounded
-        // in bytes whatever the frame's size ([`FIXED_BYTES`]).
-        let mut pending = Vec::with_capacity(WINDOW_PIXELS);
-        let mut index = 0usize;
-        for rect in rects {
-            for i in 0..rect.len() {
-                let (x, y) = rect.position(i);
-                let (next, end) = (pixels[index].taken(), targets[index]);
-                if end > next {
-                    pending.push(Pending {
-                        index: index as u32,
-                        x,
-                        y,
-                        next,
-                        end,
-                    });
-                }
-                index += 1;
-                if pending.len() == WINDOW_PIXELS {
-                    self.trace(&mut pending, pixels, sums, &mut counts, progress)?;
+        let part = self.film.part();
+        let mut entries: Vec<[u32; 4]> = Vec::new();
+        for start in (0..pixels.len()).step_by(part) {
+            let end = (start + part).min(pixels.len());
+            entries.clear();
+            for (i, (p, &target)) in pixels[start..end]
+                .iter()
+                .zip(&targets[start..end])
+                .enumerate()
+            {
+                let (x, y) = positions.next().expect("a position for every pixel");
+                if target > p.taken() {
+                    entries.push([i as u32, x | y << 16, p.taken(), target]);
                 }
             }
+            if entries.is_empty() {
+                continue;
+            }
+            // Most samples first (stably: neighbours stay together), so that each window's
+            // entries are a prefix.
+            entries.sort_by_key(|e| std::cmp::Reverse(e[3] - e[2]));
+            let gpu = &self.shot.gpu;
+            counts.wait_seconds += self.film.begin(gpu, end - start, &entries);
+            let remaining = entries.iter().map(|e| e[3] - e[2]).collect();
+            self.windows(Windows::new(remaining), end - start, &mut counts, progress)?;
+            let stride = self.stride;
+            let (part_pixels, part_sums, part_targets) = (
+                &mut pixels[start..end],
+                &mut sums[start * stride..end * stride],
+                &targets[start..end],
+            );
+            let waited = Instant::now();
+            counts.non_finite += self.film.read_part(gpu, end - start, |words| {
+                counts.wait_seconds += waited.elapsed().as_secs_f64();
+                merge(words, part_pixels, part_sums, part_targets, stride)
+            })?;
         }
-        self.trace(&mut pending, pixels, sums, &mut counts, progress)?;
         Ok(counts)
     }
 
-    /// Takes every pixel of `pending` to its end, adding each run's sums to its pixel of
-    /// `pixels` and its pass sums in `sums`, and the round's figures to `counts`; leaves
-    /// `pending` empty.
-    fn trace(
+    /// Runs a part's `windows` (of a part of `pixels` pixels) to its end, two dispatches in
+    /// flight, each sized by the device's pace.
+    fn windows(
         &mut self,
-        pending: &mut Vec<Pending>,
-        pixels: &mut [Pixel],
-        sums: &mut [f64],
+        mut windows: Windows,
+        pixels: usize,
         counts: &mut RoundCounts,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<(), GpuError> {
-        let mut runs: Vec<Run> = Vec::new();
-        let mut owners: Vec<u32> = Vec::new();
-        let mut cursor = 0;
+        let gpu = &self.shot.gpu;
+        let mut pace = self.shot.pace();
+        let mut in_flight: VecDeque<Submitted> = VecDeque::new();
+        let mut slot = 0;
+        // When the last dispatch came back.
+        let mut last = Instant::now();
         loop {
-            // The next runs: one of each pending pixel in turn, so that neighbouring
-            // invocations trace neighbouring pixels; a pixel's runs stay in sample order.
-            runs.clear();
-            owners.clear();
-            let capacity = self.capacity();
-            while runs.len() < self.batch.min(capacity) {
-                if cursor == pending.len() {
-                    pending.retain(|p| p.next < p.end);
-                    cursor = 0;
-                    if pending.is_empty() {
-                        break;
+            while in_flight.len() < SLOTS {
+                let next = match windows.next(pace.samples(), &pace) {
+                    Some(d) => Some(d),
+                    None => windows.next_catch_up(pace.samples()),
+                };
+                let Some(d) = next else { break };
+                in_flight.push_back(self.film.submit(gpu, d, pixels, slot));
+                slot = (slot + 1) % SLOTS;
+            }
+            let Some(s) = in_flight.pop_front() else {
+                // Nothing planned and nothing in flight: the part is done, or some pixels
+                // are behind and a catch-up window starts.
+                if windows.left() == 0 {
+                    break;
+                }
+                match windows.catch_up(pace.samples(), &pace) {
+                    Some(d) => {
+                        in_flight.push_back(self.film.submit(gpu, d, pixels, slot));
+                        slot = (slot + 1) % SLOTS;
+                        continue;
                     }
+                    None => return Err(self.too_long()),
                 }
-                let p = &mut pending[cursor];
-                let stop = ((p.next as u64 / RUN as u64 + 1) * RUN as u64).min(p.end as u64) as u32;
-                runs.push([p.x, p.y, p.next, stop - p.next]);
-                owners.push(p.index);
-                p.next = stop;
-                cursor += 1;
-            }
-            if runs.is_empty() {
-                break;
-            }
-            let start = Instant::now();
-            let shot = self.shot;
-            let out = self.batches(runs.len())?.run(&shot.gpu, &runs)?;
-            let seconds = start.elapsed().as_secs_f64();
-            let mut samples = 0;
-            for ((run, &owner), rec) in runs
-                .iter()
-                .zip(&owners)
-                .zip(out.chunks_exact(self.record as usize))
-            {
-                add(&mut pixels[owner as usize], run[3], rec);
-                let at = owner as usize * self.stride;
-                for (s, &w) in sums[at..at + self.stride]
-                    .iter_mut()
-                    .zip(&rec[O_PASSES as usize..])
-                {
-                    *s += f32::from_bits(w) as f64;
-                }
-                counts.non_finite += rec[O_NON_FINITE as usize] as u64;
-                counts.rays +=
-                    rec[O_RAYS as usize] as u64 | (rec[O_RAYS as usize + 1] as u64) << 32;
-                samples += run[3] as u64;
-            }
-            counts.samples += samples;
-            counts.seconds += seconds;
-            progress(samples);
-            // The next batch to take about BATCH_SECONDS at this batch's pace.
-            let pace = runs.len() as f64 / seconds.max(1e-6);
-            self.batch = (pace * BATCH_SECONDS).clamp(256.0, capacity as f64) as usize;
+            };
+            let (dispatch, submitted, submitting) = (s.dispatch, s.at, s.submitting);
+            let waited = Instant::now();
+            let c = self.film.wait(gpu, s)?;
+            let back = Instant::now();
+            counts.wait_seconds += (back - waited + submitting).as_secs_f64();
+            // Its device time: from when it was submitted, or the one before it came back,
+            // whichever was later; on a device that runs a dispatch within its submission,
+            // the submission's time.
+            let seconds = (back - submitted.max(last)).max(submitting).as_secs_f64();
+            last = back;
+            pace.measured(c.samples, seconds, dispatch.k, c.cut);
+            windows.added(c.samples);
+            counts.samples += c.samples;
+            counts.rays += c.rays;
+            counts.non_finite += c.non_finite;
+            progress(c.samples);
         }
-        pending.clear();
+        self.shot.set_pace(pace);
         Ok(())
     }
 
-    /// The runs a batch may hold.
-    fn capacity(&self) -> usize {
-        (BATCH_BYTES / (self.record as u64 * 4)).min(MAX_RUNS) as usize
+    /// The error of a sample the device cannot take in one invocation.
+    fn too_long(&self) -> GpuError {
+        GpuError::Failed(format!(
+            "a sample needs more loop iterations than this device runs in one shader \
+             invocation (Mesa's software device, lavapipe, ends its loops after 65,535): \
+             paths of up to {} bounces (render.max_depth) are too long for it here; render \
+             with --device cpu or a lower max_depth",
+            self.max_depth
+        ))
+    }
+}
+
+impl GpuShot {
+    /// The device's pace the next frame begins with.
+    fn pace(&self) -> Pace {
+        *self.pace.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Buffers for a batch of `runs` runs: those of the last batch if they are large
-    /// enough, else new ones, twice as large as needed (up to the largest batch).
-    fn batches(&mut self, runs: usize) -> Result<&Batches, GpuError> {
-        if self
-            .batches
-            .as_ref()
-            .is_none_or(|b| (b.capacity() as usize) < runs)
-        {
-            let capacity = (2 * runs).min(self.capacity()) as u32;
-            // The last batch's buffers go before the new ones are made: never both at once.
-            self.batches = None;
-            self.batches = Some(Batches::new(
-                &self.shot.gpu,
-                &self.shot.buffer,
-                &self.buffer,
-                capacity,
-                self.record,
-            )?);
-        }
-        Ok(self.batches.as_ref().expect("made above"))
+    /// Sets the device's pace the next frame begins with.
+    pub(super) fn set_pace(&self, pace: Pace) {
+        *self.pace.lock().unwrap_or_else(|e| e.into_inner()) = pace;
     }
 }
 
@@ -314,29 +286,13 @@ impl GpuFrame<'_> {
 impl GpuFrame<'_> {
     /// The sampler's numbers of each sample `(x, y, index, uses)` (`uses`: 1 the lens, 2 the
     /// time), as the tracer draws them: pixel, lens, time, then four bounces' (uc, u.0, u.1).
-    pub(super) fn numbers(&mut self, samples: &[Run]) -> Result<Vec<[f32; 17]>, GpuError> {
-        let shot = self.shot;
-        let batches = Batches::new(
-            &shot.gpu,
-            &shot.buffer,
-            &self.buffer,
-            samples.len() as u32,
-            17,
-        )?;
-        let out = batches.run_with(&shot.gpu, &shot.gpu.numbers, samples)?;
-        Ok(out
-            .chunks_exact(17)
+    pub(super) fn numbers(&mut self, samples: &[[u32; 4]]) -> Result<Vec<[f32; 17]>, GpuError> {
+        use super::layout::NUMBERS;
+        let gpu = &self.shot.gpu;
+        let words = self.film.numbers(gpu, samples)?;
+        Ok(words
+            .chunks_exact(NUMBERS as usize)
             .map(|c| std::array::from_fn(|i| f32::from_bits(c[i])))
             .collect())
     }
-}
-
-/// Adds a run of `count` samples, summed in the output record `rec`, to `pixel`.
-fn add(pixel: &mut Pixel, count: u32, rec: &[u32]) {
-    let f = |i: u32| f32::from_bits(rec[i as usize]);
-    pixel.add_run(
-        [f(O_SUM), f(O_SUM + 1), f(O_SUM + 2)],
-        [f(O_ODD), f(O_ODD + 1), f(O_ODD + 2)],
-        count,
-    );
 }

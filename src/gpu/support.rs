@@ -212,14 +212,14 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
 /// The most bytes the shot's or one frame's buffer holds (the larger), counted generously:
 /// every sphere's record, a hierarchy of at most two entries a sphere, a motion
 /// record for every animated sphere and another for the motion pass, every key twice. Where
-/// every sphere is in the frame's hierarchy (`upload::one_hierarchy`), the still ones too are
-/// in the frame's buffer.
+/// the world prepares every sphere per frame ([`crate::world::one_hierarchy`]), the still
+/// ones too are in the frame's buffer.
 fn buffer_bytes(scene: &Scene) -> u64 {
     use super::layout::{
         ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
         TABLE_WORDS,
     };
-    use super::upload::one_hierarchy;
+    use crate::world::one_hierarchy;
     let sphere = (SPHERE_WORDS + 2 * ENTRY_WORDS) as u64;
     let mut shot = TABLE_WORDS as u64 + MATERIAL_WORDS as u64 * scene.materials.len() as u64;
     let mut frame = HEADER_WORDS as u64 + 3 * scene.shot.curve.points().len() as u64;
@@ -241,6 +241,25 @@ fn buffer_bytes(scene: &Scene) -> u64 {
     4 * shot.max(frame)
 }
 
+/// Bytes a frame of `scene` holds for the GPU beyond what the CPU's path holds, counted on the
+/// host, where a software device (lavapipe) keeps its buffers and a hardware one its
+/// read-back buffers, for a film of `stride` pass sums a pixel (those written and those its
+/// finishing reads): the driver's own ([`GPU_FLOOR_BYTES`]); the shot's and the frame's
+/// words, as written, as copied for the upload and on the device; the film on the device
+/// with its read-back buffers and work entries; each round's per-pixel targets.
+pub fn frame_bytes(scene: &Scene, stride: usize) -> u64 {
+    let pixels = scene.output.width as u64 * scene.output.height as u64;
+    GPU_FLOOR_BYTES
+        + 3 * buffer_bytes(scene)
+        + super::device_film::film_bytes(pixels, stride as u32)
+        + 4 * pixels
+}
+
+/// Resident bytes the GPU path adds to the process whatever the frame: the Vulkan driver and,
+/// for a software device, its shader compiler. Measured: the peak of a 48x27 render of a
+/// scene without spheres on lavapipe is 121 MiB, where the CPU path's is 9 MiB.
+pub const GPU_FLOOR_BYTES: u64 = 128 << 20;
+
 /// A motion's keys (0 for other kinds).
 fn keys(m: &Motion) -> u32 {
     match m {
@@ -257,7 +276,9 @@ mod tests {
     use crate::gpu::upload::{FrameWords, ShotWords};
     use crate::pass::PassSet;
     use crate::passes::Layout;
-    use crate::world::MERGE_LIMIT;
+    use crate::points::FramePoints;
+    use crate::prepared::PreparedFrame;
+    use crate::world::{MERGE_LIMIT, StaticGeometry};
 
     /// A scene of `still` spheres standing still and `moving` moving ones, each on `keys`
     /// keyframes.
@@ -294,7 +315,8 @@ mod tests {
     fn the_buffers_are_never_larger_than_counted() {
         // Still scenes, small scenes whose every sphere is in the frame's hierarchy (one of
         // them with a path of many keys, which the frame's buffer holds besides the still
-        // spheres), and a larger one whose still spheres stay in the shot's buffer.
+        // spheres), a larger one whose still spheres stay in the shot's buffer, and a larger
+        // one, mostly animated, whose every sphere the world prepares per frame.
         let limit = MERGE_LIMIT;
         for (still, moving, keys) in [
             (0, 0, 0),
@@ -303,17 +325,21 @@ mod tests {
             (300, 5, 3),
             (limit - 1, 1, 20_000),
             (limit, 3, 3),
+            (limit, limit / 2, 2),
         ] {
             let s = scene(still, moving, keys);
             let counted = buffer_bytes(&s);
-            let shot = ShotWords::new(&s).unwrap();
+            let statics = StaticGeometry::new(&s);
+            let shot = ShotWords::new(&s, &statics).unwrap();
             assert!(
                 4 * shot.words.0.len() as u64 <= counted,
                 "{still} + {moving}: shot"
             );
             let layout = Layout::new(PassSet::EMPTY.with(crate::pass::Pass::Motion));
             for frame in 1..=3 {
-                let f = FrameWords::new(&s, &shot, frame, &layout).unwrap();
+                let none = FramePoints::none();
+                let prepared = PreparedFrame::new(&s, &statics, &none, frame);
+                let f = FrameWords::new(&prepared, &shot, &layout);
                 assert!(
                     4 * f.words.0.len() as u64 <= counted,
                     "{still} + {moving}: frame {frame}"

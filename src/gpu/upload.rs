@@ -1,13 +1,12 @@
-//! The scene in the GPU's words ([`super::layout`]), made on the CPU from the validated scene
-//! with the CPU tracer's own per-frame preparation: each sphere's motion prepared for the
-//! frame's interval ([`crate::sphere::SphereDesc::prepare`]), its boxes at the shutter's
-//! opening and closing, the hierarchies built by [`crate::bvh`] and flattened
-//! ([`super::flatten`]), the camera's view, the shutter's times.
-//!
-//! A shot's words ([`ShotWords`]) hold what never changes: the materials, the Sobol tables and
-//! the spheres that never move with their hierarchy. A frame's words ([`FrameWords`]) hold its
-//! header, the shutter curve, the camera's motion and the animated spheres prepared for it;
-//! in a small scene with animated spheres ([`MERGE_LIMIT`]), every sphere.
+//! A shot and a frame in the GPU's words ([`super::layout`]): a serialisation of what the
+//! CPU prepared, deciding nothing of its own. A shot's words ([`ShotWords`]) hold what never
+//! changes: the materials, the Sobol tables, and the shot's [`StaticGeometry`] (the spheres
+//! that never move, in their hierarchy's leaf order, and that hierarchy flattened,
+//! [`super::flatten`]). A frame's words ([`FrameWords`]) hold its [`PreparedFrame`]: its header
+//! (size, depth, the sampler's key, the camera's and the shutter's settings), the shutter
+//! curve, the camera's motion, and its world's animated spheres prepared for its interval
+//! with their hierarchy and curved paths. Which spheres are still is the world's rule
+//! ([`crate::world::one_hierarchy`]).
 //! Times on the GPU are `f32` seconds since the frame's opening, so a late frame keeps its
 //! digits as on the CPU.
 
@@ -16,16 +15,15 @@ use sobol_burley::parts::sobol_int4_rev;
 
 use super::flatten::{Flat, flatten};
 use super::layout::*;
-use crate::aabb::Aabb;
-use crate::bvh::Bvh;
 use crate::material::{Background, Material};
 use crate::motion::{FrameMotion, Motion};
 use crate::passes::Layout;
+use crate::prepared::PreparedFrame;
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::shutter::{Interval, ReadoutDirection};
-use crate::world::MERGE_LIMIT;
+use crate::world::{StaticGeometry, TracedSphere};
 
 /// What a shot keeps on the GPU for all its frames.
 #[derive(Clone, Debug)]
@@ -35,30 +33,18 @@ pub(super) struct ShotWords {
     tables: u32,
     spheres: u32,
     hierarchy: Flat,
-    /// The spheres prepared per frame: the animated ones, or every one (see
-    /// [`MERGE_LIMIT`]); the others are in this buffer.
-    animated: Vec<u32>,
 }
 
-/// Whether `scene` is traced through one hierarchy per frame over every sphere: it has
-/// animated spheres and at most the CPU's world's [`MERGE_LIMIT`] spheres in all (the
-/// world's shared topology for larger, mostly animated scenes has no counterpart here).
-pub(super) fn one_hierarchy(scene: &Scene) -> bool {
-    scene.spheres.len() <= MERGE_LIMIT && scene.spheres.iter().any(|s| s.motion.is_animated())
-}
-
-/// One frame's words, and what the renderer reports of it.
+/// One frame's words.
 #[derive(Clone, Debug)]
 pub(super) struct FrameWords {
     pub(super) words: Words,
-    /// Spheres moving during the frame's exposure.
-    pub(super) moving: usize,
 }
 
 impl ShotWords {
-    /// The words of `scene`'s shot: its materials, the Sobol tables, and its spheres that
-    /// never move with their hierarchy (built as the CPU tracer builds its own).
-    pub(super) fn new(scene: &Scene) -> Result<ShotWords, String> {
+    /// The words of `scene`'s shot: its materials, the Sobol tables, and `statics` (built for
+    /// `scene`): its spheres that never move with their hierarchy.
+    pub(super) fn new(scene: &Scene, statics: &StaticGeometry) -> Result<ShotWords, String> {
         if !scene.points.is_empty() {
             // Refused when the scene is validated (`super::support`).
             return Err("the GPU renders no point caches ([[points]])".to_string());
@@ -89,57 +75,35 @@ impl ShotWords {
                 entry.iter().for_each(|&x| w.u(x));
             }
         }
-        // As the CPU's world: a scene with animated spheres and at most MERGE_LIMIT spheres
-        // in all is one hierarchy per frame (one walk per ray, one nearest distance pruning
-        // it); a larger one keeps its still spheres apart, built once.
-        let n = scene.spheres.len() as u32;
-        let (still, animated): (Vec<u32>, Vec<u32>) = if one_hierarchy(scene) {
-            (Vec::new(), (0..n).collect())
-        } else {
-            (0..n).partition(|&i| !scene.spheres[i as usize].motion.is_animated())
-        };
-        let boxes: Vec<Aabb> = still
-            .iter()
-            .map(|&i| scene.spheres[i as usize].still_box())
-            .collect();
-        let bvh = Bvh::build(&boxes);
+        let (still, hierarchy) = statics.still_spheres();
         w.align();
         let spheres = w.at();
-        for &k in bvh.order() {
-            let id = still[k as usize];
-            let s = &scene.spheres[id as usize];
-            sphere(
-                &mut w,
-                s.motion.at(0.0),
-                DVec3::ZERO,
-                s.radius,
-                s.material,
-                id,
-                NONE,
-            );
+        for s in still {
+            sphere(&mut w, &s, NONE);
         }
         let eye = scene.camera.look_from.at(0.0).as_vec3().to_array();
-        let hierarchy = flatten(bvh.view(), eye, &mut w);
+        let hierarchy = flatten(hierarchy, eye, &mut w);
         Ok(ShotWords {
             words: w,
             materials,
             tables,
             spheres,
             hierarchy,
-            animated,
         })
     }
 }
 
-/// Appends a sphere record (at a multiple of four words when the last record ends there).
-fn sphere(w: &mut Words, c: DVec3, v: DVec3, radius: f64, material: u32, id: u32, motion: u32) {
+/// Appends the record of sphere `s` (at a multiple of four words when the last record ends
+/// there), with its motion record at `motion` ([`NONE`]: its centre plus its velocity times
+/// the time).
+fn sphere(w: &mut Words, s: &TracedSphere, motion: u32) {
     let start = w.at();
     debug_assert_eq!(start % 4, 0);
-    w.v(c);
-    w.f(radius);
-    w.v(v);
-    w.u(material);
-    w.u(id);
+    w.v(s.center);
+    w.f(s.radius);
+    w.v(s.velocity);
+    w.u(s.material);
+    w.u(s.id);
     w.u(motion);
     w.pad_to(start, SPHERE_WORDS);
 }
@@ -187,31 +151,16 @@ fn motion(w: &mut Words, m: &FrameMotion, t0: f64, open: f64) -> u32 {
     start
 }
 
-/// The key the GPU's samplers start their hashes from: the CPU samplers' key for the seed and
-/// frame, hashed once more (`hash_words(&[key, pixel, index])` begins by mixing it).
-fn sampler_key(kind: SamplerKind, seed: u64, frame: u32) -> u64 {
-    let key = match kind {
-        SamplerKind::Independent => hash_words(&[seed, frame as u64]),
-        // The SobolSampler's own key (sampler.rs).
-        SamplerKind::Sobol => hash_words(&[seed, frame as u64, 0x0005_0b01]),
-    };
-    hash_words(&[key])
-}
-
 impl FrameWords {
-    /// The words of frame `frame` of `scene`, with `shot` already on the GPU, for a film kept
-    /// by `layout`.
-    pub(super) fn new(
-        scene: &Scene,
-        shot: &ShotWords,
-        frame: u32,
-        layout: &Layout,
-    ) -> Result<FrameWords, String> {
+    /// The words of the frame `prepared`, with `shot` (its shot's words) already on the GPU,
+    /// for a film kept by `layout`.
+    pub(super) fn new(prepared: &PreparedFrame, shot: &ShotWords, layout: &Layout) -> FrameWords {
+        let scene = prepared.scene;
         let (width, height) = (scene.output.width, scene.output.height);
-        let times = &scene.shot;
-        let interval = times.interval(frame);
+        let times = &prepared.times;
+        let interval = prepared.interval();
         let open = interval.open;
-        let period = 1.0 / times.fps;
+        let period = 1.0 / scene.shot.fps;
         // The camera and the motion pass look one frame period beyond the exposure.
         let widened = Interval {
             open: open - period,
@@ -222,25 +171,25 @@ impl FrameWords {
         w.set(H_WIDTH, width);
         w.set(H_HEIGHT, height);
         w.set(H_MAX_DEPTH, scene.render.max_depth);
-        let key = sampler_key(scene.render.sampler, scene.render.seed, frame);
+        // The GPU's samplers start their hashes from the CPU samplers' key hashed once more
+        // (the CPU's `hash_words(&[key, pixel, index])` begins by mixing it).
+        let key = hash_words(&[prepared.key]);
         w.set(H_KEY, key as u32);
         w.set(H_KEY + 1, (key >> 32) as u32);
         w.set_f(H_DURATION, interval.duration());
-        w.set_f(H_SHUTTER, times.shutter);
+        w.set_f(H_SHUTTER, times.shutter());
         let mut flags = 0;
-        if scene.render.sampler == SamplerKind::Sobol {
+        if prepared.sampler == SamplerKind::Sobol {
             flags |= F_SOBOL;
         }
-        // As Shot::frame_times: a zero readout is a global shutter, a zero shutter ignores
-        // the curve.
-        if let Some(r) = times.rolling.filter(|r| r.readout > 0.0) {
+        if let Some((readout, direction)) = times.rolling() {
             flags |= F_ROLLING;
-            if r.direction == ReadoutDirection::BottomToTop {
+            if direction == ReadoutDirection::BottomToTop {
                 flags |= F_BOTTOM_TO_TOP;
             }
-            w.set_f(H_READOUT, r.readout);
+            w.set_f(H_READOUT, readout);
         }
-        if let Some(table) = times.curve.table().filter(|_| times.shutter > 0.0) {
+        if let Some(table) = times.curve() {
             let knots: Vec<(f64, f64, f64)> = table.knots().collect();
             w.set(H_CURVE, w.at());
             w.set(H_CURVE_N, knots.len() as u32);
@@ -248,7 +197,7 @@ impl FrameWords {
             knots.iter().for_each(|k| w.f(k.1));
             knots.iter().for_each(|k| w.f(k.2));
         }
-        if let Background::Uniform(c) = scene.background {
+        if let Background::Uniform(c) = prepared.world.background {
             flags |= F_UNIFORM;
             for (i, x) in c.to_array().into_iter().enumerate() {
                 w.set_f(H_BACKGROUND + i as u32, x);
@@ -260,29 +209,30 @@ impl FrameWords {
         w.set_f(H_PERIOD, period);
         w.set(H_STRIDE, layout.stride as u32);
         let s = layout.slots();
-        for (i, slot) in [s.hits, s.depth, s.normal, s.albedo, s.motion, None]
+        for (i, slot) in [s.hits, s.depth, s.normal, s.albedo, s.motion]
             .into_iter()
             .enumerate()
         {
             w.set(H_SLOTS + i as u32, slot.map_or(NONE, |x| x as u32));
         }
-        // The camera: its view at the opening when it does not move during the frame (as
-        // the CPU tracer), else its motion, to make a view per sample.
+        // The camera: its view at the opening, which every sample takes when it does not move
+        // during the frame (as the CPU tracer), else its motion, to make a view per sample.
         let cam = &scene.camera;
-        let camera_moves = cam.moves_in(interval);
-        let view = cam.view_at(open, width, height);
-        let (vectors, lens_radius) = view.vectors();
+        let (vectors, lens_radius) = prepared.fixed_view.vectors();
         for (i, v) in vectors.iter().enumerate() {
             for a in 0..3 {
                 w.set_f(H_VIEW + 3 * i as u32 + a, v[a as usize]);
             }
         }
         w.set_f(H_VIEW + 18, lens_radius);
-        if camera_moves {
+        if prepared.camera_moves {
             flags |= F_CAMERA_MOVES;
         }
-        if view.has_lens() {
+        if prepared.has_lens {
             flags |= F_LENS;
+        }
+        if prepared.sample_time {
+            flags |= F_TIME;
         }
         if cam.look_from.is_animated() || cam.look_at.is_animated() {
             flags |= F_CAMERA_ANIMATED;
@@ -306,44 +256,23 @@ impl FrameWords {
         w.set(H_STILL_ENTRY_N, shot.hierarchy.count);
         w.set(H_MATERIALS, shot.materials);
         w.set(H_TABLES, shot.tables);
-        // The animated spheres, prepared for the frame's interval, and their hierarchy.
-        let prepared: Vec<_> = shot
-            .animated
-            .iter()
-            .map(|&i| scene.spheres[i as usize].prepare(interval))
-            .collect();
-        let (open_boxes, close_boxes): (Vec<Aabb>, Vec<Aabb>) =
-            prepared.iter().map(|p| p.shutter_boxes(interval)).unzip();
-        let bvh = Bvh::build_moving(&open_boxes, &close_boxes);
-        drop((open_boxes, close_boxes));
-        let mut moving = 0;
+        // The world's animated spheres, prepared for the frame's interval, and their
+        // hierarchy; each curved path's record follows them.
+        let (animated, hierarchy) = prepared.world.animated_spheres();
         let mut curved = Vec::new();
         w.align();
         let spheres = w.at();
-        for &k in bvh.order() {
-            let id = shot.animated[k as usize];
-            let p = &prepared[k as usize];
-            let material = scene.spheres[id as usize].material;
-            let (c, v) = match &p.motion {
-                FrameMotion::Fixed(c) => (*c, DVec3::ZERO),
-                FrameMotion::Linear {
-                    start, velocity, ..
-                } => (*start, *velocity),
-                _ => {
-                    // Its record comes after the spheres: its place is set then.
-                    curved.push((w.at() + S_MOTION, k));
-                    (DVec3::ZERO, DVec3::ZERO)
-                }
-            };
-            if p.motion.is_moving() {
-                moving += 1;
+        for s in animated {
+            if let Some(path) = s.path {
+                // Its record comes after the spheres: its place is set then.
+                curved.push((w.at() + S_MOTION, path));
             }
-            sphere(&mut w, c, v, p.radius, material, id, NONE);
+            sphere(&mut w, &s, NONE);
         }
         let eye = cam.look_from.at(open).as_vec3().to_array();
-        let hierarchy = flatten(bvh.view(), eye, &mut w);
-        for (slot, k) in curved {
-            let record = motion(&mut w, &prepared[k as usize].motion, open, open);
+        let hierarchy = flatten(hierarchy, eye, &mut w);
+        for (slot, path) in curved {
+            let record = motion(&mut w, path, open, open);
             w.set(slot, record);
         }
         w.set(H_MOVING_SPHERES, spheres);
@@ -359,19 +288,16 @@ impl FrameWords {
             for i in index..w.at() {
                 w.set(i, NONE);
             }
-            for &id in &shot.animated {
-                let path: &Motion = &scene.spheres[id as usize].motion;
+            for (id, sphere) in scene.spheres.iter().enumerate() {
+                let path: &Motion = &sphere.motion;
                 if !path.is_animated() {
                     continue;
                 }
                 let record = motion(&mut w, &path.prepare(widened), widened.open, open);
-                w.set(index + id, record);
+                w.set(index + id as u32, record);
             }
         }
-        if moving > 0 || camera_moves {
-            flags |= F_TIME;
-        }
         w.set(H_FLAGS, flags);
-        Ok(FrameWords { words: w, moving })
+        FrameWords { words: w }
     }
 }

@@ -49,11 +49,30 @@ pub const MAX_DENOISES: u32 = 2;
 /// (as squares) grows between denoises: see the module's notes.
 const RATIO_GROWTH: f64 = 1.0 / 3.0;
 
+/// The passes the finishing stages of `scene` read from the film, written or not: with
+/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
+pub fn passes_read(scene: &Scene) -> PassSet {
+    match scene.output.denoise {
+        Some(d) if d.temporal => history_passes(),
+        _ => PassSet::EMPTY,
+    }
+}
+
+/// The passes history reads.
+fn history_passes() -> PassSet {
+    PassSet::EMPTY
+        .with(Pass::Depth)
+        .with(Pass::Normal)
+        .with(Pass::Motion)
+}
+
 /// The stages that finish a shot's frames.
 pub struct Finishing<'d> {
     denoising: Option<Denoising<'d>>,
     history: Option<History>,
     first_frame: u32,
+    /// The passes the stages read ([`passes_read`]).
+    read: PassSet,
     raw: RawStop,
 }
 
@@ -87,6 +106,7 @@ impl<'d> Finishing<'d> {
             denoising,
             history,
             first_frame: scene.shot.first_frame,
+            read: passes_read(scene),
             raw: RawStop,
         })
     }
@@ -115,10 +135,7 @@ impl<'d> Finishing<'d> {
     /// The passes these stages read from the film, written or not: with history, the depth,
     /// normal and motion that carry a pixel to earlier frames.
     pub fn passes_read(&self) -> PassSet {
-        match self.history {
-            Some(_) => history_passes(),
-            None => PassSet::EMPTY,
-        }
+        self.read
     }
 
     /// The frames that must be finished before `frame`, in order, that have not been: with
@@ -221,14 +238,6 @@ fn temporal_frame(result: &FrameResult, pixels: &[WrittenPixel]) -> TemporalFram
         normal: interleave(&["N.X", "N.Y", "N.Z"]),
         backward: interleave(&["backward.u", "backward.v"]),
     }
-}
-
-/// The passes history reads.
-fn history_passes() -> PassSet {
-    PassSet::EMPTY
-        .with(Pass::Depth)
-        .with(Pass::Normal)
-        .with(Pass::Motion)
 }
 
 /// The denoise stage of a shot: its filter, and what the frame being finished has of it.

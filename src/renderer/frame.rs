@@ -7,17 +7,16 @@ use super::adaptive::{Plan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
 use super::stop::{RawStop, StopRule, relative_error};
-use super::tiles::{FrameRequest, FrameSetup};
+use super::tiles::FrameRequest;
 use crate::denoise::denoiser::DenoiseQuality;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
-use crate::gpu::GpuError;
 use crate::pass::PassSet;
-use crate::passes::{Layout, PassContext, PassImages};
+use crate::passes::{Layout, PassImages};
 use crate::points::FramePoints;
+use crate::prepared::PreparedFrame;
 use crate::scene::Scene;
-use crate::shutter::{FrameTimes, Interval};
-use crate::world::{StaticGeometry, World};
+use crate::shutter::Interval;
 
 /// Figures of one rendered frame.
 #[derive(Clone, Debug, Default)]
@@ -27,8 +26,12 @@ pub struct FrameStats {
     /// Seconds spent tracing, and denoising the frame when it is denoised.
     pub render_seconds: f64,
     /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
-    /// count, how busy the cores were.
+    /// count, how busy the cores were. On the GPU: seconds the host waited for the device,
+    /// so that the frame's time less these is the host's work.
     pub tile_seconds: f64,
+    /// Bytes read back from the device (on the GPU: its film once a round and each
+    /// dispatch's counts; 0 on the CPU).
+    pub readback_bytes: u64,
     /// Rays intersected with the scene.
     pub rays: u64,
     /// Camera samples taken, over the whole frame.
@@ -90,20 +93,6 @@ impl FrameResult {
     }
 }
 
-/// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
-/// `[render]` samples, depth, seed and sampler), built up and then sampled
-/// ([`FrameJob::sample`]).
-///
-/// Without a budget, every pixel takes exactly the scene's samples, in one round. Under a
-/// budget, every pixel first takes the same samples, in rounds that double them
-/// ([`next_round`]), up to [`MIN_SAMPLES_FOR_THRESHOLD`]; then rounds are adaptive: each pixel
-/// doubles its samples or stops by its weight ([`StopRule::weights`]), until the stop rule
-/// finds the frame within the noise threshold, the time runs out or no pixel may take more.
-///
-/// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
-/// plain sum of its samples over their count: a pixel that stopped at N samples is
-/// bit-identical to the same pixel rendered with exactly N samples.
-///
 /// A finished frame's written colour when the scene asks for denoising.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Denoised {
@@ -121,6 +110,20 @@ pub struct Denoised {
     pub quality: DenoiseQuality,
 }
 
+/// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
+/// `[render]` samples, depth, seed and sampler), built up and then sampled
+/// ([`FrameJob::sample`]).
+///
+/// Without a budget, every pixel takes exactly the scene's samples, in one round. Under a
+/// budget, every pixel first takes the same samples, in rounds that double them
+/// ([`next_round`]), up to [`MIN_SAMPLES_FOR_THRESHOLD`]; then rounds are adaptive: each pixel
+/// doubles its samples or stops by its weight ([`StopRule::weights`]), until the stop rule
+/// finds the frame within the noise threshold, the time runs out or no pixel may take more.
+///
+/// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
+/// plain sum of its samples over their count: a pixel that stopped at N samples is
+/// bit-identical to the same pixel rendered with exactly N samples.
+///
 /// The frame comes out raw: finishing it (denoising, history) is [`Finishing`](super::Finishing)'s.
 /// The scene's point caches are not read here (reading files is not the frame's business):
 /// the frame's points are given ([`FrameJob::points`]).
@@ -216,20 +219,12 @@ fn sample(
     } = job;
     let budget = &budget;
     let frame_start = Instant::now();
-    let req = &FrameRequest::from_scene(scene, frame);
-    let times = scene.shot.frame_times(req.frame);
-    let interval = times.interval;
+    let req = &FrameRequest::from_scene(scene);
     let layout = Layout::keeping(scene.output.passes, read);
-    let mut rounds = match on {
-        On::Cpu(statics) => Rounds::Cpu(Box::new(cpu_setup(
-            scene, statics, points, req, times, layout,
-        ))),
-        // Unreachable from a validated scene: one with `[[points]]` is refused for the GPU.
-        On::Gpu(_) if !points.is_empty() => {
-            return Err(GpuError::Failed("the GPU renders no point caches".to_string()).into());
-        }
-        On::Gpu(shot) => Rounds::Gpu(Box::new(shot.frame(scene, frame, &layout)?)),
-    };
+    // One prepared frame, whichever device traces it.
+    let prepared = PreparedFrame::new(scene, on.statics(), points, frame);
+    let interval = prepared.interval();
+    let mut rounds = Rounds::new(on, prepared, points, req, &layout)?;
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
     let render_start = Instant::now();
@@ -314,6 +309,7 @@ fn sample(
     stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
     stats.min_samples_per_pixel = taken.min().unwrap_or(0);
     stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
+    stats.readback_bytes = rounds.readback_bytes();
     stats.render_seconds = render_start.elapsed().as_secs_f64();
     Ok(FrameResult {
         frame,
@@ -323,50 +319,6 @@ fn sample(
         denoised: None,
         stats,
     })
-}
-
-/// Everything about a frame on the CPU that is fixed before its first sample: its world (the
-/// spheres and `points` prepared for its interval, their hierarchies), its camera and passes.
-fn cpu_setup<'a>(
-    scene: &'a Scene,
-    statics: &'a StaticGeometry,
-    points: &'a FramePoints,
-    req: &'a FrameRequest,
-    times: FrameTimes,
-    layout: Layout,
-) -> FrameSetup<'a> {
-    let interval = times.interval;
-    let world = World::prepare_with(scene, statics, points, interval);
-    let camera_moves = scene.camera.moves_in(interval);
-    let fixed_view = scene.camera.view_at(interval.open, req.width, req.height);
-    let passes = (layout.stride > 0).then(|| {
-        PassContext::new(
-            layout,
-            &scene.spheres,
-            scene.background,
-            &scene.camera,
-            scene.shot.fps,
-            req.width,
-            req.height,
-        )
-        .with_points(points)
-    });
-    FrameSetup {
-        scene,
-        // Sample time only when something moves during the frame's whole exposure (so a still
-        // scene renders the same under any shutter); sample the lens only for a lens with an
-        // aperture (which does not change over time, so any instant's view answers).
-        sample_time: world.has_motion() || camera_moves,
-        has_lens: fixed_view.has_lens(),
-        world,
-        req,
-        interval,
-        times,
-        camera_moves,
-        fixed_view,
-        passes,
-        transparent: scene.transparent,
-    }
 }
 
 #[cfg(test)]

@@ -26,6 +26,6 @@ pub use crate::film::TILE;
 pub use adaptive::Weights;
 pub use budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 pub use device::{FrameError, ShotGeometry};
-pub use finish::{Denoising, Finishing, MAX_DENOISES};
+pub use finish::{Denoising, Finishing, MAX_DENOISES, passes_read};
 pub use frame::{Denoised, FrameJob, FrameResult, FrameStats};
 pub use stop::{RawStop, StopRule, relative_error};

@@ -1,5 +1,5 @@
-//! The tiles of a frame: everything fixed before the frame's first sample ([`FrameSetup`]),
-//! and one round of samples over every tile of the film, in parallel.
+//! The tiles of a frame on the CPU: the prepared frame with its passes' context
+//! ([`FrameSetup`]), and one round of samples over every tile of the film, in parallel.
 
 use std::time::Instant;
 
@@ -11,58 +11,42 @@ use crate::bvh::PACKET;
 use crate::camera::View;
 use crate::film::{Film, FilmTile};
 use crate::passes::PassContext;
+use crate::prepared::PreparedFrame;
 use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
-use crate::shutter::{FrameTimes, Interval};
 use crate::tracer::{TraceStats, camera_radiance_packet, radiance, radiance_packet};
-use crate::world::World;
 
-/// The settings of one frame, copied from the scene's (`[output]` size, `[render]`) so the
-/// per-sample loop reads them from one small struct.
+/// The settings of one frame, copied from the scene's (`[output]` size, `[render]` samples
+/// and depth) so the per-sample loop reads them from one small struct; the sampler's are the
+/// prepared frame's.
 #[derive(Clone, Debug)]
 pub(super) struct FrameRequest {
-    pub(super) frame: u32,
     pub(super) width: u32,
     pub(super) height: u32,
     /// Samples per pixel (without a budget: exactly these).
     pub(super) samples: u32,
     pub(super) max_depth: u32,
-    pub(super) seed: u64,
-    pub(super) sampler: SamplerKind,
 }
 
 impl FrameRequest {
-    /// The frame `frame` with the scene's settings.
-    pub(super) fn from_scene(scene: &Scene, frame: u32) -> FrameRequest {
+    /// The scene's settings.
+    pub(super) fn from_scene(scene: &Scene) -> FrameRequest {
         FrameRequest {
-            frame,
             width: scene.output.width,
             height: scene.output.height,
             samples: scene.render.samples,
             max_depth: scene.render.max_depth,
-            seed: scene.render.seed,
-            sampler: scene.render.sampler,
         }
     }
 }
 
-/// Everything about a frame that is fixed before its first sample.
+/// Everything about a frame on the CPU that is fixed before its first sample: the prepared
+/// frame, and the passes' context when the scene asks for passes.
 pub(super) struct FrameSetup<'a> {
-    pub(super) scene: &'a Scene,
-    pub(super) world: World<'a>,
+    pub(super) prepared: PreparedFrame<'a>,
     pub(super) req: &'a FrameRequest,
-    pub(super) interval: Interval,
-    /// The sample times: the shutter curve and a rolling shutter's rows.
-    pub(super) times: FrameTimes,
-    pub(super) camera_moves: bool,
-    pub(super) fixed_view: View,
-    pub(super) sample_time: bool,
-    pub(super) has_lens: bool,
-    /// The passes' context when the scene asks for passes.
     pub(super) passes: Option<PassContext<'a>>,
-    /// `[background] transparent`: camera rays that miss add black.
-    pub(super) transparent: bool,
 }
 
 impl FrameSetup<'_> {
@@ -75,15 +59,16 @@ impl FrameSetup<'_> {
         plan: &Plan,
     ) -> TileCounts {
         let req = self.req;
-        let interval = self.interval;
+        let prepared = &self.prepared;
+        let interval = prepared.interval();
         let uses = crate::sampler::CameraUse {
-            lens: self.has_lens,
-            time: self.sample_time,
+            lens: prepared.has_lens,
+            time: prepared.sample_time,
         };
         // Frames with passes or a transparent background take each camera ray's first hit
         // from the tracer, in a function of its own (`observed_packet`), so that this loop
         // is compiled for frames without them as it would be without passes at all.
-        let observed = self.passes.is_some() || self.transparent;
+        let observed = self.passes.is_some() || prepared.scene.transparent;
         let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
         let mut targets = Vec::with_capacity(tile.pixels.len());
         plan.targets(&tile.rect, tile.pixels, &mut targets);
@@ -105,7 +90,7 @@ impl FrameSetup<'_> {
                     dir: DVec3::ZERO,
                     time: 0.0,
                 }; PACKET];
-                let mut views = [self.fixed_view; PACKET];
+                let mut views = [prepared.fixed_view; PACKET];
                 for (k, (ray, view)) in rays.iter_mut().zip(&mut views).enumerate().take(n as usize)
                 {
                     let s = s + k as u32;
@@ -113,16 +98,16 @@ impl FrameSetup<'_> {
                     // The pixel position, and the lens position and the time (one joint
                     // sample) where used; the bounces' numbers do not depend on which are.
                     let camera = sampler.camera(uses);
-                    let time = if self.sample_time {
+                    let time = if prepared.sample_time {
                         // The row of a rolling shutter: the sample's continuous y over the
                         // height (0 at the top edge), as the camera places it.
                         let row = (y as f64 + camera.pixel.1) / req.height as f64;
-                        self.times.time(camera.time, row)
+                        prepared.times.time(camera.time, row)
                     } else {
                         interval.open
                     };
-                    if self.camera_moves {
-                        *view = self.scene.camera.view_at(time, req.width, req.height);
+                    if prepared.camera_moves {
+                        *view = prepared.scene.camera.view_at(time, req.width, req.height);
                     }
                     *ray = view.ray(x, y, camera.pixel, camera.lens, time);
                 }
@@ -131,11 +116,11 @@ impl FrameSetup<'_> {
                     self.observed_packet(rays, &views, (x, y, s), sampler, &mut stats, sums)
                 } else if n == 1 {
                     let mut v = [DVec3::ZERO; PACKET];
-                    v[0] = radiance(&self.world, rays[0], req.max_depth, sampler, &mut stats);
+                    v[0] = radiance(&prepared.world, rays[0], req.max_depth, sampler, &mut stats);
                     v
                 } else {
                     radiance_packet(
-                        &self.world,
+                        &prepared.world,
                         rays,
                         (x, y, s),
                         req.max_depth,
@@ -169,13 +154,13 @@ impl FrameSetup<'_> {
         sums: &mut [f64],
     ) -> [DVec3; PACKET] {
         camera_radiance_packet(
-            &self.world,
+            &self.prepared.world,
             rays,
             at,
             self.req.max_depth,
             sampler,
             stats,
-            self.transparent,
+            self.prepared.scene.transparent,
             |k, hit| {
                 if let Some(passes) = &self.passes {
                     passes.record(sums, &rays[k], &views[k], hit);
@@ -191,7 +176,6 @@ impl FrameSetup<'_> {
         plan: &Plan<'_>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> TileCounts {
-        let req = self.req;
         let mut tiles = film.tiles_mut();
         tiles
             .par_iter_mut()
@@ -200,14 +184,13 @@ impl FrameSetup<'_> {
             .with_max_len(1)
             .map(|tile| {
                 let start = Instant::now();
-                let mut counts = match req.sampler {
-                    SamplerKind::Independent => self.sample_tile(
-                        &mut IndependentSampler::new(req.seed, req.frame),
-                        tile,
-                        plan,
-                    ),
+                let key = self.prepared.key;
+                let mut counts = match self.prepared.sampler {
+                    SamplerKind::Independent => {
+                        self.sample_tile(&mut IndependentSampler::from_key(key), tile, plan)
+                    }
                     SamplerKind::Sobol => {
-                        self.sample_tile(&mut SobolSampler::new(req.seed, req.frame), tile, plan)
+                        self.sample_tile(&mut SobolSampler::from_key(key), tile, plan)
                     }
                 };
                 progress(counts.samples);

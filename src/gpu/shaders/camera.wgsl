@@ -101,13 +101,16 @@ fn curve_sample(u: f32) -> f32 {
     let cdf = at + 2u * n;
     // The last knot whose cumulative area is at most u.
     var count = 0u;
+    g_iters += 2u;
     for (var k = 0u; k < n; k++) {
+        g_iters += 1u;
         if ff(cdf + k) <= u {
             count += 1u;
         }
     }
     var i = clamp(count, 1u, n - 1u) - 1u;
     while i > 0u && ff(cdf + i + 1u) == ff(cdf + i) {
+        g_iters += 1u;
         i -= 1u;
     }
     let a = ff(at + n + i);

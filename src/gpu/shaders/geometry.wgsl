@@ -64,7 +64,9 @@ fn motion_at(m: u32, t: f32) -> vec3<f32> {
     // Key `lo` is at or before tau, key `hi` after it.
     var lo = 0u;
     var hi = n - 1u;
+    g_iters += 1u;
     while hi - lo > 1u {
+        g_iters += 1u;
         let mid = (lo + hi) / 2u;
         if ff(first + KEY_WORDS * mid) <= tau {
             lo = mid;
@@ -157,7 +159,9 @@ struct Hit {
 // nearest hit so far, past its subtree otherwise (flatten.rs).
 fn traverse(src: u32, entries: u32, n: u32, spheres: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, s: f32, t: f32, skip: u32, best: ptr<function, Hit>) {
     var e = 0u;
+    g_iters += 1u;
     while e < n {
+        g_iters += 1u;
         let at = entries + ENTRY_WORDS * e;
         let q0 = quad(src, at);
         let q1 = quad(src, at + E_UPPER);
@@ -187,7 +191,9 @@ fn traverse(src: u32, entries: u32, n: u32, spheres: u32, o: vec3<f32>, d: vec3<
         }
         if enters {
             let first = q2.w;
+            g_iters += 1u;
             for (var i = first; i < first + count; i++) {
+                g_iters += 1u;
                 let sphere = sphere_at(src, spheres + SPHERE_WORDS * i);
                 if sphere.id == skip {
                     continue;

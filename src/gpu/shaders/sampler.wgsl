@@ -53,7 +53,9 @@ fn unit(x: u32) -> f32 {
 
 // The independent sampler's dimension `d` (not before the last one drawn).
 fn dimension(d: u32) -> f32 {
+    g_iters += 1u;
     while s_dim < d {
+        g_iters += 1u;
         rng_next();
         s_dim += 1u;
     }

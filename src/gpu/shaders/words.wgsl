@@ -6,16 +6,20 @@
 @group(0) @binding(0) var<storage, read> shot_words: array<u32>;
 // This frame's header, curve, camera motion, animated spheres, their hierarchy and motions.
 @group(0) @binding(1) var<storage, read> frame_words: array<u32>;
-// The runs: pixel x, pixel y, first sample index, samples.
-@group(0) @binding(2) var<storage, read> run_list: array<vec4<u32>>;
-// One output record per run.
-@group(0) @binding(3) var<storage, read_write> records: array<u32>;
-// x: runs in this batch; y: words of an output record.
-@group(0) @binding(4) var<uniform> params: vec4<u32>;
+// The round's work in this part of the film, an entry per pixel with samples to take (layout.rs,
+// W_*); an entry's next sample advances as samples are added.
+@group(0) @binding(2) var<storage, read_write> work: array<vec4<u32>>;
+// This part of the film on the device: its planes of sums (layout.rs, FILM_*).
+@group(0) @binding(3) var<storage, read_write> film: array<u32>;
+// This dispatch's parameters (layout.rs, P_*).
+@group(0) @binding(4) var<uniform> params: array<vec4<u32>, 2>;
 // The shot's and the frame's buffers again, four words at a time: records start at multiples
 // of four words and are read a quad at a time (one load instead of four).
 @group(0) @binding(5) var<storage, read> shot_quads: array<vec4<u32>>;
 @group(0) @binding(6) var<storage, read> frame_quads: array<vec4<u32>>;
+// This dispatch's counts (layout.rs, C_*), summed with atomics: integer sums, the same in any
+// order.
+@group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>, COUNTER_WORDS>;
 
 // A word, a float and three floats of the frame buffer.
 fn fu(i: u32) -> u32 { return frame_words[i]; }
@@ -55,6 +59,10 @@ var<private> g_materials: u32;
 // Each hierarchy's entries, entry count and spheres: the shot's (still) and the frame's.
 var<private> g_still: vec3<u32>;
 var<private> g_moving: vec3<u32>;
+// Loop iterations so far in this invocation (every loop body counts one, and every entry into
+// a loop one, as lavapipe counts them): an invocation stops starting samples past a budget
+// (trace.wgsl).
+var<private> g_iters: u32;
 
 fn load_header() {
     g_flags = fu(H_FLAGS);
