@@ -126,22 +126,48 @@ pub fn flicker(
         frames.len() == references.len() && references.len() == reference_variances.len(),
         "one reference per frame"
     );
-    let mut sum = 0.0;
-    let mut count = 0usize;
+    let mut sum = FlickerSum::default();
     for n in 1..frames.len() {
-        let (x0, x1) = (&frames[n - 1], &frames[n]);
-        let (r0, r1) = (&references[n - 1], &references[n]);
-        let (v0, v1) = (&reference_variances[n - 1], &reference_variances[n]);
+        sum.add(
+            (
+                &frames[n - 1],
+                &references[n - 1],
+                &reference_variances[n - 1],
+            ),
+            (&frames[n], &references[n], &reference_variances[n]),
+        );
+    }
+    sum.flicker()
+}
+
+/// [`flicker`] summed one pair of consecutive frames at a time, so that a sequence of any
+/// length is measured holding two frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlickerSum {
+    sum: f64,
+    count: usize,
+}
+
+/// A frame, its reference and the reference's per-pixel variances of its mean.
+pub type FlickerFrame<'a> = (&'a [DVec3], &'a [DVec3], &'a [DVec3]);
+
+impl FlickerSum {
+    /// Adds the change from frame `(x0, r0, v0)` to the next, `(x1, r1, v1)`.
+    pub fn add(&mut self, (x0, r0, v0): FlickerFrame<'_>, (x1, r1, v1): FlickerFrame<'_>) {
         for i in 0..x1.len() {
             let de = (x1[i] - r1[i]) - (x0[i] - r0[i]);
             let change = de * de - v0[i] - v1[i];
             let s = (r0[i] + r1[i]) * 0.5 + RELATIVE_EPSILON;
             let t = change / (s * s);
-            sum += t.x + t.y + t.z;
-            count += 3;
+            self.sum += t.x + t.y + t.z;
+            self.count += 3;
         }
     }
-    (sum / count.max(1) as f64).max(0.0).sqrt()
+
+    /// The flicker of the pairs added.
+    pub fn flicker(&self) -> f64 {
+        (self.sum / self.count.max(1) as f64).max(0.0).sqrt()
+    }
 }
 
 #[cfg(test)]

@@ -329,7 +329,7 @@ pub struct ConvergeArgs {
     /// rendered at --max-samples (default: the scene's), raw, denoised frame by frame and
     /// denoised with --temporal; prints each one's true error and its flicker (its
     /// frame-to-frame change beyond the true change) against references of every frame.
-    #[arg(long, value_name = "FRAMES", conflicts_with_all = ["frame", "reference", "budget", "csv", "plot"])]
+    #[arg(long, value_name = "FRAMES", conflicts_with_all = ["frame", "reference", "write_reference", "budget", "csv", "plot"])]
     pub flicker: Option<String>,
     #[command(flatten)]
     pub scene_args: SceneArgs,

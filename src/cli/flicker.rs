@@ -11,7 +11,7 @@ use glam::DVec3;
 use super::args::ConvergeArgs;
 use super::frames::Selection;
 use super::progress::print_line;
-use crate::analysis::metrics;
+use crate::analysis::metrics::{self, FlickerSum};
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::gpu::Gpu;
@@ -36,28 +36,21 @@ pub(crate) struct Variant {
     pub(crate) seconds: f64,
 }
 
-/// The references of the frames and their own noise.
-struct References {
-    means: Vec<Vec<DVec3>>,
-    variances: Vec<Vec<DVec3>>,
-    /// Each reference's estimated relative MSE.
-    own: Vec<f64>,
-}
-
 /// Measures the frames `spec` of the scene of `args` (see the module's notes), printing the
-/// table unless --quiet; returns raw, denoised and temporal, in that order.
+/// table unless --quiet; returns raw, denoised and temporal, in that order. Frames are taken
+/// one at a time, their reference rendered beside them, so that a sequence of any length is
+/// measured holding two frames.
 pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Variant>, Error> {
     let source = SceneSource::read(&args.scene)?;
     let overrides = args.scene_args.overrides();
     let base = source.scene(&overrides)?;
     let shot = &base.shot;
-    let selection =
-        Selection::parse(spec, shot.first_frame, shot.last_frame()).map_err(Error::Usage)?;
-    let frames: Vec<u32> = selection.iter().collect();
-    if frames.len() < 2 {
-        return Err(Error::Usage(format!(
-            "--flicker {spec}: flicker is measured between frames: give at least two"
-        )));
+    let bad = |why: String| Error::Usage(format!("--flicker {spec}: {why}"));
+    let selection = Selection::parse(spec, shot.first_frame, shot.last_frame()).map_err(bad)?;
+    if selection.len() < 2 {
+        return Err(bad(
+            "flicker is measured between frames: give at least two".to_string()
+        ));
     }
     let samples = args.max_samples.unwrap_or(base.render.samples);
     let with = |samples: u32, seed: Option<u64>, temporal: Option<bool>| {
@@ -90,60 +83,77 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         say(&format!(
             "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
         ));
-        let refs = references(&reference, &frames, gpu.as_ref())?;
-        measure([&scene, &temporal], &frames, &refs, (&denoiser, gpu.as_ref()), &say)
+        let scenes = Scenes {
+            denoised: &scene,
+            temporal: &temporal,
+            reference: &reference,
+        };
+        measure(scenes, &selection, (&denoiser, gpu.as_ref()), &say)
     })
 }
 
-/// The point caches of `frames` surveyed once, so every frame is coloured over one range.
-fn caches(scene: &Scene, frames: &[u32]) -> Result<point_cache::ShotPoints, Error> {
-    let span = || point_cache::frame_list(frames);
-    point_cache::ShotPoints::survey(scene, span(), span(), point_cache::Depth::Files)
+/// The scenes a flicker measurement renders.
+struct Scenes<'a> {
+    /// Denoised frame by frame.
+    denoised: &'a Scene,
+    /// The same with `--temporal`: every frame is sampled from it, keeping what history reads.
+    temporal: &'a Scene,
+    /// Many samples and a seed of its own.
+    reference: &'a Scene,
 }
 
-fn references(scene: &Scene, frames: &[u32], gpu: Option<&Gpu>) -> Result<References, Error> {
-    let geometry = ShotGeometry::new(scene, gpu)?;
-    let caches = caches(scene, frames)?;
-    let mut refs = References {
-        means: Vec::new(),
-        variances: Vec::new(),
-        own: Vec::new(),
-    };
-    for &frame in frames {
-        let points = caches.read_frame(scene, frame)?;
-        // Sampled and not finished: a reference is the raw frame.
-        let r = FrameJob::new(scene, frame)
-            .points(&points)
-            .sample(&geometry)?;
-        refs.means.push(r.film.means());
-        refs.variances.push(r.film.variances());
-        refs.own.push(r.stats.relative_error.powi(2));
-    }
-    Ok(refs)
+/// One frame as measured: its reference, the reference's variances, and the three finishes.
+struct Measured {
+    reference: Vec<DVec3>,
+    variances: Vec<DVec3>,
+    images: [Vec<DVec3>; 3],
 }
 
-/// Renders the frames of `temporal` (`scene` with `--temporal`), each sampled once, and
-/// measures them finished raw, as `scene` finishes them and as `temporal` does.
+/// Renders the frames of `selection`, each sampled once from `scenes.temporal`, and measures
+/// them finished raw, as `scenes.denoised` finishes them and as `scenes.temporal` does,
+/// against a reference of each.
 fn measure(
-    [scene, temporal]: [&Scene; 2],
-    frames: &[u32],
-    refs: &References,
+    scenes: Scenes<'_>,
+    selection: &Selection,
     (denoiser, gpu): (&Denoiser, Option<&Gpu>),
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
+    let Scenes {
+        denoised: scene,
+        temporal,
+        reference,
+    } = scenes;
     let geometry = ShotGeometry::new(temporal, gpu)?;
-    let mut images: [Vec<Vec<DVec3>>; 3] = Default::default();
-    let mut seconds = [0.0; 3];
+    let reference_geometry = ShotGeometry::new(reference, gpu)?;
     let mut denoised = Finishing::new(scene, Some(denoiser))?;
     let mut history = Finishing::new(temporal, Some(denoiser))?;
-    let caches = caches(temporal, frames)?;
-    for &frame in frames {
+    let frames = || point_cache::Frames {
+        first: selection.first().expect("two frames or more"),
+        last: selection.last().expect("two frames or more"),
+        each: Box::new(selection.iter()),
+    };
+    let caches = point_cache::ShotPoints::survey(
+        temporal,
+        Some(frames()),
+        Some(frames()),
+        point_cache::Depth::Files,
+    )?;
+    let mut seconds = [0.0; 3];
+    let mut errors = [0.0; 3];
+    let mut flicker = [FlickerSum::default(); 3];
+    let mut last: Option<Measured> = None;
+    for frame in selection.iter() {
         // The frames before the first that its history reads: rendered, not measured.
         for earlier in history.needs(frame) {
             let points = caches.read_frame(temporal, earlier)?;
             history.render(FrameJob::new(temporal, earlier).points(&points), &geometry)?;
         }
         let points = caches.read_frame(temporal, frame)?;
+        // Sampled and not finished: a reference is the raw frame.
+        let r = FrameJob::new(reference, frame)
+            .points(&points)
+            .sample(&reference_geometry)?;
+        let own = r.stats.relative_error.powi(2);
         let start = Instant::now();
         let raw = FrameJob::new(temporal, frame)
             .points(&points)
@@ -151,35 +161,43 @@ fn measure(
             .sample(&geometry)?;
         let sampled = start.elapsed().as_secs_f64();
         seconds[0] += sampled;
-        images[0].push(raw.film.means());
+        let mut images: [Vec<DVec3>; 3] = [raw.film.means(), Vec::new(), Vec::new()];
         for (k, finishing) in [&mut denoised, &mut history].into_iter().enumerate() {
             let start = Instant::now();
             let result = finishing.finish(raw.clone())?;
             seconds[k + 1] += sampled + start.elapsed().as_secs_f64();
-            images[k + 1].push(denoised_image(&result));
+            images[k + 1] = denoised_image(&result);
         }
+        let now = Measured {
+            reference: r.film.means(),
+            variances: r.film.variances(),
+            images,
+        };
+        for k in 0..3 {
+            errors[k] += (metrics::rel_mse(&now.images[k], &now.reference) - own)
+                .max(0.0)
+                .sqrt();
+            if let Some(before) = &last {
+                flicker[k].add(
+                    (&before.images[k], &before.reference, &before.variances),
+                    (&now.images[k], &now.reference, &now.variances),
+                );
+            }
+        }
+        last = Some(now);
     }
     let names = ["raw", "denoised", "denoised --temporal"];
     say(&format!(
         "{:<22} {:>11} {:>9} {:>14}",
         "", "rel. error", "flicker", "seconds/frame"
     ));
-    let n = frames.len() as f64;
+    let n = selection.len() as f64;
     let variants: Vec<Variant> = (0..3)
-        .map(|k| {
-            let error = images[k]
-                .iter()
-                .zip(&refs.means)
-                .zip(&refs.own)
-                .map(|((x, r), own)| (metrics::rel_mse(x, r) - own).max(0.0).sqrt())
-                .sum::<f64>()
-                / n;
-            Variant {
-                name: names[k],
-                error,
-                flicker: metrics::flicker(&images[k], &refs.means, &refs.variances),
-                seconds: seconds[k] / n,
-            }
+        .map(|k| Variant {
+            name: names[k],
+            error: errors[k] / n,
+            flicker: flicker[k].flicker(),
+            seconds: seconds[k] / n,
         })
         .collect();
     for v in &variants {

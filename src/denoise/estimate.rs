@@ -55,8 +55,10 @@ use crate::analysis::metrics::estimated_rel_mse_term;
 use crate::replicates::Halves;
 
 /// The half-side of the square over which a pixel's terms are averaged to choose its weight:
-/// 9x9 pixels. Measured on the books' scene at 16 to 1024 samples: 2 (5x5) and 8 (17x17)
-/// gave errors within 1.5 percent of 4's, both sides of it.
+/// 17x17 pixels. The terms are unbiased but noisy, and a weight chosen from noisy terms is
+/// itself a source of error: on the books' scene (200x112, 16 to 1024 samples) 17x17 gave
+/// the lowest written error of 5x5, 9x9 and 17x17, the three within 1.5 percent of each
+/// other (`converge --denoise`, one build a radius).
 pub const WEIGHT_RADIUS: usize = 8;
 
 /// One pixel's unbiased estimates from one denoise of its replicates, per channel.

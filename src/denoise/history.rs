@@ -108,8 +108,12 @@ pub fn combine(width: usize, pixels: &[WrittenPixel], earlier: &[Reprojected]) -
                     if *lb == 0.0 {
                         continue;
                     }
-                    error[c] += la * lb * at(&own, a, b).expect("present")[c];
-                    smooth_error[c] += la * lb * at(&smooth, a, b).expect("present")[c];
+                    // Weights beyond the frame's own were solved where both are present;
+                    // the frame alone (λ_0 = 1) may have no neighbour with a finite term
+                    // (a tiny frame, one sample a pixel): its own term stands in.
+                    let own_term = at(&own, a, b).expect("the frame's own term is always present");
+                    error[c] += la * lb * own_term[c];
+                    smooth_error[c] += la * lb * at(&smooth, a, b).unwrap_or(own_term)[c];
                 }
             }
         }
@@ -225,6 +229,20 @@ mod tests {
             raw_variance: Vec3::splat(v as f32),
             cross: Vec3::ZERO,
         }
+    }
+
+    #[test]
+    fn a_frame_whose_terms_are_all_unknown_is_written_alone() {
+        // One sample a pixel: no variance, every term infinite, so no neighbour has a finite
+        // term to smooth. The frame keeps its own value and states its own (unknown) error.
+        let pixels = vec![raw_pixel(0.5, f64::INFINITY); 4];
+        let earlier = Reprojected {
+            colour: vec![0.25; 12],
+            valid: vec![true; 4],
+        };
+        let blend = combine(2, &pixels, &[earlier]);
+        assert!(blend.rgb.iter().all(|&x| x == 0.5), "{:?}", blend.rgb);
+        assert_eq!(blend.history_share, 0.0);
     }
 
     #[test]
