@@ -19,7 +19,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{assert_same_bits, render_bits};
+use common::{assert_same_bits, have_lammps, render_bits};
 use glam::DVec3;
 use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
 
@@ -28,23 +28,6 @@ use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
 const FPS: f64 = 24.0;
 const SNAPSHOT_TAU: f64 = 0.1;
 const SIDE: f64 = 8.0;
-
-/// Whether `lmp` runs; without it a test is skipped with a note, except under CI=true.
-fn have_lammps() -> bool {
-    if Command::new("lmp")
-        .arg("-h")
-        .output()
-        .is_ok_and(|o| o.status.success())
-    {
-        return true;
-    }
-    let msg = "LAMMPS's lmp is needed (Debian: apt-get install lammps)";
-    if std::env::var("CI").as_deref() == Ok("true") {
-        panic!("CI=true but {msg}");
-    }
-    eprintln!("skipped: {msg}");
-    false
-}
 
 /// Runs the simulation in a new folder; its dumps are there.
 fn simulate() -> tempfile::TempDir {

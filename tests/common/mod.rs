@@ -305,3 +305,21 @@ pub fn assert_same_bits(a: &[Bits], b: &[Bits]) {
         assert!(r.iter().any(|v| *v != r[0]), "frame {k}: a blank image");
     }
 }
+
+/// Whether LAMMPS's `lmp` runs (`.ci/run` installs Debian's `lammps`); without it a test that
+/// needs it is skipped with a note, except under CI=true, where it fails.
+pub fn have_lammps() -> bool {
+    if Command::new("lmp")
+        .arg("-h")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return true;
+    }
+    let msg = "LAMMPS's lmp is needed (Debian: apt-get install lammps)";
+    if std::env::var("CI").as_deref() == Ok("true") {
+        panic!("CI=true but {msg}");
+    }
+    eprintln!("skipped: {msg}");
+    false
+}
