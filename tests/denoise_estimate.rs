@@ -108,11 +108,7 @@ fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, denoiser: &Denois
     let written = result.denoised.as_ref().unwrap();
     Rendered {
         raw: result.film.means(),
-        written: written
-            .rgb
-            .chunks_exact(3)
-            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-            .collect(),
+        written: written.image(),
         stated: result.stats.relative_error,
     }
 }
@@ -226,18 +222,9 @@ fn lammps_gas() {
     std::fs::create_dir_all(d.path().join("scenes/caches")).unwrap();
     let scene = d.path().join("scenes/lammps_gas.toml");
     std::fs::copy(shipped("lammps_gas"), &scene).unwrap();
-    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lammps/gas.in");
-    let o = std::process::Command::new("lmp")
-        .arg("-in")
-        .arg(&input)
-        .args(["-log", "none", "-screen", "none"])
-        .current_dir(d.path())
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "lmp: {}",
-        String::from_utf8_lossy(&o.stderr)
+    common::run_lammps(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lammps/gas.in"),
+        d.path(),
     );
     check(&scene);
 }

@@ -17,9 +17,8 @@ mod common;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use common::{assert_same_bits, have_lammps, render_bits};
+use common::{assert_same_bits, have_lammps, render_bits, run_lammps};
 use glam::DVec3;
 use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
 
@@ -33,17 +32,7 @@ const SIDE: f64 = 8.0;
 fn simulate() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lammps/crossing.in");
-    std::fs::copy(&input, dir.path().join("crossing.in")).unwrap();
-    let o = Command::new("lmp")
-        .args(["-in", "crossing.in", "-log", "none", "-screen", "none"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "lmp: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    run_lammps(&input, dir.path());
     dir
 }
 

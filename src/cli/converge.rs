@@ -489,11 +489,7 @@ fn figures(result: &FrameResult, references: &References) -> Figures {
 /// film's means.
 fn measured_image(result: &FrameResult) -> Vec<DVec3> {
     match &result.denoised {
-        Some(d) => d
-            .rgb
-            .chunks_exact(3)
-            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-            .collect(),
+        Some(d) => d.image(),
         None => result.film.means(),
     }
 }

@@ -16,7 +16,7 @@ use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::gpu::Gpu;
 use crate::point_cache;
-use crate::renderer::{Finishing, FrameJob, FrameResult, ShotGeometry};
+use crate::renderer::{Finishing, FrameJob, ShotGeometry};
 use crate::rng::hash_words;
 use crate::scene::{Device, Scene};
 use crate::scene_file::{Overrides, SceneSource};
@@ -166,7 +166,7 @@ fn measure(
             let start = Instant::now();
             let result = finishing.finish(raw.clone())?;
             seconds[k + 1] += sampled + start.elapsed().as_secs_f64();
-            images[k + 1] = denoised_image(&result);
+            images[k + 1] = result.denoised.as_ref().expect("a denoised frame").image();
         }
         let now = Measured {
             reference: r.film.means(),
@@ -210,13 +210,4 @@ fn measure(
         ));
     }
     Ok(variants)
-}
-
-/// A denoised frame's colour as linear radiance.
-fn denoised_image(result: &FrameResult) -> Vec<DVec3> {
-    let d = result.denoised.as_ref().expect("a denoised frame");
-    d.rgb
-        .chunks_exact(3)
-        .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-        .collect()
 }

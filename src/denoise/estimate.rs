@@ -364,7 +364,7 @@ impl Snapshot {
 /// What a pixel's weight is chosen from must not hold the pixel's own terms: one pixel's
 /// term is unbiased but its noise can be fifty times its mean (where the denoiser removes
 /// nearly all of the noise, the denoised error is a small difference of the halves' large
-/// noise), so a 9x9 mean that holds it still follows it, the weight follows the term's noise,
+/// noise), so a neighbourhood mean that holds it still follows it, the weight follows the term's noise,
 /// and the terms weighted by it are no longer unbiased: measured on a smooth synthetic frame,
 /// the written frame's statement read 0.23 of the truth with the pixel in its own mean.
 pub fn box_mean_of_others<T>(values: &[T], width: usize, radius: usize) -> Vec<T>

@@ -7,6 +7,8 @@ use super::adaptive::{Plan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::device::{FrameError, On, Rounds, ShotGeometry};
 use super::stop::{RawStop, StopRule, relative_error};
+use glam::DVec3;
+
 use super::tiles::FrameRequest;
 use crate::denoise::denoiser::DenoiseQuality;
 use crate::error::Error;
@@ -108,6 +110,16 @@ pub struct Denoised {
     pub history_share: Option<f64>,
     /// The filter's quality.
     pub quality: DenoiseQuality,
+}
+
+impl Denoised {
+    /// The written colour as linear radiance, a pixel each (row-major).
+    pub fn image(&self) -> Vec<DVec3> {
+        self.rgb
+            .chunks_exact(3)
+            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+            .collect()
+    }
 }
 
 /// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,

@@ -323,3 +323,20 @@ pub fn have_lammps() -> bool {
     eprintln!("skipped: {msg}");
     false
 }
+
+/// Runs LAMMPS's `lmp` on the input script `input` in `dir` (its dumps are written there, as
+/// the script names them), with no log or screen output; panics with its messages if it fails.
+pub fn run_lammps(input: &Path, dir: &Path) {
+    let o = Command::new("lmp")
+        .arg("-in")
+        .arg(input)
+        .args(["-log", "none", "-screen", "none"])
+        .current_dir(dir)
+        .output()
+        .expect("run lmp");
+    assert!(
+        o.status.success(),
+        "lmp: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
