@@ -279,6 +279,19 @@ pub(crate) mod tests {
         }
     }
 
+    /// Two raw series at one sample a point, timed at 0.1 to 100 s: the independent sampler's
+    /// relative MSE `1e-2 / t` and Sobol's four times lower at every time.
+    pub(crate) fn two_series() -> Report {
+        let (a, b) = (
+            kind(SamplerKind::Independent, Finish::Raw),
+            kind(SamplerKind::Sobol, Finish::Raw),
+        );
+        let times = [0.1, 1.0, 10.0, 100.0];
+        let mut points: Vec<Point> = times.iter().map(|&t| point(a, 1, t, 1e-2 / t)).collect();
+        points.extend(times.iter().map(|&t| point(b, 1, t, 0.25e-2 / t)));
+        Report { points }
+    }
+
     pub(crate) const fn kind(sampler: SamplerKind, finish: Finish) -> SeriesKind {
         SeriesKind {
             sampler,
@@ -320,14 +333,7 @@ pub(crate) mod tests {
     #[test]
     fn times_to_levels_and_ratios_at_equal_time() {
         // Base: relative MSE 1e-2 / t. Other: four times lower at every time.
-        let (a, b) = (
-            kind(SamplerKind::Independent, Finish::Raw),
-            kind(SamplerKind::Sobol, Finish::Raw),
-        );
-        let times = [0.1, 1.0, 10.0, 100.0];
-        let mut points: Vec<Point> = times.iter().map(|&t| point(a, 1, t, 1e-2 / t)).collect();
-        points.extend(times.iter().map(|&t| point(b, 1, t, 0.25e-2 / t)));
-        let report = Report { points };
+        let report = two_series();
         let levels = level_times(&report);
         assert_eq!(levels.len(), 6);
         // 5%: rel. MSE 2.5e-3, at t = 4 for the base, t = 1 for the other.
@@ -342,6 +348,10 @@ pub(crate) mod tests {
         assert_eq!(base5.seconds.unwrap().spread, 0.0);
         // 1%: 1e-4, at t = 100 for the base (its last point), 25 for the other.
         assert!((levels[2].seconds.unwrap().value - 100.0).abs() < 1e-6);
+        let (a, b) = (
+            kind(SamplerKind::Independent, Finish::Raw),
+            kind(SamplerKind::Sobol, Finish::Raw),
+        );
         let ratios = equal_time_ratios(&report.series(a), &report.series(b));
         assert_eq!(ratios.len(), 4);
         assert!(

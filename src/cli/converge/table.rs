@@ -282,7 +282,7 @@ pub(crate) fn plot_series(report: &Report) -> (Vec<Series>, Guides) {
 
 #[cfg(test)]
 mod tests {
-    use super::super::series::tests::{kind, point};
+    use super::super::series::tests::{kind, point, two_series};
     use super::super::series::{Finish, Report, level_times};
     use super::*;
     use crate::sampler::SamplerKind;
@@ -333,14 +333,7 @@ mod tests {
 
     #[test]
     fn the_summary_and_the_levels_csv_name_every_series() {
-        let (a, b) = (
-            kind(SamplerKind::Independent, Finish::Raw),
-            kind(SamplerKind::Sobol, Finish::Raw),
-        );
-        let times = [0.1, 1.0, 10.0, 100.0];
-        let mut points: Vec<Point> = times.iter().map(|&t| point(a, 1, t, 1e-2 / t)).collect();
-        points.extend(times.iter().map(|&t| point(b, 1, t, 0.25e-2 / t)));
-        let report = Report { points };
+        let report = two_series();
         let levels = level_times(&report);
         let text = summary(&report, &levels);
         // One sample count: no slope against samples.
