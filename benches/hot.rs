@@ -13,7 +13,7 @@ use glam::DVec3;
 use raytrace::aabb::Aabb;
 use raytrace::bvh::{Bvh, TraversalStack};
 use raytrace::ray::Ray;
-use raytrace::renderer::{FrameJob, ShotGeometry};
+use raytrace::renderer::{CpuShot, FrameJob};
 use raytrace::rng::Pcg32;
 use raytrace::sampler::SamplerKind;
 use raytrace::scene::Scene;
@@ -125,7 +125,7 @@ fn small_render(c: &mut Criterion) {
             ..Overrides::default()
         };
         let scene = Scene::load_with(&path, &overrides).expect("scene");
-        let statics = ShotGeometry::cpu(&scene);
+        let statics = CpuShot::new(&scene);
         let frame = scene.shot.first_frame;
         let name = format!("render bouncing_spheres 64x36 4 spp {sampler}");
         c.bench_function(&name, |b| {

@@ -16,7 +16,7 @@ use std::process::ExitCode;
 use raytrace::io::{FrameInfo, write_frame};
 use raytrace::pass::Pass;
 use raytrace::passes::PassImages;
-use raytrace::renderer::{FrameJob, ShotGeometry};
+use raytrace::renderer::{CpuShot, FrameJob};
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
 
@@ -44,7 +44,7 @@ fn main() -> ExitCode {
         eprintln!("not a frame number: {}", args[1]);
         return ExitCode::from(2);
     };
-    let statics = ShotGeometry::cpu(&scene);
+    let statics = CpuShot::new(&scene);
     let result = FrameJob::new(&scene, frame).sample(&statics).unwrap();
     let p = result.pass_images().expect("every pass was requested");
     let out = Path::new(&args[2]);

@@ -20,8 +20,12 @@ pub enum Error {
     },
     /// Any other failure while producing output (an encoder error, for example).
     Output { path: PathBuf, message: String },
-    /// The machine could not give what a run needs (worker threads, for example).
-    Resource(String),
+    /// The machine could not give what a run needs: worker threads, a GPU, the denoiser,
+    /// a program a clip is encoded with. The source says what and why.
+    Resource(Box<dyn std::error::Error + Send + Sync>),
+    /// A frame could not be rendered (its device was lost or ran out of memory, its
+    /// denoiser failed): nothing of it was kept.
+    Frame { frame: u32, source: Box<Error> },
 }
 
 impl Error {
@@ -31,6 +35,20 @@ impl Error {
         match self {
             Error::Scene(_) | Error::Usage(_) => 2,
             Error::Io { .. } | Error::Output { .. } | Error::Resource(_) => 1,
+            Error::Frame { source, .. } => source.exit_code(),
+        }
+    }
+
+    /// A resource the run could not get, as `message` says.
+    pub fn resource(message: impl Into<String>) -> Error {
+        Error::Resource(message.into().into())
+    }
+
+    /// This error, of the rendering of frame `frame`.
+    pub fn in_frame(self, frame: u32) -> Error {
+        Error::Frame {
+            frame,
+            source: Box::new(self),
         }
     }
 
@@ -46,9 +64,9 @@ impl Error {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::Scene(m) | Error::Usage(m) | Error::Resource(m) => {
-                write!(f, "{}", elide_message(m))
-            }
+            Error::Scene(m) | Error::Usage(m) => write!(f, "{}", elide_message(m)),
+            Error::Resource(e) => write!(f, "{}", elide_message(&e.to_string())),
+            Error::Frame { frame, source } => write!(f, "frame {frame}: {source}"),
             Error::Io { path, source } => write!(f, "{}: {source}", elide_path(path)),
             Error::Output { path, message } => {
                 write!(f, "{}: {}", elide_path(path), elide_message(message))
@@ -156,6 +174,8 @@ impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             Error::Io { source, .. } => Some(source),
+            Error::Resource(e) => Some(e.as_ref()),
+            Error::Frame { source, .. } => Some(source.as_ref()),
             _ => None,
         }
     }

@@ -33,7 +33,7 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
     };
     size_of::<Pixel>() as u64
         + encoded_copy
-        + (crate::passes::Layout::new(passes).stride * size_of::<f64>()) as u64
+        + (crate::passes::SumLayout::new(passes).stride * size_of::<f64>()) as u64
         + (2 * pass_channels * size_of::<f32>()) as u64
 }
 
@@ -125,8 +125,8 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
     };
     let gpu = match scene.render.device {
         crate::scene::Device::Gpu => {
-            let read = crate::renderer::passes_read(scene);
-            let kept = crate::passes::Layout::keeping(scene.output.passes, read);
+            let read = crate::finish::passes_read(scene);
+            let kept = crate::passes::SumLayout::keeping(scene.output.passes, read);
             crate::gpu::frame_bytes(scene, kept.stride)
         }
         crate::scene::Device::Cpu => 0,
@@ -248,12 +248,12 @@ mod tests {
             memory_estimate(&all, 0.into()) - memory_estimate(&none, 0.into()),
             pixels * (12 * 8 + 2 * 15 * 4 + 12)
         );
-        let statics = crate::renderer::ShotGeometry::cpu(&none);
+        let statics = crate::renderer::CpuShot::new(&none);
         let r = crate::renderer::FrameJob::new(&none, 1)
             .sample(&statics)
             .unwrap();
         assert!(r.pass_images().is_none());
-        let statics = crate::renderer::ShotGeometry::cpu(&all);
+        let statics = crate::renderer::CpuShot::new(&all);
         let r = crate::renderer::FrameJob::new(&all, 1)
             .sample(&statics)
             .unwrap();

@@ -173,7 +173,7 @@ mod tests {
 
     use super::*;
     use crate::pass::PassSet;
-    use crate::passes::Layout;
+    use crate::passes::SumLayout;
     use crate::renderer::FrameStats;
 
     #[test]
@@ -192,7 +192,7 @@ mod tests {
             frame: 1,
             interval: scene.shot.interval(1),
             film,
-            layout: Layout::new(PassSet::EMPTY),
+            layout: SumLayout::new(PassSet::EMPTY),
             denoised: None,
             stats: FrameStats::default(),
         };

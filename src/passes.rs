@@ -3,7 +3,7 @@
 //! ([`crate::pass`] names them; this room computes them).
 //!
 //! A frame with passes keeps, beside each pixel's colour accumulator, a few sums per sample
-//! ([`Layout`]: only those of the requested passes, in one flat buffer). Each sample adds
+//! ([`SumLayout`]: only those of the requested passes, in one flat buffer). Each sample adds
 //! what its camera ray's first hit gives ([`PassContext::record`]); the sums are added in
 //! sample order whatever the passes of a budgeted render, so a frame's passes are the same bits
 //! however it was split. A frame without passes allocates nothing here and does nothing per
@@ -30,9 +30,9 @@ use crate::sphere::SphereDesc;
 /// Only the requested passes have sums: the hit count (alpha, depth, normal and motion divide
 /// by it), the depth, the normal (3), the albedo (3) and the motion (4). Variance comes from
 /// the colour's own accumulator and needs none. A stage that finishes frames may keep sums of
-/// passes it reads without writing them ([`Layout::keeping`]).
+/// passes it reads without writing them ([`SumLayout::keeping`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Layout {
+pub struct SumLayout {
     /// The passes written.
     passes: PassSet,
     /// The passes whose sums are kept: those written, and those a finishing stage reads.
@@ -48,7 +48,7 @@ pub struct Layout {
     pub stride: usize,
 }
 
-/// Where a [`Layout`] keeps each sum in a pixel's run of [`Layout::stride`] numbers, as
+/// Where a [`SumLayout`] keeps each sum in a pixel's run of [`SumLayout::stride`] numbers, as
 /// [`PassContext::record`] adds them: the hit count (1), the depth (1), the normal (3), the
 /// albedo (3) and the motion (forward u, v, backward u, v). `None` where the sum is not kept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,15 +60,15 @@ pub struct Slots {
     pub motion: Option<usize>,
 }
 
-impl Layout {
+impl SumLayout {
     /// The sums `passes` need.
-    pub fn new(passes: PassSet) -> Layout {
-        Layout::keeping(passes, PassSet::EMPTY)
+    pub fn new(passes: PassSet) -> SumLayout {
+        SumLayout::keeping(passes, PassSet::EMPTY)
     }
 
     /// The sums `passes` need, and those of `read`, passes a finishing stage reads without
     /// writing them.
-    pub fn keeping(passes: PassSet, read: PassSet) -> Layout {
+    pub fn keeping(passes: PassSet, read: PassSet) -> SumLayout {
         let kept = read.iter().fold(passes, PassSet::with);
         let mut stride = 0;
         let mut slot = |used: bool, n: usize| {
@@ -84,7 +84,7 @@ impl Layout {
         let normal = slot(kept.contains(Pass::Normal), 3);
         let albedo = slot(kept.contains(Pass::Albedo), 3);
         let motion = slot(kept.contains(Pass::Motion), 4);
-        Layout {
+        SumLayout {
             passes,
             kept,
             counts_hits,
@@ -128,7 +128,7 @@ static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
 #[derive(Clone, Debug)]
 pub struct PassContext<'a> {
     /// Where the sums go.
-    pub layout: Layout,
+    pub layout: SumLayout,
     spheres: &'a [SphereDesc],
     /// The frame's points, spheres `spheres.len()` on.
     points: &'a FramePoints,
@@ -146,7 +146,7 @@ impl<'a> PassContext<'a> {
     /// The context of a frame of `width` x `height` pixels of a shot at `fps` frames per
     /// second, for `passes`.
     pub fn new(
-        layout: Layout,
+        layout: SumLayout,
         spheres: &'a [SphereDesc],
         background: Background,
         camera: &'a CameraRig,
@@ -181,7 +181,7 @@ impl<'a> PassContext<'a> {
         }
     }
 
-    /// Adds one sample to a pixel's sums `slots` (its run of [`Layout::stride`] numbers): the
+    /// Adds one sample to a pixel's sums `slots` (its run of [`SumLayout::stride`] numbers): the
     /// camera `ray`, seen through `view` (the camera at the ray's time), and the ray's first
     /// `hit` (`None`: it missed every sphere, or was not traced).
     #[inline]
@@ -310,13 +310,13 @@ impl PassImages {
 
     /// The images of the passes of `layout` from a finished film: its pass sums (laid out by
     /// `layout`), its pixels' sample counts, means and variances.
-    pub fn from_film(layout: &Layout, film: &Film) -> PassImages {
+    pub fn from_film(layout: &SumLayout, film: &Film) -> PassImages {
         PassImages::of(layout.passes, layout, film)
     }
 
     /// The images of `passes` (whose sums `layout` keeps, or which need none) from a finished
     /// film laid out by `layout`.
-    pub fn of(passes: PassSet, layout: &Layout, film: &Film) -> PassImages {
+    pub fn of(passes: PassSet, layout: &SumLayout, film: &Film) -> PassImages {
         let stride = layout.stride;
         assert_eq!(
             film.pass_stride(),
@@ -343,7 +343,7 @@ impl PassImages {
 
     /// Sets pixel (`x`, `y`) from its pass sums `slots` and its colour's sums `pixel` (its
     /// samples, its mean as written, its estimated variance of the mean).
-    pub fn set(&mut self, layout: &Layout, x: u32, y: u32, slots: &[f64], pixel: &Pixel) {
+    pub fn set(&mut self, layout: &SumLayout, x: u32, y: u32, slots: &[f64], pixel: &Pixel) {
         let samples = pixel.taken();
         let i = y as usize * self.width as usize + x as usize;
         let hits = if layout.counts_hits {
@@ -400,13 +400,16 @@ mod tests {
 
     #[test]
     fn the_layout_holds_only_the_requested_sums() {
-        assert_eq!(Layout::new(PassSet::EMPTY).stride, 0);
-        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Variance)).stride, 0);
-        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Samples)).stride, 0);
-        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Alpha)).stride, 1);
-        assert_eq!(Layout::new(PassSet::EMPTY.with(Pass::Albedo)).stride, 3);
+        assert_eq!(SumLayout::new(PassSet::EMPTY).stride, 0);
+        assert_eq!(
+            SumLayout::new(PassSet::EMPTY.with(Pass::Variance)).stride,
+            0
+        );
+        assert_eq!(SumLayout::new(PassSet::EMPTY.with(Pass::Samples)).stride, 0);
+        assert_eq!(SumLayout::new(PassSet::EMPTY.with(Pass::Alpha)).stride, 1);
+        assert_eq!(SumLayout::new(PassSet::EMPTY.with(Pass::Albedo)).stride, 3);
         let all: PassSet = Pass::ALL.into_iter().collect();
-        assert_eq!(Layout::new(all).stride, 1 + 1 + 3 + 3 + 4);
+        assert_eq!(SumLayout::new(all).stride, 1 + 1 + 3 + 3 + 4);
         let images = PassImages::new(all, 2, 1);
         let names: Vec<&str> = images.channels.iter().map(|c| c.name).collect();
         assert_eq!(names.len(), 19);
@@ -416,7 +419,7 @@ mod tests {
     #[test]
     fn means_divide_by_hits_or_by_samples() {
         let all: PassSet = Pass::ALL.into_iter().collect();
-        let l = Layout::new(all);
+        let l = SumLayout::new(all);
         let mut images = PassImages::new(all, 2, 1);
         // Pixel 0: 4 samples, 2 hits at depths 1 and 3, albedo sums 2.
         let mut slots = vec![0.0; l.stride];

@@ -7,7 +7,6 @@
 use std::path::PathBuf;
 
 use crate::camera::CameraRig;
-use crate::denoise::denoiser::DenoiseQuality;
 use crate::format::Format;
 use crate::material::{Background, Material};
 use crate::pass::PassSet;
@@ -47,6 +46,49 @@ pub struct DenoiseSettings {
     pub quality: DenoiseQuality,
     /// `--temporal`: keep the denoised sequence from flickering.
     pub temporal: bool,
+}
+
+/// The denoiser's filter qualities, OIDN's (`[output] denoise_quality`, `--denoise-quality`): each slower and
+/// closer to the truth than the one before. On OIDN's CPU device `balanced` runs the `high`
+/// network (its documentation: balanced "lowers the precision, if possible"; measured: the
+/// same bytes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DenoiseQuality {
+    /// OIDN's smaller network: about half the time of `high`; the default (docs/denoising.md
+    /// has the measurement that chose it).
+    #[default]
+    Fast,
+    Balanced,
+    High,
+}
+
+impl DenoiseQuality {
+    /// Every quality, fastest first.
+    pub const ALL: [DenoiseQuality; 3] = [
+        DenoiseQuality::Fast,
+        DenoiseQuality::Balanced,
+        DenoiseQuality::High,
+    ];
+
+    /// The name used in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DenoiseQuality::Fast => "fast",
+            DenoiseQuality::Balanced => "balanced",
+            DenoiseQuality::High => "high",
+        }
+    }
+
+    /// The quality named `name`, if any.
+    pub fn from_name(name: &str) -> Option<DenoiseQuality> {
+        DenoiseQuality::ALL.into_iter().find(|q| q.name() == name)
+    }
+}
+
+impl std::fmt::Display for DenoiseQuality {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// Sampling settings.

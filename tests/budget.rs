@@ -164,7 +164,7 @@ fn render_lib(
     scene.render.sampler = sampler.parse().unwrap();
     scene.render.samples = samples;
     scene.render.seed = seed;
-    let statics = raytrace::renderer::ShotGeometry::cpu(&scene);
+    let statics = raytrace::renderer::CpuShot::new(&scene);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

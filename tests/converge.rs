@@ -531,13 +531,13 @@ fn one_sample_and_black_frames_print_no_infinities_or_nans() {
 #[test]
 fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
     use raytrace::analysis::metrics::rel_mse;
-    use raytrace::renderer::{FrameJob, ShotGeometry};
+    use raytrace::renderer::{CpuShot, FrameJob};
     let render = |sampler: &str, samples: u32, seed: u64| {
         let mut scene = common::scene(SCENE);
         scene.render.sampler = sampler.parse().unwrap();
         scene.render.samples = samples;
         scene.render.seed = seed;
-        let statics = ShotGeometry::cpu(&scene);
+        let statics = CpuShot::new(&scene);
         FrameJob::new(&scene, 1).sample(&statics).unwrap()
     };
     // The reference's own error (from its replicates) is taken out of the measured one:

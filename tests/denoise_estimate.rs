@@ -21,9 +21,9 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use raytrace::denoise::denoiser::Denoiser;
+use raytrace::devices::{Devices, Needs};
 use raytrace::point_cache;
-use raytrace::renderer::{Finishing, FrameJob, ShotGeometry};
+use raytrace::renderer::{CpuShot, FrameJob};
 use raytrace::scene::{DenoiseSettings, Scene};
 use raytrace::scene_file::Overrides;
 
@@ -67,7 +67,7 @@ fn references(path: &Path, size: Option<(u32, u32)>, samples: u32) -> [Vec<DVec3
         let points = point_cache::read_frame(&s, frame).unwrap();
         FrameJob::new(&s, frame)
             .points(&points)
-            .sample(&ShotGeometry::cpu(&s))
+            .sample(&CpuShot::new(&s))
             .unwrap()
             .film
             .means()
@@ -94,15 +94,15 @@ struct Rendered {
     stated: f64,
 }
 
-fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, denoiser: &Denoiser) -> Rendered {
+fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, devices: &Devices) -> Rendered {
     let s = scene(path, size, samples, None, true);
     assert_eq!(s.output.denoise, Some(DenoiseSettings::default()));
     let frame = s.shot.first_frame;
     let points = point_cache::read_frame(&s, frame).unwrap();
-    let mut finishing = Finishing::new(&s, Some(denoiser)).unwrap();
+    let mut finishing = devices.finishing(&s).unwrap();
     let raw = FrameJob::new(&s, frame)
         .points(&points)
-        .sample(&ShotGeometry::cpu(&s))
+        .sample(&CpuShot::new(&s))
         .unwrap();
     let result = finishing.finish(raw).unwrap();
     let written = result.denoised.as_ref().unwrap();
@@ -118,11 +118,15 @@ fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, denoiser: &Denois
 /// within 10% at 4096).
 fn check(path: &Path) {
     let name = path.file_stem().unwrap().to_string_lossy().into_owned();
-    let denoiser = Denoiser::new().unwrap();
+    let devices = Devices::opened(Needs {
+        denoiser: true,
+        gpu: false,
+    })
+    .unwrap();
     let refs = references(path, None, 1024);
     let mut worst: f64 = 0.0;
     for n in [16, 64, 256, 1024] {
-        let r = render(path, None, n, &denoiser);
+        let r = render(path, None, n, &devices);
         let (raw, written) = (true_rel_mse(&r.raw, &refs), true_rel_mse(&r.written, &refs));
         let truth = written.max(0.0).sqrt();
         eprintln!(
@@ -146,7 +150,7 @@ fn check(path: &Path) {
     eprintln!("{name}: worst |stated / true - 1| = {worst:.3}");
     let small = Some((64, 36));
     let refs = references(path, small, 4096);
-    let r = render(path, small, 4096, &denoiser);
+    let r = render(path, small, 4096, &devices);
     let (raw, written) = (true_rel_mse(&r.raw, &refs), true_rel_mse(&r.written, &refs));
     eprintln!(
         "{name} 4096 spp at 64x36: raw {:.4}%, written {:.4}%",

@@ -15,7 +15,7 @@ use std::process::Command;
 
 use common::{exr_bits_and_attributes, exr_channels, exr_number, gpu, render, render_gpu, text};
 use raytrace::film::Film;
-use raytrace::renderer::{Budget, FrameJob, FrameResult, ShotGeometry};
+use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace::scene::Scene;
 
 /// How two independent renders of a frame agree.
@@ -355,7 +355,7 @@ fn passes_are_the_cpus_with_the_same_seed() {
     // pixel, up to a sample whose first hit rounding decides (a ray grazing a silhouette).
     let Some(gpu) = gpu() else { return };
     let scene = common::scene(MOVING);
-    let statics = ShotGeometry::cpu(&scene);
+    let statics = CpuShot::new(&scene);
     for frame in [1, 2] {
         let cpu: FrameResult = FrameJob::new(&scene, frame).sample(&statics).unwrap();
         let g = common::render_gpu_frame(gpu, &scene, frame, &Budget::default());
@@ -589,11 +589,14 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
     scene.transparent = true;
     scene.output.passes = [raytrace::pass::Pass::Alpha].into_iter().collect();
     scene.output.denoise = Some(raytrace::scene::DenoiseSettings::default());
-    let denoiser = raytrace::denoise::denoiser::Denoiser::new().unwrap();
+    let devices = raytrace::devices::Devices::for_scenes([&scene]).unwrap();
     let finished = |scene: &Scene, gpu: Option<&raytrace::gpu::Gpu>| {
-        let shot = ShotGeometry::new(scene, gpu).unwrap();
-        let mut finishing = raytrace::renderer::Finishing::new(scene, Some(&denoiser)).unwrap();
-        let raw = FrameJob::new(scene, 2).sample(&shot).unwrap();
+        let shot: Box<dyn raytrace::renderer::ShotTracer> = match gpu {
+            Some(gpu) => Box::new(raytrace::gpu::GpuShot::new(gpu, scene).unwrap()),
+            None => Box::new(CpuShot::new(scene)),
+        };
+        let mut finishing = devices.finishing(scene).unwrap();
+        let raw = FrameJob::new(scene, 2).sample(shot.as_ref()).unwrap();
         finishing.finish(raw).unwrap()
     };
     let cpu = finished(&scene, None);
@@ -678,7 +681,7 @@ fn scenes_with_point_caches_are_refused_for_the_gpu() {
     if let Some(gpu) = gpu() {
         let mut on_gpu = s.clone();
         on_gpu.render.device = raytrace::scene::Device::Gpu;
-        let e = raytrace::renderer::ShotGeometry::new(&on_gpu, Some(gpu)).unwrap_err();
+        let e = raytrace::gpu::GpuShot::new(gpu, &on_gpu).unwrap_err();
         assert!(e.to_string().contains("point caches"), "{e}");
     }
 }

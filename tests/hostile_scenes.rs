@@ -16,7 +16,7 @@ use std::time::Instant;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
 use raytrace::Scene;
-use raytrace::renderer::{FrameJob, ShotGeometry};
+use raytrace::renderer::{CpuShot, FrameJob};
 
 /// The shipped scenes, and one that uses every key of the format (camera keyframes and a
 /// keyframed sphere, which no shipped scene has).
@@ -377,7 +377,7 @@ fn check(text: &[u8], tally: &mut Tally) -> Result<(), TestCaseError> {
             scene.output.height = 4;
             scene.render.samples = 1;
             scene.render.max_depth = 4;
-            let statics = ShotGeometry::cpu(&scene);
+            let statics = CpuShot::new(&scene);
             let first = scene.shot.first_frame;
             for frame in [first, scene.shot.last_frame()] {
                 let r = FrameJob::new(&scene, frame).sample(&statics).unwrap();
@@ -508,7 +508,7 @@ fn the_mutations_reach_values_and_lines() {
 fn the_brightest_scene_allowed_stays_finite() {
     let text = "[output]\nwidth = 8\nheight = 8\n[render]\nsamples = 4\nmax_depth = 50\n[background]\ncolor = [1e6, 1e6, 1e6]\n[camera]\nlook_from = [0, 0, 3]\nlook_at = [0, 0, 0]\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = { type = \"metal\", albedo = [1, 1, 1] }\n[[sphere]]\ncenter = [0, 0, -2.5]\nradius = 1\nmaterial = { type = \"metal\", albedo = [1, 1, 1] }\n";
     let scene = Scene::parse(text, Path::new(FILE)).unwrap();
-    let statics = ShotGeometry::cpu(&scene);
+    let statics = CpuShot::new(&scene);
     let r = FrameJob::new(&scene, 1).sample(&statics).unwrap();
     assert_eq!(r.stats.non_finite, 0);
     for p in r.film.means() {

@@ -11,13 +11,13 @@ use std::process::Command;
 
 use glam::{DVec2, DVec3};
 use raytrace::passes::PassImages;
-use raytrace::renderer::{Budget, FrameJob, FrameResult, ShotGeometry};
+use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace::scene::Scene;
 
 use common::{ok, run, run_ok, scene};
 
 fn render(scene: &Scene, frame: u32) -> FrameResult {
-    let statics = ShotGeometry::cpu(scene);
+    let statics = CpuShot::new(scene);
     FrameJob::new(scene, frame).sample(&statics).unwrap()
 }
 
@@ -518,7 +518,7 @@ fn colour_with_passes_is_the_same_bits_as_without() {
 /// three after frame 1 (as in a range), and in passes of 1, 1, 2, 4 samples under a budget
 /// that stops at 8 (the scene's samples); returns it.
 fn same_bits_across_threads_ranges_and_budgets(s: &Scene) -> FrameResult {
-    let statics = ShotGeometry::cpu(s);
+    let statics = CpuShot::new(s);
     let pool = |n| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)

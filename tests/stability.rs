@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use raytrace::camera::View;
 use raytrace::material::schlick;
 use raytrace::ray::Ray;
-use raytrace::renderer::{Budget, FrameJob, FrameResult, ShotGeometry};
+use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace::sampler::{CameraUse, IndependentSampler, Sampler};
 use raytrace::scene::Scene;
 use raytrace::sphere::{intersect, surface_point};
@@ -85,7 +85,7 @@ fn render_checked(scene: &Scene, frame: u32, what: &str) -> FrameResult {
 fn render_checked_on(scene: &Scene, frame: u32, what: &str, tracer: Tracer) -> FrameResult {
     let result = match tracer {
         Tracer::Cpu => {
-            let statics = ShotGeometry::cpu(scene);
+            let statics = CpuShot::new(scene);
             FrameJob::new(scene, frame).sample(&statics).unwrap()
         }
         Tracer::Gpu(gpu) => common::render_gpu_frame(gpu, scene, frame, &Budget::default()),

@@ -8,9 +8,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::denoise::denoiser::DenoiseQuality;
 use crate::renderer::Budget;
 use crate::sampler::SamplerKind;
+use crate::scene::DenoiseQuality;
 use crate::scene::Device;
 use crate::scene_file::Overrides;
 

@@ -6,6 +6,7 @@ use std::fmt::Write;
 use super::args::CheckArgs;
 use super::frames;
 use super::jobs::{Job, load_shots};
+use crate::devices::{Needs, adapter_line};
 use crate::error::{Error, elide, elide_path};
 use crate::memory::{check_memory, memory_estimate, mib};
 use crate::motion::Motion;
@@ -23,10 +24,9 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
     };
     let shots = load_shots(&args.scenes, &overrides, None, None, Depth::Values)?;
     // The adapter a render on the GPU would take, found once.
-    let gpu = shots
-        .iter()
-        .any(|s| s.scene.render.device == crate::scene::Device::Gpu)
-        .then(super::device::adapter_line);
+    let gpu = Needs::of(shots.iter().map(|s| &s.scene))
+        .gpu
+        .then(adapter_line);
     let gpu = gpu.as_deref();
     if let [shot] = &shots[..] {
         return describe(shot, args.chunk_size, gpu);
@@ -48,7 +48,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
 }
 
 /// The description of one shot (with its chunk count when `chunk_size` is given; `gpu`: the
-/// GPU's line, [`super::device::adapter_line`], when a shot renders on it).
+/// GPU's line, [`adapter_line`], when a shot renders on it).
 fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<String, Error> {
     let (scene_path, scene) = (&shot.path, &shot.scene);
     let selected = &shot.targets.frames;

@@ -24,16 +24,16 @@ use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
 use crate::analysis::stats::{Figure, settled};
 use crate::analysis::{flip, metrics, plot};
-use crate::denoise::denoiser::Denoiser;
+use crate::devices::{Devices, Needs};
 use crate::error::Error;
 use crate::format::Format;
 use crate::io;
 use crate::output;
 use crate::points::FramePoints;
-use crate::renderer::{Budget, Finishing, FrameJob, FrameResult, ShotGeometry};
+use crate::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
-use crate::scene::{Device, Scene};
+use crate::scene::Scene;
 use crate::scene_file::{Overrides, SceneSource, file_kind};
 use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 
@@ -94,8 +94,9 @@ pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
 /// scene file through the validator.
 type Variant<'a> = dyn Fn(u32, u64, SamplerKind, Finish) -> Result<Scene, Error> + Sync + 'a;
 
-/// What a frame is rendered with: the shot's geometry on its device, and the frame's points.
-type Shot<'a> = (&'a ShotGeometry, &'a FramePoints);
+/// What a frame is rendered with: the run's devices, the shot on its device, and the frame's
+/// points.
+type Shot<'a> = (&'a Devices, &'a dyn ShotTracer, &'a FramePoints);
 
 /// Where the references come from: two files to read, or two renders to write there.
 enum ReferenceSource {
@@ -200,23 +201,20 @@ fn measure(
             print_line(s);
         }
     };
-    // The scene's device: the GPU opened before anything is measured, as the denoiser is
-    // started: if either cannot start, nothing is written.
-    let gpu = match scene.render.device {
-        Device::Gpu => Some(super::device::open_gpu()?),
-        Device::Cpu => None,
+    // The scene's device and, with --denoise, the denoiser, opened before anything is
+    // measured: if either cannot start, nothing is written.
+    let needs = Needs {
+        denoiser: args.denoise,
+        ..Needs::of([scene])
     };
-    let geometry = ShotGeometry::new(scene, gpu.as_ref())?;
+    let devices = Devices::opened(needs)?;
+    let tracer = devices.shot(scene)?;
     // The frame's points, read once for every render of it.
     let points = match scene.points.is_empty() {
         true => FramePoints::none(),
         false => crate::point_cache::read_frame(scene, frame)?,
     };
-    let shot = (&geometry, &points);
-    let denoiser = match args.denoise {
-        true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
-        false => None,
-    };
+    let shot = (&devices, tracer.as_ref(), &points);
     let references = match references {
         ReferenceSource::Read(paths) => read_references(scene, paths, &say)?,
         ReferenceSource::Render(paths) => {
@@ -288,12 +286,8 @@ fn measure(
         // The points of this step take turns render by render.
         for r in 0..most {
             for run in runs.iter_mut().filter(|run| !run.done) {
-                let denoiser = match run.kind.finish {
-                    Finish::Raw => None,
-                    Finish::Denoised => denoiser.as_ref(),
-                };
                 let scene = &run.scenes[r % seed_count];
-                let (result, seconds) = render(scene, shot, frame, &run.budget(), denoiser)?;
+                let (result, seconds) = render(scene, shot, frame, &run.budget())?;
                 run.times.push(seconds);
                 // Renders of a seed already measured are bit-identical: only their times count.
                 if r < seed_count {
@@ -505,17 +499,16 @@ fn srgb8(image: &[DVec3]) -> Vec<u8> {
 
 /// Renders one variant of the frame, timed: the one place `converge` calls the renderer.
 /// Returns the frame and the wall and process CPU seconds of the call (preparation, tracing,
-/// and denoising when `denoiser` is given; no file I/O).
+/// and denoising when the scene asks; no file I/O).
 fn render(
     scene: &Scene,
-    (geometry, points): Shot,
+    (devices, tracer, points): Shot,
     frame: u32,
     budget: &Budget,
-    denoiser: Option<&Denoiser>,
 ) -> Result<(FrameResult, (f64, f64)), Error> {
     let (wall, cpu) = (Instant::now(), cpu_seconds());
     let job = FrameJob::new(scene, frame).points(points).budget(*budget);
-    let result = Finishing::new(scene, denoiser)?.render(job, geometry)?;
+    let result = devices.finishing(scene)?.render(job, tracer)?;
     let times = (wall.elapsed().as_secs_f64(), cpu_seconds() - cpu);
     Ok((result, times))
 }
@@ -549,7 +542,7 @@ fn render_references(
             ["A", "B"][k],
             reference.render.sampler
         ));
-        let (result, (seconds, _)) = render(&reference, shot, frame, &Budget::default(), None)?;
+        let (result, (seconds, _)) = render(&reference, shot, frame, &Budget::default())?;
         let budget = Budget::default();
         let non_finite = output::write_frame(path, Format::Exr, &reference, &result, &budget)?;
         if non_finite > 0 {

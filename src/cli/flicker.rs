@@ -12,13 +12,12 @@ use super::args::ConvergeArgs;
 use super::frames::Selection;
 use super::progress::print_line;
 use crate::analysis::metrics::{self, FlickerSum};
-use crate::denoise::denoiser::Denoiser;
+use crate::devices::Devices;
 use crate::error::Error;
-use crate::gpu::Gpu;
 use crate::point_cache;
-use crate::renderer::{Finishing, FrameJob, ShotGeometry};
+use crate::renderer::FrameJob;
 use crate::rng::hash_words;
-use crate::scene::{Device, Scene};
+use crate::scene::Scene;
 use crate::scene_file::{Overrides, SceneSource};
 
 /// Samples of each frame's reference, unless --reference-samples says otherwise.
@@ -74,12 +73,8 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         }
     };
     super::threads::thread_pool(args.scene_args.threads)?.install(|| {
-        // The scene's device, opened before anything is measured, as the denoiser is started.
-        let gpu = match scene.render.device {
-            Device::Gpu => Some(super::device::open_gpu()?),
-            Device::Cpu => None,
-        };
-        let denoiser = Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?;
+        // The scene's device and the denoiser, opened before anything is measured.
+        let devices = Devices::for_scenes([&scene, &temporal, &reference])?;
         say(&format!(
             "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
         ));
@@ -88,7 +83,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             temporal: &temporal,
             reference: &reference,
         };
-        measure(scenes, &selection, (&denoiser, gpu.as_ref()), &say)
+        measure(scenes, &selection, &devices, &say)
     })
 }
 
@@ -115,7 +110,7 @@ struct Measured {
 fn measure(
     scenes: Scenes<'_>,
     selection: &Selection,
-    (denoiser, gpu): (&Denoiser, Option<&Gpu>),
+    devices: &Devices,
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
     let Scenes {
@@ -123,10 +118,10 @@ fn measure(
         temporal,
         reference,
     } = scenes;
-    let geometry = ShotGeometry::new(temporal, gpu)?;
-    let reference_geometry = ShotGeometry::new(reference, gpu)?;
-    let mut denoised = Finishing::new(scene, Some(denoiser))?;
-    let mut history = Finishing::new(temporal, Some(denoiser))?;
+    let tracer = devices.shot(temporal)?;
+    let reference_tracer = devices.shot(reference)?;
+    let mut denoised = devices.finishing(scene)?;
+    let mut history = devices.finishing(temporal)?;
     let frames = || point_cache::Frames {
         first: selection.first().expect("two frames or more"),
         last: selection.last().expect("two frames or more"),
@@ -146,19 +141,22 @@ fn measure(
         // The frames before the first that its history reads: rendered, not measured.
         for earlier in history.needs(frame) {
             let points = caches.read_frame(temporal, earlier)?;
-            history.render(FrameJob::new(temporal, earlier).points(&points), &geometry)?;
+            history.render(
+                FrameJob::new(temporal, earlier).points(&points),
+                tracer.as_ref(),
+            )?;
         }
         let points = caches.read_frame(temporal, frame)?;
         // Sampled and not finished: a reference is the raw frame.
         let r = FrameJob::new(reference, frame)
             .points(&points)
-            .sample(&reference_geometry)?;
+            .sample(reference_tracer.as_ref())?;
         let own = r.stats.relative_error.powi(2);
         let start = Instant::now();
         let raw = FrameJob::new(temporal, frame)
             .points(&points)
             .reading(history.passes_read())
-            .sample(&geometry)?;
+            .sample(tracer.as_ref())?;
         let sampled = start.elapsed().as_secs_f64();
         seconds[0] += sampled;
         let mut images: [Vec<DVec3>; 3] = [raw.film.means(), Vec::new(), Vec::new()];

@@ -40,7 +40,7 @@ static TALLY: Tally = Tally {
 
 /// Starts watching for SIGINT and SIGTERM (and ignoring SIGXFSZ) for the rest of the process.
 pub(crate) fn install() -> Result<(), Error> {
-    let fail = |e: std::io::Error| Error::Resource(format!("cannot handle signals: {e}"));
+    let fail = |e: std::io::Error| Error::resource(format!("cannot handle signals: {e}"));
     signal_hook::flag::register(SIGXFSZ, std::sync::Arc::new(AtomicBool::new(false)))
         .map_err(fail)?;
     let mut signals = Signals::new([SIGINT, SIGTERM]).map_err(fail)?;

@@ -5,14 +5,13 @@
 //! A command module parses nothing more, calls the library and prints; no command imports
 //! another. What several commands share lives in helper modules: the shots and frames of a
 //! run ([`jobs`], [`frames`]), progress and printed lines ([`progress`]), interrupts
-//! ([`interrupt`]), worker threads ([`threads`]) and the GPU ([`device`]). `converge --flicker` measures a sequence
+//! ([`interrupt`]), worker threads ([`threads`]) . `converge --flicker` measures a sequence
 //! in a module of its own ([`flicker`]).
 
 mod args;
 mod check;
 mod clip;
 mod converge;
-mod device;
 mod flicker;
 mod frames;
 mod generate;

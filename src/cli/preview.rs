@@ -32,7 +32,7 @@ pub(crate) fn preview(args: &PreviewArgs) -> Result<(), Error> {
     let listener = preview::bind(SocketAddr::new(args.bind, args.port))?;
     let bound = listener
         .local_addr()
-        .map_err(|e| Error::Resource(format!("preview server: {e}")))?;
+        .map_err(|e| Error::resource(format!("preview server: {e}")))?;
     print_line(&format!("preview: http://{bound}/"));
     if !args.bind.is_loopback() {
         use std::io::Write;

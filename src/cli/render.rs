@@ -10,14 +10,13 @@ use super::interrupt;
 use super::jobs::{Job, Targets, load_shots};
 use super::progress::Progress;
 use crate::clip;
-use crate::denoise::denoiser::Denoiser;
+use crate::devices::Devices;
 use crate::error::{Error, elide_path};
-use crate::gpu::Gpu;
 use crate::io;
 use crate::memory::{check_memory, mib, peak_memory_bytes};
 use crate::output;
 use crate::point_cache::{Depth, ShotPoints};
-use crate::renderer::{Finishing, FrameJob, FrameResult, FrameStats, ShotGeometry};
+use crate::renderer::{FrameJob, FrameResult, FrameStats};
 use crate::scene::{Device, Scene};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
@@ -78,12 +77,10 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
 /// several) and one for the run; then makes the clips asked for (unless --no-clip).
 fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let start = Instant::now();
-    // The GPU is opened once, before anything is written: without one, nothing is.
-    let gpu = match shots.iter().any(|s| s.scene.render.device == Device::Gpu) {
-        true => Some(super::device::open_gpu()?),
-        false => None,
-    };
-    if let Some(g) = &gpu
+    // The GPU and the denoiser are opened once, before anything is written: without them,
+    // nothing is.
+    let devices = Devices::for_scenes(shots.iter().map(|s| &s.scene))?;
+    if let Some(g) = devices.gpu()
         && args.stats
         && !args.scene_args.quiet
     {
@@ -93,19 +90,13 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     let progress = Progress::new(total, args.scene_args.quiet);
     interrupt::frames_selected(total);
     let mut run = RunSummary::default();
-    // The denoiser is started once, before any frame is rendered: if it cannot start, nothing
-    // is written.
-    let denoiser = match shots.iter().any(|s| s.scene.output.denoise.is_some()) {
-        true => Some(Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?),
-        false => None,
-    };
     // A shot the run's chunk does not reach is not started (its static geometry not built).
     for shot in shots.iter().filter(|s| s.targets.frames.len() > 0) {
         let summary = render_shot(
             &shot.scene,
             (&shot.targets, &shot.caches),
             args,
-            (denoiser.as_ref(), gpu.as_ref()),
+            &devices,
             &progress,
         )?;
         if shots.len() > 1 {
@@ -176,19 +167,19 @@ fn summary_text(summary: &RunSummary) -> String {
     )
 }
 
-/// Renders the frames of one shot, with a line per frame, with the run's denoiser and GPU
-/// (when some shot needs them); its frames' points are read from its surveyed caches.
+/// Renders the frames of one shot, with a line per frame, on the run's `devices`; its frames'
+/// points are read from its surveyed caches.
 fn render_shot(
     scene: &Scene,
     (targets, caches): (&Targets, &ShotPoints),
     args: &RenderArgs,
-    (denoiser, gpu): (Option<&Denoiser>, Option<&Gpu>),
+    devices: &Devices,
     progress: &Progress,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let budget = args.budget.budget();
-    let geometry = ShotGeometry::new(scene, gpu)?;
-    let mut finishing = Finishing::new(scene, denoiser)?;
+    let tracer = devices.shot(scene)?;
+    let mut finishing = devices.finishing(scene)?;
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
     for (frame, path) in targets.iter() {
@@ -219,7 +210,7 @@ fn render_shot(
         for earlier in finishing.needs(frame) {
             let points = caches.read_frame(scene, earlier)?;
             let job = FrameJob::new(scene, earlier).points(&points).budget(budget);
-            finishing.render(job, &geometry)?;
+            finishing.render(job, tracer.as_ref())?;
             progress.line(&format!(
                 "frame {earlier}: rendered for frame {frame}'s history, not written"
             ));
@@ -237,7 +228,7 @@ fn render_shot(
             .points(&points)
             .budget(budget)
             .progress(&progress_bar);
-        let result = finishing.render(job, &geometry);
+        let result = finishing.render(job, tracer.as_ref());
         let point_count = points.len();
         drop(points);
         bar.finish_and_clear();

@@ -7,5 +7,5 @@ pub fn thread_pool(threads: Option<u16>) -> Result<rayon::ThreadPool, Error> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.map_or(0, usize::from))
         .build()
-        .map_err(|e| Error::Resource(format!("cannot start worker threads: {e}")))
+        .map_err(|e| Error::resource(format!("cannot start worker threads: {e}")))
 }

@@ -141,7 +141,7 @@ where
         }
         _ => {
             let last_frame = frames.clone().last().unwrap_or(first_frame);
-            let mut sheet = sheet::Sheet::new(sheet::Layout::new(count, size, last_frame));
+            let mut sheet = sheet::Sheet::new(sheet::SheetGrid::new(count, size, last_frame));
             for (i, frame) in all.enumerate() {
                 sheet.add(i as u64, &frame?);
             }

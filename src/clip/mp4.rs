@@ -41,7 +41,7 @@ pub(super) fn check_ffmpeg(clip: &Path) -> Result<(), Error> {
         .status()
     {
         Ok(_) => Ok(()),
-        Err(e) => Err(Error::Resource(format!(
+        Err(e) => Err(Error::resource(format!(
             "cannot make {}: .mp4 clips are made by the ffmpeg program, which could not be run \
              ({e}); install ffmpeg, or make a .gif, .apng or .png clip, which need no other \
              program",
@@ -106,7 +106,7 @@ pub(super) fn write(
         .stdout(Stdio::from(out))
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| Error::Resource(format!("cannot run ffmpeg for {}: {e}", elide_path(clip))))?;
+        .map_err(|e| Error::resource(format!("cannot run ffmpeg for {}: {e}", elide_path(clip))))?;
     // ffmpeg's messages are read while it runs, so that it never blocks on a full pipe.
     let mut stderr = child.stderr.take().expect("piped stderr");
     let messages = std::thread::spawn(move || {

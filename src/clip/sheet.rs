@@ -29,7 +29,7 @@ const INK: u8 = 235;
 
 /// Where everything goes on a sheet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Layout {
+pub(super) struct SheetGrid {
     columns: u32,
     /// Frame pixels per thumbnail pixel, along each side.
     factor: u32,
@@ -38,10 +38,10 @@ pub(super) struct Layout {
     pub(super) size: (u32, u32),
 }
 
-impl Layout {
+impl SheetGrid {
     /// The layout of `count` frames (1 to [`MAX_FRAMES`]) of `width` x `height`, numbered up
     /// to `last_frame`.
-    pub(super) fn new(count: u64, (width, height): (u32, u32), last_frame: u32) -> Layout {
+    pub(super) fn new(count: u64, (width, height): (u32, u32), last_frame: u32) -> SheetGrid {
         let columns = (1..=count).find(|c| c * c >= count).unwrap_or(1);
         let rows = count.div_ceil(columns);
         let factor = (columns * width as u64).div_ceil(TARGET_WIDTH).max(1);
@@ -55,7 +55,7 @@ impl Layout {
             thumb.1 + digits::GLYPH.1 * FONT_SCALE + 2 * LABEL_PAD,
         );
         let side = |cells: u64, cell: u32| (cells * (cell + GAP) as u64 + GAP as u64) as u32;
-        Layout {
+        SheetGrid {
             columns: columns as u32,
             factor: factor as u32,
             thumb,
@@ -79,12 +79,12 @@ impl Layout {
 
 /// A sheet being filled.
 pub(super) struct Sheet {
-    layout: Layout,
+    layout: SheetGrid,
     rgb: Vec<u8>,
 }
 
 impl Sheet {
-    pub(super) fn new(layout: Layout) -> Sheet {
+    pub(super) fn new(layout: SheetGrid) -> Sheet {
         let (w, h) = layout.size;
         Sheet {
             layout,
@@ -167,7 +167,7 @@ mod tests {
 
     #[test]
     fn small_frames_are_copied_whole_in_a_square_grid() {
-        let layout = Layout::new(12, (320, 180), 12);
+        let layout = SheetGrid::new(12, (320, 180), 12);
         assert_eq!(layout.columns, 4);
         assert_eq!(layout.factor, 1);
         assert_eq!(layout.size.0, 4 * (320 + GAP) + GAP);
@@ -192,7 +192,7 @@ mod tests {
 
     #[test]
     fn large_grids_shrink_by_a_whole_factor_to_pixel_means() {
-        let layout = Layout::new(100, (400, 225), 100);
+        let layout = SheetGrid::new(100, (400, 225), 100);
         assert_eq!(layout.columns, 10);
         assert_eq!(layout.factor, 2); // 10 x 400 = 4000 > 2048, 2000 fits
         assert_eq!(layout.thumb, (200, 113));

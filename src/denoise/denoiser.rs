@@ -16,6 +16,8 @@
 
 use std::fmt;
 
+use crate::scene::DenoiseQuality;
+
 /// The largest width and height OIDN accepts (its `ImageDesc` refuses larger sides as
 /// "image size is too large").
 pub const MAX_SIDE: usize = 65536;
@@ -76,54 +78,9 @@ impl fmt::Display for DenoiseError {
 
 impl std::error::Error for DenoiseError {}
 
-/// OIDN's filter qualities (`[output] denoise_quality`, `--denoise-quality`): each slower and
-/// closer to the truth than the one before. On OIDN's CPU device `balanced` runs the `high`
-/// network (its documentation: balanced "lowers the precision, if possible"; measured: the
-/// same bytes).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum DenoiseQuality {
-    /// OIDN's smaller network: about half the time of `high`; the default (docs/denoising.md
-    /// has the measurement that chose it).
-    #[default]
-    Fast,
-    Balanced,
-    High,
-}
-
-impl DenoiseQuality {
-    /// Every quality, fastest first.
-    pub const ALL: [DenoiseQuality; 3] = [
-        DenoiseQuality::Fast,
-        DenoiseQuality::Balanced,
-        DenoiseQuality::High,
-    ];
-
-    /// The name used in scene files and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            DenoiseQuality::Fast => "fast",
-            DenoiseQuality::Balanced => "balanced",
-            DenoiseQuality::High => "high",
-        }
-    }
-
-    /// The quality named `name`, if any.
-    pub fn from_name(name: &str) -> Option<DenoiseQuality> {
-        DenoiseQuality::ALL.into_iter().find(|q| q.name() == name)
-    }
-
-    fn oidn(self) -> oidn::Quality {
-        match self {
-            DenoiseQuality::Fast => oidn::Quality::Fast,
-            DenoiseQuality::Balanced => oidn::Quality::Balanced,
-            DenoiseQuality::High => oidn::Quality::High,
-        }
-    }
-}
-
-impl std::fmt::Display for DenoiseQuality {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+impl From<DenoiseError> for crate::error::Error {
+    fn from(e: DenoiseError) -> Self {
+        crate::error::Error::Resource(Box::new(e))
     }
 }
 
@@ -156,7 +113,7 @@ impl Denoiser {
         filter
             .image_dimensions(width, height)
             .hdr(true)
-            .filter_quality(quality.oidn());
+            .filter_quality(oidn_quality(quality));
         Ok(Filter { filter, len })
     }
 }
@@ -183,6 +140,15 @@ impl Filter<'_> {
             .filter(colour, &mut out)
             .map_err(|e| DenoiseError::Filter(describe(&e)))?;
         Ok(out)
+    }
+}
+
+/// OIDN's name for `quality`.
+fn oidn_quality(quality: DenoiseQuality) -> oidn::Quality {
+    match quality {
+        DenoiseQuality::Fast => oidn::Quality::Fast,
+        DenoiseQuality::Balanced => oidn::Quality::Balanced,
+        DenoiseQuality::High => oidn::Quality::High,
     }
 }
 

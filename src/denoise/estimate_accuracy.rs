@@ -3,10 +3,11 @@
 //! error (`analysis::metrics::rel_mse` against the known image), and the written frame no
 //! further from the truth than the raw one.
 
-use super::denoiser::{DenoiseQuality, Denoiser};
+use super::denoiser::Denoiser;
 use super::estimate::{Blend, Snapshot};
 use super::synthetic::{self, Frame, from_f32, to_f32};
 use crate::analysis::metrics::rel_mse;
+use crate::scene::DenoiseQuality;
 
 /// The frame written from `frame` (its halves denoised at the default quality) and its true
 /// relative error.

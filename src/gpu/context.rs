@@ -55,6 +55,12 @@ impl fmt::Display for GpuError {
 
 impl std::error::Error for GpuError {}
 
+impl From<GpuError> for crate::error::Error {
+    fn from(e: GpuError) -> Self {
+        crate::error::Error::Resource(Box::new(e))
+    }
+}
+
 /// An open GPU device with the tracer's pipeline. Cheap to clone (wgpu's handles are shared).
 #[derive(Clone, Debug)]
 pub struct Gpu {

@@ -216,7 +216,7 @@ pub(super) const SLOT_BYTES: u64 = 256;
 /// The test entry point's words per sample (trace.wgsl, numbers).
 pub(super) const NUMBERS: u32 = 17;
 
-/// Pass sums a pixel may have, at most: every pass's ([`crate::passes::Layout`]: the hit
+/// Pass sums a pixel may have, at most: every pass's ([`crate::passes::SumLayout`]: the hit
 /// count, depth, normal, albedo and motion).
 pub(super) const MAX_STRIDE: u32 = 12;
 

@@ -32,7 +32,7 @@ mod upload;
 mod tests;
 
 pub use context::{Adapter, DRIVER_BYTES, Gpu, GpuError, LOSE_AFTER_VARIABLE};
-pub use shot::{GpuFrame, GpuShot, RoundCounts};
+pub use shot::{GpuFrame, GpuShot};
 pub use support::{
     CAMERA_FRACTION, GPU_FLOOR_BYTES, MAX_BUFFER_BYTES, MAX_COORDINATE, MAX_SWEEP_DEGREES,
     MIN_PIXEL_ANGLE, MIN_RADIUS, MIN_RADIUS_FRACTION, Unsupported, frame_bytes, unsupported,

@@ -18,16 +18,21 @@ use super::device_film::{DeviceFilm, SLOTS, Submitted, merge};
 use super::layout::{MAX_STRIDE, Words};
 use super::schedule::{Pace, Windows};
 use super::upload::{FrameWords, ShotWords};
+use crate::error::Error;
 use crate::film::Film;
-use crate::passes::Layout;
+use crate::passes::SumLayout;
+use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
+use crate::renderer::{FrameTracer, RoundCounts, RoundPlan, ShotTracer};
 use crate::scene::Scene;
 use crate::world::StaticGeometry;
 
-/// A shot's data on the GPU: what every frame of it shares.
+/// A shot's data on the GPU: what every frame of it shares, with the still spheres and their
+/// hierarchy it was uploaded from (which each frame's preparation starts from).
 #[derive(Debug)]
 pub struct GpuShot {
     gpu: Gpu,
+    statics: StaticGeometry,
     words: ShotWords,
     buffer: wgpu::Buffer,
     /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
@@ -35,27 +40,16 @@ pub struct GpuShot {
     pace: Mutex<Pace>,
 }
 
-/// What one round on the GPU did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct RoundCounts {
-    /// Rays intersected with the scene.
-    pub rays: u64,
-    /// Samples taken.
-    pub samples: u64,
-    /// Samples that were not finite (counted as black).
-    pub non_finite: u64,
-    /// Seconds the host spent waiting for the device.
-    pub wait_seconds: f64,
-}
-
 impl GpuShot {
-    /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and `statics`
-    /// (the shot's spheres that never move, with their hierarchy, built for `scene`).
-    pub fn new(gpu: &Gpu, scene: &Scene, statics: &StaticGeometry) -> Result<GpuShot, GpuError> {
-        let words = ShotWords::new(scene, statics).map_err(GpuError::Failed)?;
+    /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
+    /// that never move, with their hierarchy (built here).
+    pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
+        let statics = StaticGeometry::new(scene);
+        let words = ShotWords::new(scene, &statics).map_err(GpuError::Failed)?;
         let buffer = upload(gpu, "shot", &words.words)?;
         Ok(GpuShot {
             gpu: gpu.clone(),
+            statics,
             words,
             buffer,
             pace: Mutex::new(Pace::default()),
@@ -69,10 +63,10 @@ impl GpuShot {
 
     /// Uploads the frame `prepared` (of the scene this shot was made from), for a film kept
     /// by `layout`.
-    pub fn frame(
+    pub fn upload_frame(
         &self,
         prepared: &PreparedFrame,
-        layout: &Layout,
+        layout: &SumLayout,
     ) -> Result<GpuFrame<'_>, GpuError> {
         assert!(
             layout.stride <= MAX_STRIDE as usize,
@@ -95,7 +89,25 @@ impl GpuShot {
             film,
             stride: layout.stride,
             max_depth: scene.render.max_depth,
+            moving: prepared.world.moving,
         })
+    }
+}
+
+impl ShotTracer for GpuShot {
+    fn statics(&self) -> &StaticGeometry {
+        &self.statics
+    }
+
+    /// Uploads the frame. Its points are none: the GPU renders no point caches, and a shot
+    /// of a scene with them is refused ([`GpuShot::new`]).
+    fn frame<'a>(
+        &'a self,
+        prepared: PreparedFrame<'a>,
+        _points: &'a FramePoints,
+        layout: &SumLayout,
+    ) -> Result<Box<dyn FrameTracer + 'a>, Error> {
+        Ok(Box::new(self.upload_frame(&prepared, layout)?))
     }
 }
 
@@ -133,18 +145,47 @@ pub struct GpuFrame<'s> {
     film: DeviceFilm,
     stride: usize,
     max_depth: u32,
+    /// Spheres moving during the frame's exposure.
+    moving: usize,
+}
+
+impl FrameTracer for GpuFrame<'_> {
+    fn moving_spheres(&self) -> usize {
+        self.moving
+    }
+
+    fn round(
+        &mut self,
+        film: &mut Film,
+        plan: &RoundPlan<'_>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<RoundCounts, Error> {
+        use rayon::prelude::*;
+        // Each pixel's target, in the film's storage order, decided tile by tile as the
+        // CPU's tiles decide them.
+        let targets: Vec<u32> = film
+            .tiles()
+            .par_iter()
+            .map(|(rect, pixels)| {
+                let mut t = Vec::with_capacity(pixels.len());
+                plan.targets(rect, pixels, &mut t);
+                t
+            })
+            .collect::<Vec<_>>()
+            .concat();
+        Ok(self.take_to(film, &targets, progress)?)
+    }
+
+    fn readback_bytes(&self) -> u64 {
+        self.film.readback
+    }
 }
 
 impl GpuFrame<'_> {
-    /// Bytes read back from the device so far.
-    pub fn readback_bytes(&self) -> u64 {
-        self.film.readback
-    }
-
     /// Takes every pixel of `film` to its target sample count, `targets` in the film's
     /// storage order (a pixel already there takes none). `progress` is called with the
     /// samples of each finished dispatch.
-    pub fn round(
+    pub fn take_to(
         &mut self,
         film: &mut Film,
         targets: &[u32],
@@ -179,7 +220,7 @@ impl GpuFrame<'_> {
             // entries are a prefix.
             entries.sort_by_key(|e| std::cmp::Reverse(e[3] - e[2]));
             let gpu = &self.shot.gpu;
-            counts.wait_seconds += self.film.begin(gpu, end - start, &entries);
+            counts.busy_seconds += self.film.begin(gpu, end - start, &entries);
             let remaining = entries.iter().map(|e| e[3] - e[2]).collect();
             self.windows(Windows::new(remaining), end - start, &mut counts, progress)?;
             let stride = self.stride;
@@ -190,7 +231,7 @@ impl GpuFrame<'_> {
             );
             let waited = Instant::now();
             counts.non_finite += self.film.read_part(gpu, end - start, |words| {
-                counts.wait_seconds += waited.elapsed().as_secs_f64();
+                counts.busy_seconds += waited.elapsed().as_secs_f64();
                 merge(words, part_pixels, part_sums, part_targets, stride)
             })?;
         }
@@ -241,7 +282,7 @@ impl GpuFrame<'_> {
             let waited = Instant::now();
             let c = self.film.wait(gpu, s)?;
             let back = Instant::now();
-            counts.wait_seconds += (back - waited + submitting).as_secs_f64();
+            counts.busy_seconds += (back - waited + submitting).as_secs_f64();
             // Its device time: from when it was submitted, or the one before it came back,
             // whichever was later; on a device that runs a dispatch within its submission,
             // the submission's time.

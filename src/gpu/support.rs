@@ -275,7 +275,7 @@ mod tests {
     use super::*;
     use crate::gpu::upload::{FrameWords, ShotWords};
     use crate::pass::PassSet;
-    use crate::passes::Layout;
+    use crate::passes::SumLayout;
     use crate::points::FramePoints;
     use crate::prepared::PreparedFrame;
     use crate::world::{MERGE_LIMIT, StaticGeometry};
@@ -335,7 +335,7 @@ mod tests {
                 4 * shot.words.0.len() as u64 <= counted,
                 "{still} + {moving}: shot"
             );
-            let layout = Layout::new(PassSet::EMPTY.with(crate::pass::Pass::Motion));
+            let layout = SumLayout::new(PassSet::EMPTY.with(crate::pass::Pass::Motion));
             for frame in 1..=3 {
                 let none = FramePoints::none();
                 let prepared = PreparedFrame::new(&s, &statics, &none, frame);

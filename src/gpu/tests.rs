@@ -8,13 +8,12 @@ use super::context::Gpu;
 use super::schedule::Pace;
 use super::shot::GpuShot;
 use crate::pass::PassSet;
-use crate::passes::Layout;
+use crate::passes::SumLayout;
 use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
-use crate::renderer::{FrameJob, FrameResult, ShotGeometry};
+use crate::renderer::{FrameJob, FrameResult, ShotTracer};
 use crate::sampler::{CameraUse, IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::{Device, Scene};
-use crate::world::StaticGeometry;
 
 /// The GPU, opened once for the tests; `None` (the test skips) where there is none, except
 /// under `CI=true`, where its absence fails the test.
@@ -48,11 +47,12 @@ fn the_gpu_draws_the_cpu_samplers_numbers() {
     for kind in SamplerKind::ALL {
         let text = format!("[shot]\nfirst_frame = 3\n[render]\nseed = 5\nsampler = \"{kind}\"\n");
         let scene = Scene::parse(&text, Path::new("numbers.toml")).unwrap();
-        let statics = StaticGeometry::new(&scene);
-        let shot = GpuShot::new(gpu, &scene, &statics).unwrap();
+        let shot = GpuShot::new(gpu, &scene).unwrap();
         let none = FramePoints::none();
-        let prepared = PreparedFrame::new(&scene, &statics, &none, 3);
-        let mut frame = shot.frame(&prepared, &Layout::new(PassSet::EMPTY)).unwrap();
+        let prepared = PreparedFrame::new(&scene, shot.statics(), &none, 3);
+        let mut frame = shot
+            .upload_frame(&prepared, &SumLayout::new(PassSet::EMPTY))
+            .unwrap();
         let numbers = frame.numbers(&samples).unwrap();
         let mut cpu: Box<dyn Sampler> = match kind {
             SamplerKind::Independent => Box::new(IndependentSampler::new(5, 3)),
@@ -96,12 +96,12 @@ fn on_gpu(text: &str) -> Scene {
 
 /// Frame `frame` of `scene` rendered on `gpu`, with `pace` as the device's pace to begin with.
 fn render(gpu: &Gpu, scene: &Scene, frame: u32, pace: Option<Pace>) -> FrameResult {
-    let geometry = ShotGeometry::new(scene, Some(gpu)).unwrap();
-    if let (ShotGeometry::Gpu(_, shot), Some(pace)) = (&geometry, pace) {
+    let shot = GpuShot::new(gpu, scene).unwrap();
+    if let Some(pace) = pace {
         shot.set_pace(pace);
     }
     FrameJob::new(scene, frame)
-        .sample(&geometry)
+        .sample(&shot)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -161,8 +161,8 @@ fn paths_take_max_depth_bounces_or_the_device_says_it_cannot() {
     assert_eq!(r.stats.samples, 12);
     assert_eq!(r.stats.rays, 12 * 2000);
     let scene = on_gpu(&text(40_000));
-    let geometry = ShotGeometry::new(&scene, Some(gpu)).unwrap();
-    let result = FrameJob::new(&scene, 1).sample(&geometry);
+    let shot = GpuShot::new(gpu, &scene).unwrap();
+    let result = FrameJob::new(&scene, 1).sample(&shot);
     match (gpu.is_software(), result) {
         (true, Err(e)) => {
             let e = e.to_string();

@@ -17,7 +17,7 @@ use super::flatten::{Flat, flatten};
 use super::layout::*;
 use crate::material::{Background, Material};
 use crate::motion::{FrameMotion, Motion};
-use crate::passes::Layout;
+use crate::passes::SumLayout;
 use crate::prepared::PreparedFrame;
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
@@ -154,7 +154,11 @@ fn motion(w: &mut Words, m: &FrameMotion, t0: f64, open: f64) -> u32 {
 impl FrameWords {
     /// The words of the frame `prepared`, with `shot` (its shot's words) already on the GPU,
     /// for a film kept by `layout`.
-    pub(super) fn new(prepared: &PreparedFrame, shot: &ShotWords, layout: &Layout) -> FrameWords {
+    pub(super) fn new(
+        prepared: &PreparedFrame,
+        shot: &ShotWords,
+        layout: &SumLayout,
+    ) -> FrameWords {
         let scene = prepared.scene;
         let (width, height) = (scene.output.width, scene.output.height);
         let times = &prepared.times;

@@ -9,8 +9,8 @@ use std::path::Path;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::columns::{ColumnMap, map_columns};
 use super::files::{Files, Key};
-use super::layout::{Layout, layout};
 use super::message::{about, check_total, error};
 use super::motion::{Crossing, images, interpolate, sorted_ids};
 use super::read::cell_of;
@@ -26,7 +26,7 @@ use crate::sim::{ReadError, Snapshot};
 /// A snapshot's values, with the layout and box they were read with.
 struct Values {
     read: Read,
-    layout: Layout,
+    layout: ColumnMap,
     cell: Option<Cell>,
 }
 
@@ -36,7 +36,7 @@ fn values_of(
     desc: &PointCacheDesc,
     want: Wanted,
 ) -> Result<Values, ReadError> {
-    let layout = layout(&snap.columns, desc).map_err(ReadError::Bad)?;
+    let layout = map_columns(&snap.columns, desc).map_err(ReadError::Bad)?;
     let cell = cell_of(snap, desc)?;
     let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
     let read = read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;

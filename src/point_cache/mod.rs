@@ -11,9 +11,9 @@
 //! `read` (values read and checked), `motion` (interpolation by id, periodic copies),
 //! `survey` (the shot's survey, check's figures), `frame` (a frame's points).
 
+mod columns;
 mod files;
 mod frame;
-mod layout;
 mod message;
 mod motion;
 mod read;

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::layout::Layout;
+use super::columns::ColumnMap;
 use super::table::Rows;
 use crate::points::PointCacheDesc;
 use crate::sim::cell::Cell;
@@ -87,7 +87,7 @@ pub(super) fn read_values(
     rows: &mut Rows,
     count: u64,
     names: &[String],
-    layout: &Layout,
+    layout: &ColumnMap,
     cell: Option<&Cell>,
     desc: &PointCacheDesc,
     want: Wanted,

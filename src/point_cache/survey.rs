@@ -11,8 +11,8 @@ use std::sync::Mutex;
 
 use glam::DVec3;
 
+use super::columns::map_columns;
 use super::files::{Files, Key, Located, series, timestep_time};
-use super::layout::layout;
 use super::message::{MAX_FRAME_SPHERES, about, error};
 use super::read::{Wanted, read_values};
 use super::table::{self, OpenText};
@@ -343,7 +343,7 @@ fn index_file(
             )));
         }
         last_timestep = snap.timestep.or(last_timestep);
-        let layout = layout(&snap.columns, desc).map_err(ReadError::Bad)?;
+        let layout = map_columns(&snap.columns, desc).map_err(ReadError::Bad)?;
         let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
         let f = match read(first + ordinal - 1, snap) {
             Some(want) => {

@@ -1,24 +1,24 @@
 //! The one place the preview calls the renderer: a frame of a scene at the scene's own size
 //! and samples (the worker makes the scene at the size and sample count it wants, through the
 //! validator), its point caches read for the frame, on the device the shot's geometry was
-//! made for, denoised when the scene says so. The same call `render` makes, so a frame's
+//! is on, denoised when the scene says so. The same call `render` makes, so a frame's
 //! pixels are those `render --frames N` writes at the same size and samples.
 
-use crate::denoise::denoiser::Denoiser;
+use crate::devices::Devices;
 use crate::error::Error;
 use crate::point_cache;
-use crate::renderer::{Finishing, FrameJob, FrameResult, ShotGeometry};
+use crate::renderer::{FrameJob, FrameResult, ShotTracer};
 use crate::scene::Scene;
 
-/// Renders `frame` of `scene` with exactly its samples in every pixel, finished as `render`
-/// finishes it (denoised when the scene asks; `denoiser` is the one started for it).
+/// Renders `frame` of `scene` with exactly its samples in every pixel on `tracer`'s device,
+/// finished as `render` finishes it (denoised when the scene asks, by `devices`' denoiser).
 pub(crate) fn render_frame(
     scene: &Scene,
-    geometry: &ShotGeometry,
-    denoiser: Option<&Denoiser>,
+    devices: &Devices,
+    tracer: &dyn ShotTracer,
     frame: u32,
 ) -> Result<FrameResult, Error> {
     let points = point_cache::read_frame(scene, frame)?;
     let job = FrameJob::new(scene, frame).points(&points);
-    Finishing::new(scene, denoiser)?.render(job, geometry)
+    devices.finishing(scene)?.render(job, tracer)
 }

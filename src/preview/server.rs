@@ -43,12 +43,12 @@ const MAX_PAGE_SIDE: u32 = 16384;
 
 /// Binds `addr` (port 0: a free port), for [`serve`].
 pub(crate) fn bind(addr: SocketAddr) -> Result<TcpListener, Error> {
-    TcpListener::bind(addr).map_err(|e| Error::Resource(format!("cannot listen on {addr}: {e}")))
+    TcpListener::bind(addr).map_err(|e| Error::resource(format!("cannot listen on {addr}: {e}")))
 }
 
 /// Serves the pages of `board` on `listener` for ever.
 pub(crate) fn serve(listener: TcpListener, board: Arc<Board>) -> Result<(), Error> {
-    let fail = |e: std::io::Error| Error::Resource(format!("preview server: {e}"));
+    let fail = |e: std::io::Error| Error::resource(format!("preview server: {e}"));
     let bound = listener.local_addr().map_err(fail)?;
     listener.set_nonblocking(true).map_err(fail)?;
     let runtime = tokio::runtime::Builder::new_current_thread()

@@ -38,7 +38,7 @@ impl Watch {
                 board.files_changed();
             }
         })
-        .map_err(|e| Error::Resource(format!("cannot watch the scene's files: {e}")))?;
+        .map_err(|e| Error::resource(format!("cannot watch the scene's files: {e}")))?;
         Ok(Watch {
             watcher,
             folders: BTreeSet::new(),

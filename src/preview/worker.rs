@@ -15,7 +15,7 @@
 //! *generation*; a pass's image is kept only if its generation is still the board's.
 
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use base64::Engine;
@@ -25,12 +25,11 @@ use super::render::render_frame;
 use super::timeline::{shot_json, view_names};
 use super::views::encode_views;
 use super::watch::Watch;
-use crate::denoise::denoiser::Denoiser;
+use crate::devices::Devices;
 use crate::error::{Error, elide_path};
-use crate::gpu::Gpu;
 use crate::point_cache;
-use crate::renderer::{FrameResult, ShotGeometry};
-use crate::scene::{Device, Scene};
+use crate::renderer::{FrameResult, ShotTracer};
+use crate::scene::Scene;
 use crate::scene_file::{Overrides, SceneSource};
 
 /// The samples per pixel of a frame other than the chosen one, before it takes the scene's.
@@ -73,9 +72,10 @@ struct Loaded {
     /// The size rendered (the scene's, or smaller to fit the pages).
     size: (u32, u32),
     generation: u64,
-    geometry: ShotGeometry,
-    /// OIDN's device is used by one thread at a time.
-    denoiser: Option<Arc<Mutex<Denoiser>>>,
+    /// The shot on its device.
+    tracer: Box<dyn ShotTracer>,
+    /// The devices opened so far: the lanes' passes share them.
+    devices: Devices,
 }
 
 impl Loaded {
@@ -111,19 +111,12 @@ enum Action {
     Render(Running),
 }
 
-/// The devices opened so far (a GPU, the denoiser), kept for later generations.
-#[derive(Default)]
-struct Devices {
-    gpu: Option<Gpu>,
-    denoiser: Option<Arc<Mutex<Denoiser>>>,
-}
-
 /// The lanes passes run on.
 type Lanes = [Arc<rayon::ThreadPool>; LANES];
 
 /// Starts the worker on a thread of its own, for ever (the process ends on a signal).
 pub(crate) fn start(board: Arc<Board>, setup: Setup) -> Result<(), Error> {
-    let fail = |e: &dyn std::fmt::Display| Error::Resource(format!("cannot start threads: {e}"));
+    let fail = |e: &dyn std::fmt::Display| Error::resource(format!("cannot start threads: {e}"));
     let pool = || {
         rayon::ThreadPoolBuilder::new()
             .num_threads(setup.threads)
@@ -203,7 +196,7 @@ fn work(board: &Arc<Board>, setup: &Setup, lanes: &Lanes, watch: &mut Watch) {
                         finish(&pass_board, job, images);
                     });
                 if let Err(e) = started {
-                    let e = Error::Resource(format!("cannot start a thread: {e}"));
+                    let e = Error::resource(format!("cannot start a thread: {e}"));
                     finish(board, job, Err(e));
                 }
             }
@@ -312,13 +305,7 @@ fn read(
     for &f in &frames {
         files.extend(caches.frame_files(&scene, f)?);
     }
-    if scene.render.device == Device::Gpu && devices.gpu.is_none() {
-        devices.gpu = Some(Gpu::new().map_err(|e| Error::Resource(e.to_string()))?);
-    }
-    if scene.output.denoise.is_some() && devices.denoiser.is_none() {
-        let d = Denoiser::new().map_err(|e| Error::Resource(e.to_string()))?;
-        devices.denoiser = Some(Arc::new(Mutex::new(d)));
-    }
+    devices.open_for([&scene])?;
     let size = fit((scene.output.width, scene.output.height), page);
     let loaded = at_size(
         source,
@@ -345,7 +332,7 @@ fn at_size(
     let full = (scene.output.width, scene.output.height);
     let sized = source.scene(&overrides_at(overrides, full, size, scene.render.samples))?;
     Ok(Loaded {
-        geometry: ShotGeometry::new(&sized, devices.gpu.as_ref())?,
+        tracer: devices.shot(&sized)?,
         source,
         scene,
         overrides: overrides.clone(),
@@ -353,7 +340,7 @@ fn at_size(
         total,
         size,
         generation,
-        denoiser: devices.denoiser.clone(),
+        devices: devices.clone(),
     })
 }
 
@@ -373,13 +360,7 @@ fn publish_shot(s: &mut State, l: &Loaded) {
 /// Renders one pass and encodes its views as `image` events.
 fn pass(l: &Loaded, job: Running) -> Result<FrameImages, Error> {
     let scene = l.scene_at(job.samples)?;
-    let result = match &l.denoiser {
-        Some(d) if scene.output.denoise.is_some() => {
-            let d = d.lock().unwrap_or_else(|e| e.into_inner());
-            render_frame(&scene, &l.geometry, Some(&d), job.frame)?
-        }
-        _ => render_frame(&scene, &l.geometry, None, job.frame)?,
-    };
+    let result = render_frame(&scene, &l.devices, l.tracer.as_ref(), job.frame)?;
     let views = encode_views(&scene, &result)?;
     let figures = figures(&result, l.scene.render.samples);
     let events = views

@@ -9,7 +9,7 @@ use crate::film::{Film, Pixel, TileRect};
 
 /// What a round does: which samples each pixel takes.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum Plan<'w> {
+pub enum RoundPlan<'w> {
     /// Every pixel takes samples up to this count.
     Uniform(u32),
     /// Pixels chosen by [`Adaptive::target`] double their samples, weighed by `Weights`.
@@ -42,13 +42,13 @@ impl Weights<'_> {
     }
 }
 
-impl Plan<'_> {
+impl RoundPlan<'_> {
     /// The sample count pixel `i` of the tile `pixels` (at `rect`) goes to in this round.
-    pub(super) fn targets(&self, rect: &TileRect, pixels: &[Pixel], out: &mut Vec<u32>) {
+    pub fn targets(&self, rect: &TileRect, pixels: &[Pixel], out: &mut Vec<u32>) {
         out.clear();
         match self {
-            Plan::Uniform(n) => out.extend(pixels.iter().map(|p| p.taken().max(*n))),
-            Plan::Adaptive(a, w) => {
+            RoundPlan::Uniform(n) => out.extend(pixels.iter().map(|p| p.taken().max(*n))),
+            RoundPlan::Adaptive(a, w) => {
                 let weights = w.of_tile(rect, pixels);
                 out.extend(
                     pixels
@@ -110,7 +110,7 @@ fn priority_bucket(priority: f64) -> usize {
 /// their targets take it: those whose priority (target over samples) is in bucket
 /// `min_bucket` or above.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Adaptive {
+pub struct Adaptive {
     scale: f64,
     min_bucket: usize,
     max_samples: u32,

@@ -3,20 +3,20 @@
 
 use std::time::Instant;
 
-use super::adaptive::{Plan, plan_adaptive};
+use super::adaptive::{RoundPlan, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
-use super::device::{FrameError, On, Rounds, ShotGeometry};
 use super::stop::{RawStop, StopRule, relative_error};
+use super::tiles::FrameRequest;
+use super::tracers::ShotTracer;
 use glam::DVec3;
 
-use super::tiles::FrameRequest;
-use crate::denoise::denoiser::DenoiseQuality;
 use crate::error::Error;
 use crate::film::{Film, Pixel};
 use crate::pass::PassSet;
-use crate::passes::{Layout, PassImages};
+use crate::passes::{PassImages, SumLayout};
 use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
+use crate::scene::DenoiseQuality;
 use crate::scene::Scene;
 use crate::shutter::Interval;
 
@@ -81,7 +81,7 @@ pub struct FrameResult {
     /// the scene's `[output] passes`, if it asks for any.
     pub film: Film,
     /// Where the film keeps which pass sums.
-    pub layout: Layout,
+    pub layout: SumLayout,
     /// The frame as finished for writing when the scene asks for denoising: the raw and
     /// denoised frames blended ([`Finishing`](super::Finishing)); `None` for a raw frame.
     pub denoised: Option<Denoised>,
@@ -187,40 +187,33 @@ impl<'a> FrameJob<'a> {
         FrameJob { progress, ..self }
     }
 
-    /// Samples the frame on the device `geometry` was made for (the scene's `[render]
-    /// device`), judged under a noise threshold by the raw film's own estimate
-    /// ([`RawStop`]): see [`sample_with`](Self::sample_with).
-    pub fn sample(self, geometry: &ShotGeometry) -> Result<FrameResult, Error> {
-        self.sample_with(geometry, &mut RawStop)
+    /// Samples the frame on `tracer`'s device, judged under a noise threshold by the raw
+    /// film's own estimate ([`RawStop`]): see [`sample_with`](Self::sample_with).
+    pub fn sample(self, tracer: &dyn ShotTracer) -> Result<FrameResult, Error> {
+        self.sample_with(tracer, &mut RawStop)
     }
 
-    /// Samples the frame on the device `geometry` was made for (the scene's `[render]
-    /// device`), judged under a noise threshold by `stop` (the frame that will be written:
-    /// [`Finishing::stop_rule`](super::Finishing::stop_rule)): the same rounds, budgets and
-    /// film either way, the samples traced by the CPU's threads or by the GPU. A GPU that
-    /// fails mid-frame (lost, out of memory), or a denoiser that fails while the stop rule
-    /// judges the frame, is an [`Error::Resource`] naming the frame, and nothing of the frame
-    /// is kept. Runs on the current rayon pool.
+    /// Samples the frame on `tracer`'s device, judged under a noise threshold by `stop` (the
+    /// frame that will be written: `Finishing::stop_rule`): the same rounds, budgets and
+    /// film whichever device traces the samples. A device that fails mid-frame (lost, out of
+    /// memory), or a denoiser that fails while the stop rule judges the frame, is an
+    /// [`Error::Frame`] naming the frame, and nothing of the frame is kept. Runs on the
+    /// current rayon pool.
     pub fn sample_with(
         self,
-        geometry: &ShotGeometry,
+        tracer: &dyn ShotTracer,
         stop: &mut dyn StopRule,
     ) -> Result<FrameResult, Error> {
         let frame = self.frame;
-        sample(self, geometry.on(), stop).map_err(|e| frame_failed(frame, e))
+        sample(self, tracer, stop).map_err(|e| e.in_frame(frame))
     }
-}
-
-/// The error of a frame that failed: its denoising, or its device.
-pub(super) fn frame_failed(frame: u32, e: FrameError) -> Error {
-    Error::Resource(format!("frame {frame}: {e}"))
 }
 
 fn sample(
     job: FrameJob<'_>,
-    on: On<'_>,
+    tracer: &dyn ShotTracer,
     stop: &mut dyn StopRule,
-) -> Result<FrameResult, FrameError> {
+) -> Result<FrameResult, Error> {
     let FrameJob {
         scene,
         frame,
@@ -232,11 +225,11 @@ fn sample(
     let budget = &budget;
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene);
-    let layout = Layout::keeping(scene.output.passes, read);
+    let layout = SumLayout::keeping(scene.output.passes, read);
     // One prepared frame, whichever device traces it.
-    let prepared = PreparedFrame::new(scene, on.statics(), points, frame);
+    let prepared = PreparedFrame::new(scene, tracer.statics(), points, frame);
     let interval = prepared.interval();
-    let mut rounds = Rounds::new(on, prepared, points, req, &layout)?;
+    let mut rounds = tracer.frame(prepared, points, &layout)?;
     let prepare_seconds = frame_start.elapsed().as_secs_f64();
 
     let render_start = Instant::now();
@@ -245,7 +238,7 @@ fn sample(
 
     let mut stats = FrameStats {
         prepare_seconds,
-        moving_spheres: rounds.moving(),
+        moving_spheres: rounds.moving_spheres(),
         ..FrameStats::default()
     };
 
@@ -262,7 +255,7 @@ fn sample(
             if done >= req.samples {
                 break;
             }
-            Plan::Uniform(req.samples)
+            RoundPlan::Uniform(req.samples)
         } else if done < warm_up {
             match next_round(
                 budget,
@@ -270,7 +263,7 @@ fn sample(
                 frame_start.elapsed().as_secs_f64(),
                 seconds_per_sample,
             ) {
-                Ok(size) => Plan::Uniform(done + size),
+                Ok(size) => RoundPlan::Uniform(done + size),
                 Err(reason) => {
                     stats.stop = reason;
                     break;
@@ -284,7 +277,7 @@ fn sample(
                 frame_start.elapsed().as_secs_f64(),
                 seconds_per_pixel_sample,
             ) {
-                Ok(a) => Plan::Adaptive(a, weights),
+                Ok(a) => RoundPlan::Adaptive(a, weights),
                 Err(reason) => {
                     stats.stop = reason;
                     break;
@@ -294,7 +287,7 @@ fn sample(
         let round_start = Instant::now();
         let counts = rounds.round(&mut film, &plan, progress)?;
         let seconds = round_start.elapsed().as_secs_f64();
-        if let Plan::Uniform(n) = plan {
+        if let RoundPlan::Uniform(n) = plan {
             seconds_per_sample = Some(seconds / (n - done) as f64);
             done = n;
         }
@@ -304,7 +297,7 @@ fn sample(
         stats.rays += counts.rays;
         stats.samples += counts.samples;
         stats.non_finite += counts.non_finite;
-        stats.tile_seconds += counts.seconds;
+        stats.tile_seconds += counts.busy_seconds;
         stats.rounds += 1;
         if let Some(threshold) = budget.noise_threshold
             && done >= warm_up
@@ -357,9 +350,10 @@ material = { type = "lambertian", albedo = [0.5, 0.5, 0.5] }
         let mut scene = Scene::parse(text, std::path::Path::new("degenerate.toml")).unwrap();
         // Looking at where it stands: every camera ray's direction is NaN.
         scene.camera.look_at = scene.camera.look_from.clone();
-        let statics = ShotGeometry::cpu(&scene);
         let frame = scene.shot.first_frame;
-        let result = FrameJob::new(&scene, frame).sample(&statics).unwrap();
+        let result = FrameJob::new(&scene, frame)
+            .sample(&super::super::tracers::CpuShot::new(&scene))
+            .unwrap();
         assert_eq!(result.stats.non_finite, 8 * 4 * 3);
         assert_eq!(result.stats.rays, 0);
         assert!(result.film.means().iter().all(|p| *p == glam::DVec3::ZERO));

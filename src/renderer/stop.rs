@@ -5,7 +5,7 @@
 //! raw and denoised frames blended.
 
 use super::adaptive::Weights;
-use super::device::FrameError;
+use crate::error::Error;
 use crate::film::Film;
 
 /// What decides whether a frame under a noise threshold stops, and weighs its pixels for the
@@ -16,7 +16,7 @@ pub trait StopRule {
 
     /// Whether the frame, as `film` holds it after a round, is within `threshold` (a
     /// relative error).
-    fn reached(&mut self, film: &Film, threshold: f64) -> Result<bool, FrameError>;
+    fn reached(&mut self, film: &Film, threshold: f64) -> Result<bool, Error>;
 
     /// Each pixel's weight in the next adaptive round (its estimated relative variance per
     /// sample).
@@ -30,7 +30,7 @@ pub struct RawStop;
 impl StopRule for RawStop {
     fn begin(&mut self) {}
 
-    fn reached(&mut self, film: &Film, threshold: f64) -> Result<bool, FrameError> {
+    fn reached(&mut self, film: &Film, threshold: f64) -> Result<bool, Error> {
         Ok(relative_error(film) <= threshold)
     }
 

@@ -1,14 +1,16 @@
 //! The tiles of a frame on the CPU: the prepared frame with its passes' context
-//! ([`FrameSetup`]), and one round of samples over every tile of the film, in parallel.
+//! ([`CpuFrame`]), and one round of samples over every tile of the film, in parallel.
 
 use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::adaptive::Plan;
+use super::adaptive::RoundPlan;
+use super::tracers::{FrameTracer, RoundCounts};
 use crate::bvh::PACKET;
 use crate::camera::View;
+use crate::error::Error;
 use crate::film::{Film, FilmTile};
 use crate::passes::PassContext;
 use crate::prepared::PreparedFrame;
@@ -41,24 +43,24 @@ impl FrameRequest {
     }
 }
 
-/// Everything about a frame on the CPU that is fixed before its first sample: the prepared
-/// frame, and the passes' context when the scene asks for passes.
-pub(super) struct FrameSetup<'a> {
+/// A frame on the CPU: everything fixed before its first sample, the prepared frame and the
+/// passes' context when the scene asks for passes.
+pub(super) struct CpuFrame<'a> {
     pub(super) prepared: PreparedFrame<'a>,
-    pub(super) req: &'a FrameRequest,
+    pub(super) req: FrameRequest,
     pub(super) passes: Option<PassContext<'a>>,
 }
 
-impl FrameSetup<'_> {
+impl CpuFrame<'_> {
     /// Takes `tile`'s samples of this round (`plan`); returns the rays traced, the samples taken
     /// and those that were not finite.
     fn sample_tile<S: Sampler>(
         &self,
         sampler: &mut S,
         tile: &mut FilmTile,
-        plan: &Plan,
-    ) -> TileCounts {
-        let req = self.req;
+        plan: &RoundPlan,
+    ) -> RoundCounts {
+        let req = &self.req;
         let prepared = &self.prepared;
         let interval = prepared.interval();
         let uses = crate::sampler::CameraUse {
@@ -73,7 +75,7 @@ impl FrameSetup<'_> {
         let mut targets = Vec::with_capacity(tile.pixels.len());
         plan.targets(&tile.rect, tile.pixels, &mut targets);
         let mut stats = TraceStats::default();
-        let mut counts = TileCounts::default();
+        let mut counts = RoundCounts::default();
         let mut sums = tile.pass_sums.chunks_mut(stride.max(1));
         for (i, (acc, &target)) in tile.pixels.iter_mut().zip(&targets).enumerate() {
             let (x, y) = tile.rect.position(i);
@@ -168,16 +170,22 @@ impl FrameSetup<'_> {
             },
         )
     }
+}
+
+impl FrameTracer for CpuFrame<'_> {
+    fn moving_spheres(&self) -> usize {
+        self.prepared.world.moving
+    }
 
     /// Takes the samples of one round (`plan`) in every tile of `film`, in parallel.
-    pub(super) fn round(
-        &self,
+    fn round(
+        &mut self,
         film: &mut Film,
-        plan: &Plan<'_>,
+        plan: &RoundPlan<'_>,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> TileCounts {
+    ) -> Result<RoundCounts, Error> {
         let mut tiles = film.tiles_mut();
-        tiles
+        let counts = tiles
             .par_iter_mut()
             // One tile at a time: rayon otherwise hands out runs of tiles, and a run of
             // costly ones left a core idle for up to a tenth of a short frame.
@@ -194,30 +202,10 @@ impl FrameSetup<'_> {
                     }
                 };
                 progress(counts.samples);
-                counts.seconds = start.elapsed().as_secs_f64();
+                counts.busy_seconds = start.elapsed().as_secs_f64();
                 counts
             })
-            .reduce(TileCounts::default, TileCounts::plus)
-    }
-}
-
-/// What the tiles of a round did.
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct TileCounts {
-    pub(super) rays: u64,
-    pub(super) samples: u64,
-    pub(super) non_finite: u64,
-    /// Seconds the tiles took, summed over threads.
-    pub(super) seconds: f64,
-}
-
-impl TileCounts {
-    fn plus(self, o: TileCounts) -> TileCounts {
-        TileCounts {
-            rays: self.rays + o.rays,
-            samples: self.samples + o.samples,
-            non_finite: self.non_finite + o.non_finite,
-            seconds: self.seconds + o.seconds,
-        }
+            .reduce(RoundCounts::default, RoundCounts::plus);
+        Ok(counts)
     }
 }

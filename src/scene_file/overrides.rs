@@ -1,8 +1,8 @@
 //! Values given on the command line in place of a scene file's.
 
-use crate::denoise::denoiser::DenoiseQuality;
 use crate::pass::Pass;
 use crate::sampler::SamplerKind;
+use crate::scene::DenoiseQuality;
 use crate::scene::Device;
 
 /// Values given on the command line in place of the scene file's. They are written into the

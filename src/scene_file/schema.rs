@@ -215,12 +215,12 @@ pub(super) struct RawOutput {
     pub(super) clip: Option<String>,
     pub(super) passes: Option<Vec<RawPass>>,
     pub(super) denoise: Option<bool>,
-    pub(super) denoise_quality: Option<crate::denoise::denoiser::DenoiseQuality>,
+    pub(super) denoise_quality: Option<crate::scene::DenoiseQuality>,
 }
 
-impl Keyword for crate::denoise::denoiser::DenoiseQuality {
+impl Keyword for crate::scene::DenoiseQuality {
     const NAMES: &'static [(&'static str, Self)] = {
-        use crate::denoise::denoiser::DenoiseQuality;
+        use crate::scene::DenoiseQuality;
         &[
             ("fast", DenoiseQuality::Fast),
             ("balanced", DenoiseQuality::Balanced),
@@ -228,7 +228,7 @@ impl Keyword for crate::denoise::denoiser::DenoiseQuality {
         ]
     };
 }
-keyword!(crate::denoise::denoiser::DenoiseQuality);
+keyword!(crate::scene::DenoiseQuality);
 
 /// A pass name of `[output] passes`.
 #[derive(Clone, Copy)]

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use raytrace::film::Film;
-use raytrace::renderer::{Budget, FrameJob, ShotGeometry};
+use raytrace::renderer::{Budget, CpuShot, FrameJob};
 use raytrace::scene::Scene;
 
 /// Parses a scene from TOML text, panicking with the error message if it is invalid.
@@ -20,7 +20,7 @@ pub fn scene(toml: &str) -> Scene {
 
 /// Renders frame `frame` of `scene` with its own settings.
 pub fn render(scene: &Scene, frame: u32) -> Film {
-    let statics = ShotGeometry::cpu(scene);
+    let statics = CpuShot::new(scene);
     FrameJob::new(scene, frame).sample(&statics).unwrap().film
 }
 
@@ -60,10 +60,10 @@ pub fn render_gpu_frame(
 ) -> raytrace::renderer::FrameResult {
     let mut scene = scene.clone();
     scene.render.device = raytrace::scene::Device::Gpu;
-    let geometry = raytrace::renderer::ShotGeometry::new(&scene, Some(gpu)).unwrap();
+    let shot = raytrace::gpu::GpuShot::new(gpu, &scene).unwrap();
     FrameJob::new(&scene, frame)
         .budget(*budget)
-        .sample(&geometry)
+        .sample(&shot)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 

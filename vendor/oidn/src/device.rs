@@ -221,6 +221,12 @@ impl Drop for Device {
 
 unsafe impl Send for Device {}
 
+// OIDN's API is thread-safe per device (its documentation, quoted on `Device` above: calls on
+// one device from several threads may be serialized, never unsound; a device's errors are
+// kept per calling thread), so a device may be shared between threads that each run filters
+// of their own on it.
+unsafe impl Sync for Device {}
+
 fn get_handle(device_type: OIDNDeviceType) -> *mut OIDNDeviceImpl {
     unsafe { oidnNewDevice(device_type) }
 }

@@ -43,7 +43,7 @@ impl Placement {
 
 /// Where a cache's attributes are among a snapshot's columns.
 #[derive(Clone, Debug, PartialEq)]
-pub(super) struct Layout {
+pub(super) struct ColumnMap {
     pub(super) position: [usize; 3],
     pub(super) placement: Placement,
     pub(super) images: Option<[usize; 3]>,
@@ -135,7 +135,7 @@ fn quantity(columns: &[Column], format: CacheFormat, name: &str) -> Vec<usize> {
 }
 
 /// The attributes of a snapshot with `columns` that cache `desc` needs.
-pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout, String> {
+pub(super) fn map_columns(columns: &[Column], desc: &PointCacheDesc) -> Result<ColumnMap, String> {
     let f = desc.format;
     let positions: &[&[&str]] = match f {
         CacheFormat::Ply => &[&["x", "y", "z"]],
@@ -254,7 +254,7 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
             holder(f)
         ));
     }
-    let layout = Layout {
+    let layout = ColumnMap {
         position,
         placement,
         images,
@@ -283,7 +283,7 @@ pub(super) fn layout(columns: &[Column], desc: &PointCacheDesc) -> Result<Layout
     Ok(layout)
 }
 
-impl Layout {
+impl ColumnMap {
     /// Every column the layout reads.
     pub(super) fn used(&self) -> Vec<usize> {
         let mut v: Vec<usize> = self.position.to_vec();
