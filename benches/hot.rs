@@ -18,6 +18,7 @@ use raytrace::rng::Pcg32;
 use raytrace::sampler::SamplerKind;
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
+use raytrace::scene_file::SceneFile;
 use raytrace::sphere::intersect;
 
 /// `n` random spheres in a cube of side 20 (radius 0.05 to 0.55) and their velocities.

@@ -19,6 +19,7 @@ use raytrace::passes::PassImages;
 use raytrace::renderer::{CpuShot, FrameJob};
 use raytrace::scene::Scene;
 use raytrace::scene_file::Overrides;
+use raytrace::scene_file::SceneFile;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -6,9 +6,10 @@
 use crate::denoise::denoiser::Denoiser;
 use crate::error::Error;
 use crate::finish::Finishing;
-use crate::gpu::{Adapter, Gpu, GpuShot};
+use crate::gpu::{Adapter, Gpu, GpuShot, Unsupported, unsupported};
 use crate::renderer::{CpuShot, ShotTracer};
 use crate::scene::{Device, Scene};
+use crate::scene_file::Overrides;
 
 /// What a set of scenes needs opened to render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -108,6 +109,42 @@ fn opened<T>(device: &Option<T>) -> Result<&T, Error> {
     })
 }
 
+/// `scene` (validated with `overrides`) itself, or bad input ([`Error::Scene`], exit status
+/// 2) when it asks for the GPU and the GPU does not render it ([`unsupported`]: numbers a
+/// 32-bit float cannot carry, point caches): the message names the file, the field or flag
+/// that chose the GPU (`shot.toml: --device gpu: ...`, `shot.toml: render.device = "gpu":
+/// ...`), what is beyond the GPU's limits and the way out (`--device cpu`). Every command
+/// that renders or checks a scene asks this as it validates the scene, before anything else
+/// is checked of it.
+pub fn supported(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
+    if scene.render.device != Device::Gpu {
+        return Ok(scene);
+    }
+    let Some(why) = unsupported(&scene) else {
+        return Ok(scene);
+    };
+    let file = crate::error::elide_path(&scene.source);
+    // The file is named either way: with several scenes, `--device gpu` alone does not say
+    // which one the GPU refuses.
+    let chosen = if overrides.device.is_some() {
+        format!("{file}: --device gpu")
+    } else {
+        format!("{file}: render.device = \"gpu\"")
+    };
+    if let Unsupported::PointCaches { tables } = why {
+        let tables = match tables {
+            1 => "a [[points]] table".to_string(),
+            n => format!("{n} [[points]] tables"),
+        };
+        return Err(Error::Scene(format!(
+            "{chosen}: the GPU does not render point caches, and this scene has {tables}; render it with --device cpu"
+        )));
+    }
+    Err(Error::Scene(format!(
+        "{chosen}: the GPU computes in 32-bit floats and does not render this scene: {why}; render it with --device cpu"
+    )))
+}
+
 /// The line `check` gives for the GPU: the adapter a render would take, or why there is none
 /// (a check opens none).
 pub fn adapter_line() -> String {
@@ -120,5 +157,41 @@ pub fn adapter_line() -> String {
             None => a.describe(),
         },
         Err(e) => format!("none here, which rendering needs ({e})"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene_file::SceneFile;
+    use std::path::Path;
+
+    use super::*;
+
+    #[test]
+    fn a_scene_the_gpu_floats_cannot_carry_is_refused_for_the_gpu_only() {
+        // Naming the file's field or the flag that chose the GPU; the CPU takes it.
+        let far = "[[sphere]]\ncenter = [1e6, 0.0, 0.0]\nradius = 1e-4\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+        let load = |text: &str, overrides: &Overrides| {
+            let scene = Scene::parse_with(text, Path::new("s.toml"), overrides).unwrap();
+            supported(scene, overrides)
+        };
+        let none = Overrides::default();
+        assert_eq!(load(far, &none).unwrap().render.device, Device::Cpu);
+        let e = load(&format!("[render]\ndevice = \"gpu\"\n{far}"), &none)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("s.toml: render.device = \"gpu\": the GPU computes in 32-bit floats")
+                && e.contains("sphere[0].radius 0.0001")
+                && e.ends_with("render it with --device cpu"),
+            "{e}"
+        );
+        let gpu = Overrides {
+            device: Some(Device::Gpu),
+            ..Overrides::default()
+        };
+        let e = load(far, &gpu).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().starts_with("s.toml: --device gpu: "), "{e}");
     }
 }

@@ -151,7 +151,7 @@ pub fn relative_variances(rect: &TileRect, pixels: &[Pixel]) -> Vec<f64> {
         .into_iter()
         .zip(means.iter().zip(pixels))
         .map(|(around, (own, p))| {
-            crate::analysis::metrics::estimated_rel_mse_term(own.min(around), p.variance_of_mean())
+            crate::metrics::estimated_rel_mse_term(own.min(around), p.variance_of_mean())
         })
         .collect()
 }

@@ -3,6 +3,7 @@
 
 use crate::error::Error;
 use crate::film::Pixel;
+use crate::point_cache::PointLoad;
 use crate::scene::Scene;
 
 /// Resident bytes of the process with a scene of a few spheres and no image to speak of:
@@ -35,43 +36,6 @@ pub fn bytes_per_pixel(scene: &Scene) -> u64 {
         + encoded_copy
         + (crate::passes::SumLayout::new(passes).stride * size_of::<f64>()) as u64
         + (2 * pass_channels * size_of::<f32>()) as u64
-}
-
-/// Bytes per point of a point cache in a frame at the peak: the larger of what reading holds
-/// (the file's values as read, position, velocity and radius in `f64` and colour, beside
-/// the sets' `f32` columns made from them) and what tracing holds (the sets' columns, `f32`
-/// position, velocity and radius and colour, with the tracer's records and hierarchy,
-/// [`crate::traced_points::BYTES_PER_POINT`]). Measured: 1.16 GB at the peak of a frame of
-/// 1.009e7 points (docs/performance.md), film and process included.
-pub const BYTES_PER_POINT: u64 = {
-    use std::mem::size_of;
-    let columns = 2 * size_of::<glam::Vec3>() + size_of::<f32>() + size_of::<[f32; 3]>();
-    let read = 2 * size_of::<glam::DVec3>() + size_of::<f64>() + size_of::<[f32; 3]>();
-    let reading = (read + columns) as u64;
-    let tracing = columns as u64 + crate::traced_points::BYTES_PER_POINT;
-    if reading > tracing { reading } else { tracing }
-};
-
-/// What interpolating adds per point of the frame's own snapshot: its id, and the ids sorted
-/// with their indices.
-pub const INTERPOLATE_BYTES_PER_POINT: u64 = 8 + 16;
-
-/// What interpolating holds per point of the next snapshot, read beside the frame's own: its
-/// position and id, and its ids sorted with their indices.
-pub const NEXT_BYTES_PER_POINT: u64 = 24 + 8 + 16;
-
-/// The points a frame of a shot with point caches holds: its own, and those of the next
-/// snapshots read beside them to interpolate towards.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PointLoad {
-    pub points: u64,
-    pub next: u64,
-}
-
-impl From<u64> for PointLoad {
-    fn from(points: u64) -> PointLoad {
-        PointLoad { points, next: 0 }
-    }
 }
 
 /// An estimate of the most memory a render of one frame of `scene` at a time holds, in
@@ -108,16 +72,6 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
         + crate::world::PRIM_BYTES
         + crate::bvh::BUILD_BYTES_PER_PRIMITIVE
         + crate::bvh::BYTES_PER_PRIMITIVE;
-    let interpolates = scene
-        .points
-        .iter()
-        .any(|p| p.motion == Some(crate::points::PointMotion::Interpolate));
-    let per_point = BYTES_PER_POINT
-        + if interpolates {
-            INTERPOLATE_BYTES_PER_POINT
-        } else {
-            0
-        };
     // A point cache's file is read through bounded buffers, one file at a time.
     let reading = match scene.points.is_empty() {
         true => 0,
@@ -137,8 +91,7 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
         + pixels * per_pixel
         + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
         + keys * 2 * size_of::<crate::motion::Key>() as u64
-        + load.points * per_point
-        + load.next * NEXT_BYTES_PER_POINT
+        + load.bytes(scene)
 }
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
@@ -193,6 +146,7 @@ pub fn peak_memory_bytes() -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene_file::SceneFile;
 
     #[test]
     fn the_memory_estimate_grows_linearly_with_pixels_and_spheres() {

@@ -169,6 +169,7 @@ fn write_film(
 
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use glam::DVec3;
 
     use super::*;

@@ -192,6 +192,7 @@ fn scattered(hit: &Hit, dir: DVec3, time: f64) -> Ray {
 
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

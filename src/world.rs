@@ -650,6 +650,7 @@ pub fn nearest_by_testing_every_sphere(scene: &Scene, ray: &Ray) -> Option<(f64,
 
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

@@ -179,7 +179,7 @@ fn render_lib(
 
 #[test]
 fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
-    use raytrace::analysis::metrics::rel_mse;
+    use raytrace::metrics::rel_mse;
     // A reference of 4096 samples with another seed; its own error (estimated from its
     // samples, about a sixth of the threshold) is taken out of the measured one, since
     // E[(v - ref)^2] = E[(v - truth)^2] + E[(ref - truth)^2] for independent renders.

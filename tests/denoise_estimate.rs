@@ -26,6 +26,7 @@ use raytrace::point_cache;
 use raytrace::renderer::{CpuShot, FrameJob};
 use raytrace::scene::{DenoiseSettings, Scene};
 use raytrace::scene_file::Overrides;
+use raytrace::scene_file::SceneFile;
 
 /// The bound on |stated / true - 1| the issue sets.
 const BOUND: f64 = 0.25;

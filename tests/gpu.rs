@@ -17,6 +17,7 @@ use common::{exr_bits_and_attributes, exr_channels, exr_number, gpu, render, ren
 use raytrace::film::Film;
 use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace::scene::Scene;
+use raytrace::scene_file::SceneFile;
 
 /// How two independent renders of a frame agree.
 #[derive(Debug)]

@@ -17,6 +17,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
 use raytrace::Scene;
 use raytrace::renderer::{CpuShot, FrameJob};
+use raytrace::scene_file::SceneFile;
 
 /// The shipped scenes, and one that uses every key of the format (camera keyframes and a
 /// keyframed sphere, which no shipped scene has).

@@ -33,6 +33,7 @@ use raytrace::ray::Ray;
 use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace::sampler::{CameraUse, IndependentSampler, Sampler};
 use raytrace::scene::Scene;
+use raytrace::scene_file::SceneFile;
 use raytrace::sphere::{intersect, surface_point};
 use raytrace::tracer::{TraceStats, radiance};
 use raytrace::world::{StaticGeometry, World};

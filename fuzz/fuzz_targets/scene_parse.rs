@@ -6,6 +6,7 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
+use raytrace::scene_file::SceneFile;
 use raytrace::Scene;
 use raytrace::renderer::{Budget, render_frame};
 use raytrace::world::StaticGeometry;

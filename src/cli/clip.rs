@@ -10,6 +10,7 @@ use crate::error::{Error, elide};
 use crate::format::{FRAME_FORMATS, Format};
 use crate::path_pattern::{self, FramePattern};
 use crate::scene::Scene;
+use crate::scene_file::SceneFile;
 
 /// `raytrace clip`: the frames selected by `--frames` (default: every frame of the shot),
 /// found through `--input` or the scene's output path, assembled into the clip.

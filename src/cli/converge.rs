@@ -4,7 +4,7 @@
 //! Two references of many samples and independent seeds, `A` and `B` (rendered, or EXRs the
 //! user gives), stand in for the truth: a render's squared error against the truth is
 //! estimated by `(x - A)(x - B)`, which the references' noise does not bias
-//! (`analysis::metrics::cross_mse`). The frame is then rendered at 1, 2, 4, ... samples per
+//! (`metrics::cross_mse`). The frame is then rendered at 1, 2, 4, ... samples per
 //! pixel (and at each `--thresholds` adaptively), each point with `--seeds` seeds, its errors
 //! the means over them. Every render is timed (wall and process CPU time, no file I/O); the
 //! series take turns render by render, so that a change in the machine's load falls on all
@@ -23,18 +23,20 @@ use glam::DVec3;
 use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
 use crate::analysis::stats::{Figure, settled};
-use crate::analysis::{flip, metrics, plot};
-use crate::devices::{Devices, Needs};
+use crate::analysis::{flip, plot};
+use crate::devices::{Devices, Needs, supported};
 use crate::error::Error;
 use crate::format::Format;
 use crate::io;
+use crate::io::file_kind;
+use crate::metrics;
 use crate::output;
 use crate::points::FramePoints;
 use crate::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
 use crate::rng::hash_words;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
-use crate::scene_file::{Overrides, SceneSource, file_kind};
+use crate::scene_file::{Overrides, SceneSource};
 use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 
 /// Default samples per pixel of each reference render.
@@ -57,7 +59,7 @@ const MEASURED_SEED: u64 = 0x6d65_6173_7572_6564;
 pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
     let source = SceneSource::read(&args.scene)?;
     let overrides = args.scene_args.overrides();
-    let scene = source.scene(&overrides)?;
+    let scene = supported(source.scene(&overrides)?, &overrides)?;
     let frame = args.frame.unwrap_or(scene.shot.first_frame);
     if !scene.shot.contains_frame(frame) {
         return Err(Error::Usage(format!(

@@ -1,6 +1,6 @@
 //! `converge --flicker FRAMES`: how far a sequence is from the truth and how much it
 //! flickers, rendered raw, denoised frame by frame, and denoised with `--temporal`, against a
-//! reference of every frame (`analysis::metrics::flicker`), every render on the scene's
+//! reference of every frame (`metrics::flicker`), every render on the scene's
 //! device (`--device`). Each frame is sampled once, keeping what `--temporal` reads, and
 //! finished three ways: raw, denoised, and denoised with its history.
 
@@ -11,9 +11,9 @@ use glam::DVec3;
 use super::args::ConvergeArgs;
 use super::frames::Selection;
 use super::progress::print_line;
-use crate::analysis::metrics::{self, FlickerSum};
-use crate::devices::Devices;
+use crate::devices::{Devices, supported};
 use crate::error::Error;
+use crate::metrics::{self, FlickerSum};
 use crate::point_cache;
 use crate::renderer::FrameJob;
 use crate::rng::hash_words;
@@ -42,7 +42,7 @@ pub(crate) struct Variant {
 pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Variant>, Error> {
     let source = SceneSource::read(&args.scene)?;
     let overrides = args.scene_args.overrides();
-    let base = source.scene(&overrides)?;
+    let base = supported(source.scene(&overrides)?, &overrides)?;
     let shot = &base.shot;
     let bad = |why: String| Error::Usage(format!("--flicker {spec}: {why}"));
     let selection = Selection::parse(spec, shot.first_frame, shot.last_frame()).map_err(bad)?;

@@ -5,13 +5,14 @@
 use std::path::PathBuf;
 
 use super::frames::{Selection, batch_chunk};
+use crate::devices::supported;
 use crate::error::{Error, elide_path};
 use crate::io;
-use crate::memory::PointLoad;
 use crate::path_pattern::{self, FramePattern};
-use crate::point_cache::{Depth, Frames, ShotPoints};
+use crate::point_cache::{Depth, Frames, PointLoad, ShotPoints};
 use crate::scene::Scene;
 use crate::scene_file::Overrides;
+use crate::scene_file::SceneFile;
 
 /// The frames a run renders: the `--frames` selection (absent or bare: the whole shot), then
 /// the chunk. Ranges, never a list: any shot length costs the same.
@@ -133,7 +134,7 @@ pub(crate) fn load_shots(
     let mut scenes = Vec::with_capacity(paths.len());
     let mut selections = Vec::with_capacity(paths.len());
     for path in paths {
-        let scene = Scene::load_with(path, overrides)?;
+        let scene = supported(Scene::load_with(path, overrides)?, overrides)?;
         selections.push(select_frames(&scene, frames, None)?);
         scenes.push(scene);
     }

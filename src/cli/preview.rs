@@ -7,6 +7,7 @@ use std::net::SocketAddr;
 use super::args::PreviewArgs;
 use super::jobs::select_frames;
 use super::progress::print_line;
+use crate::devices::supported;
 use crate::error::Error;
 use crate::preview::{self, Frames, MAX_TIMELINE_FRAMES, Setup};
 use crate::scene::Scene;
@@ -20,7 +21,10 @@ pub(crate) fn preview(args: &PreviewArgs) -> Result<(), Error> {
     };
     let source = SceneSource::read(&args.scene)?;
     // A --frames the shot cannot have is an error now, when the scene validates.
-    if let Ok(scene) = source.scene(&overrides) {
+    if let Ok(scene) = source
+        .scene(&overrides)
+        .and_then(|s| supported(s, &overrides))
+    {
         select_frames(&scene, args.frames.as_ref(), None)?;
     }
     let frames = args.frames.clone();

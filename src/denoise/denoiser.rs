@@ -200,11 +200,11 @@ mod tests {
     fn denoising_brings_the_image_closer_to_the_truth_at_every_quality() {
         let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
         let denoiser = Denoiser::new().unwrap();
-        let before = crate::analysis::metrics::rel_mse(&f.full(), &f.truth);
+        let before = crate::metrics::rel_mse(&f.full(), &f.truth);
         for q in DenoiseQuality::ALL {
             let filter = denoiser.filter(64, 48, q).unwrap();
             let out = synthetic::from_f32(&filter.run(&to_f32(&f.full())).unwrap());
-            let after = crate::analysis::metrics::rel_mse(&out, &f.truth);
+            let after = crate::metrics::rel_mse(&out, &f.truth);
             assert!(after < before / 4.0, "{q}: {after} vs {before}");
         }
     }

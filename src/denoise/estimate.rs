@@ -32,7 +32,7 @@
 //! sample counts (James-Stein-type combiners; Denisova et al., HPG 2024). With the weight
 //! fixed, the written pixel's error `w^2 e_D + (1 - w)^2 v + 2 w (1 - w) c` has an unbiased
 //! estimate from the pixel's own terms, and the frame's relative error is the square root of
-//! the mean of those over `(m + 0.01)^2`, as the raw frame's is (`analysis::metrics`).
+//! the mean of those over `(m + 0.01)^2`, as the raw frame's is (`metrics`).
 //!
 //! **After more samples** (a noise threshold adds rounds after the last denoise), `D̄` and its
 //! error are unchanged, the raw frame's variance is the film's again, and the covariance
@@ -51,7 +51,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::analysis::metrics::estimated_rel_mse_term;
+use crate::metrics::estimated_rel_mse_term;
 use crate::replicates::Halves;
 
 /// The half-side of the square over which a pixel's terms are averaged to choose its weight:

@@ -1,12 +1,12 @@
 //! The written frame and its stated error against the truth, on synthetic frames denoised by
 //! OIDN: the stated error must be within 25 percent of the written frame's true relative
-//! error (`analysis::metrics::rel_mse` against the known image), and the written frame no
+//! error (`metrics::rel_mse` against the known image), and the written frame no
 //! further from the truth than the raw one.
 
 use super::denoiser::Denoiser;
 use super::estimate::{Blend, Snapshot};
 use super::synthetic::{self, Frame, from_f32, to_f32};
-use crate::analysis::metrics::rel_mse;
+use crate::metrics::rel_mse;
 use crate::scene::DenoiseQuality;
 
 /// The frame written from `frame` (its halves denoised at the default quality) and its true

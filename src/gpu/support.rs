@@ -16,6 +16,7 @@
 
 use crate::motion::Motion;
 use crate::scene::Scene;
+use crate::show::{show, show_approx};
 use crate::shutter::Interval;
 
 /// A sphere's radius must be at least this fraction (2^-13) of its centre's largest
@@ -268,8 +269,64 @@ fn keys(m: &Motion) -> u32 {
     }
 }
 
+/// What is beyond the GPU's limits, in words.
+impl std::fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = match self {
+            Unsupported::PointCaches { .. } => "its point caches".to_string(),
+            Unsupported::Far { what, value } => format!(
+                "{what} reaches a coordinate of {}, beyond the {} the GPU takes",
+                show_approx(*value),
+                show(MAX_COORDINATE)
+            ),
+            Unsupported::Tiny { sphere, radius } => format!(
+                "sphere[{sphere}].radius is {}, below the {} the GPU takes",
+                show(*radius),
+                show(MIN_RADIUS)
+            ),
+            Unsupported::Small {
+                sphere,
+                radius,
+                coordinate,
+            } => format!(
+                "sphere[{sphere}].radius {} is less than {} of its largest coordinate {}, so a 32-bit float would place its surface to worse than 1/2048 of its radius (the GPU takes a radius of at least {})",
+                show(*radius),
+                show_approx(MIN_RADIUS_FRACTION),
+                show_approx(*coordinate),
+                show_approx(MIN_RADIUS_FRACTION * coordinate)
+            ),
+            Unsupported::FarCamera {
+                coordinate,
+                footprint,
+            } => format!(
+                "the camera reaches a coordinate of {}, where a 32-bit float resolves it to more than 1/64 of a pixel's footprint at the focus distance ({}; the GPU takes a footprint of at least {} of the coordinate)",
+                show_approx(*coordinate),
+                show_approx(*footprint),
+                show_approx(CAMERA_FRACTION)
+            ),
+            Unsupported::NarrowView { pixel_angle } => format!(
+                "camera.vfov gives pixels {} radians wide, less than the {} the GPU's 32-bit directions resolve to 1/64",
+                show_approx(*pixel_angle),
+                show_approx(MIN_PIXEL_ANGLE)
+            ),
+            Unsupported::FastOrbit { what, sweep } => format!(
+                "{what} sweeps {} degrees over a frame's exposure and a frame period on each side, more than the {} the GPU takes",
+                show_approx(*sweep),
+                show(MAX_SWEEP_DEGREES)
+            ),
+            Unsupported::TooLarge { bytes } => format!(
+                "its spheres could need {} MiB in one GPU buffer, more than the {} MiB every GPU offers",
+                bytes.div_ceil(1 << 20),
+                MAX_BUFFER_BYTES >> 20
+            ),
+        };
+        f.write_str(&text)
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

@@ -1,6 +1,7 @@
 //! The GPU's pieces against the CPU's, on the GPU (lavapipe where CI runs: under `CI=true` a
 //! missing adapter fails these tests instead of skipping them).
 
+use crate::scene_file::SceneFile;
 use std::path::Path;
 use std::sync::OnceLock;
 

@@ -4,6 +4,7 @@
 
 mod atomic;
 mod exr;
+mod files;
 mod frame;
 mod image;
 mod png;
@@ -17,6 +18,7 @@ pub(crate) use atomic::{
 };
 pub(crate) use exr::fps_rational;
 pub use exr::{FrameInfo, read_exr_number, read_exr_rgb};
+pub use files::file_kind;
 pub(crate) use frame::check_frame_file;
 pub use frame::{write_frame, write_frame_from, write_frame_with_passes};
 pub use image::{Image, RgbSource};

@@ -48,7 +48,7 @@ impl PlyFile {
         if !meta.is_file() {
             return bad(format!(
                 "is {}, not a PLY file (point caches are read from regular files only)",
-                crate::scene_file::file_kind(&meta.file_type())
+                crate::io::file_kind(&meta.file_type())
             ));
         }
         let file = File::open(path).map_err(|e| PlyError::Bad(e.to_string()))?;
@@ -56,7 +56,7 @@ impl PlyFile {
         if !meta.is_file() {
             return bad(format!(
                 "is {}, not a PLY file (point caches are read from regular files only)",
-                crate::scene_file::file_kind(&meta.file_type())
+                crate::io::file_kind(&meta.file_type())
             ));
         }
         let mut reader = BufReader::with_capacity(READER_BYTES, file);

@@ -7,13 +7,15 @@
 //! frame) or a series (`*`: one file a snapshot, as LAMMPS names them).
 //!
 //! The rooms: `files` (which snapshot each frame shows, and when), `table` (a file's
-//! snapshots in any format: indexing, reading rows), `layout` (which columns mean what),
+//! snapshots in any format: indexing, reading rows), `columns` (which columns mean what),
 //! `read` (values read and checked), `motion` (interpolation by id, periodic copies),
-//! `survey` (the shot's survey, check's figures), `frame` (a frame's points).
+//! `survey` (the shot's survey, check's figures), `frame` (a frame's points), `load` (what
+//! a frame's points hold in memory).
 
 mod columns;
 mod files;
 mod frame;
+mod load;
 mod message;
 mod motion;
 mod read;
@@ -21,5 +23,6 @@ mod survey;
 mod table;
 
 pub use frame::read_frame;
+pub use load::PointLoad;
 pub use message::MAX_FRAME_SPHERES;
 pub use survey::{Depth, FrameSurvey, Frames, ShotPoints, frame_list, frame_range};

@@ -13,11 +13,11 @@ use glam::DVec3;
 
 use super::columns::map_columns;
 use super::files::{Files, Key, Located, series, timestep_time};
+use super::load::PointLoad;
 use super::message::{MAX_FRAME_SPHERES, about, error};
 use super::read::{Wanted, read_values};
 use super::table::{self, OpenText};
 use crate::error::Error;
-use crate::memory::PointLoad;
 use crate::points::{PointCacheDesc, PointMotion, SnapshotTime};
 use crate::scene::Scene;
 use crate::sim::ReadError;

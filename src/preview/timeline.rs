@@ -63,6 +63,7 @@ pub(crate) fn shot_json(
 
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

@@ -25,7 +25,7 @@ use super::render::render_frame;
 use super::timeline::{shot_json, view_names};
 use super::views::encode_views;
 use super::watch::Watch;
-use crate::devices::Devices;
+use crate::devices::{Devices, supported};
 use crate::error::{Error, elide_path};
 use crate::point_cache;
 use crate::renderer::{FrameResult, ShotTracer};
@@ -83,8 +83,14 @@ impl Loaded {
     fn scene_at(&self, samples: u32) -> Result<Scene, Error> {
         let full = (self.scene.output.width, self.scene.output.height);
         let at = overrides_at(&self.overrides, full, self.size, samples);
-        self.source.scene(&at)
+        validated(&self.source, &at)
     }
+}
+
+/// The scene of `source` with `overrides`, validated, and refused where its device does not
+/// render it ([`supported`]: the GPU's limits depend on the size).
+fn validated(source: &SceneSource, overrides: &Overrides) -> Result<Scene, Error> {
+    supported(source.scene(overrides)?, overrides)
 }
 
 /// `base` with the size `size` (of a scene whose own is `full`) and `samples`. A frame is
@@ -296,7 +302,7 @@ fn read(
     devices: &mut Devices,
 ) -> Result<(Loaded, Vec<PathBuf>), Error> {
     let source = SceneSource::read(&setup.path)?;
-    let scene = source.scene(&setup.overrides)?;
+    let scene = validated(&source, &setup.overrides)?;
     let (frames, total) = (setup.select)(&scene)?;
     let mut files = vec![setup.path.clone()];
     let span = || point_cache::frame_list(&frames);
@@ -330,7 +336,10 @@ fn at_size(
     devices: &Devices,
 ) -> Result<Loaded, Error> {
     let full = (scene.output.width, scene.output.height);
-    let sized = source.scene(&overrides_at(overrides, full, size, scene.render.samples))?;
+    let sized = validated(
+        &source,
+        &overrides_at(overrides, full, size, scene.render.samples),
+    )?;
     Ok(Loaded {
         tracer: devices.shot(&sized)?,
         source,

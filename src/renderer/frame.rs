@@ -329,6 +329,7 @@ fn sample(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene_file::SceneFile;
 
     #[test]
     fn a_degenerate_camera_counts_every_sample_as_black() {

@@ -153,6 +153,7 @@ pub(crate) fn scene_text(opts: &RandomScene) -> String {
 
 #[cfg(test)]
 mod tests {
+    use crate::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

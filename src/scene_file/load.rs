@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::overrides::Overrides;
-use super::{device, pieces, report, scan, schema, validate};
+use super::{pieces, report, scan, schema, validate};
 use crate::error::Error;
 use crate::scene::Scene;
 
@@ -12,27 +12,50 @@ use crate::scene::Scene;
 /// them take 101 MB.
 pub const MAX_FILE_BYTES: u64 = 2 << 30;
 
-impl Scene {
+/// Scenes read from scene files: the file's bytes or text parsed, any [`Overrides`] applied,
+/// and the result validated (the one validator, `validate`).
+pub trait SceneFile: Sized {
     /// Reads and validates a scene file.
-    pub fn load(path: &Path) -> Result<Scene, Error> {
-        Scene::load_with(path, &Overrides::default())
-    }
+    fn load(path: &Path) -> Result<Self, Error>;
 
     /// Reads a scene file, applies `overrides` and validates the result. Only a regular file
     /// of at most [`MAX_FILE_BYTES`] is read (see [`read_scene`]).
-    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, Error> {
+    fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, Error>;
+
+    /// Parses and validates a scene file's contents: text that is not UTF-8 is refused with
+    /// the line and column of the first byte that is not.
+    fn parse_bytes(bytes: &[u8], source: &Path) -> Result<Self, Error>;
+
+    /// [`SceneFile::parse_bytes`] with overrides.
+    fn parse_bytes_with(bytes: &[u8], source: &Path, overrides: &Overrides) -> Result<Self, Error>;
+
+    /// Parses and validates scene text; `source` is used in messages and for the default
+    /// output path.
+    fn parse(text: &str, source: &Path) -> Result<Self, Error>;
+
+    /// Parses scene text, applies `overrides` and validates the result.
+    ///
+    /// A large file is cut at its `[[sphere]]` headers into pieces parsed and validated in
+    /// parallel, so the whole document is never held as a TOML tree (a million spheres would
+    /// take gigabytes). Messages are the same either way.
+    fn parse_with(text: &str, source: &Path, overrides: &Overrides) -> Result<Self, Error>;
+}
+
+impl SceneFile for Scene {
+    fn load(path: &Path) -> Result<Scene, Error> {
+        Scene::load_with(path, &Overrides::default())
+    }
+
+    fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, Error> {
         let bytes = read_scene(path, MAX_FILE_BYTES)?;
         Scene::parse_bytes_with(&bytes, path, overrides)
     }
 
-    /// Parses and validates a scene file's contents: text that is not UTF-8 is refused with
-    /// the line and column of the first byte that is not.
-    pub fn parse_bytes(bytes: &[u8], source: &Path) -> Result<Scene, Error> {
+    fn parse_bytes(bytes: &[u8], source: &Path) -> Result<Scene, Error> {
         Scene::parse_bytes_with(bytes, source, &Overrides::default())
     }
 
-    /// [`Scene::parse_bytes`] with overrides.
-    pub fn parse_bytes_with(
+    fn parse_bytes_with(
         bytes: &[u8],
         source: &Path,
         overrides: &Overrides,
@@ -47,25 +70,18 @@ impl Scene {
         }
     }
 
-    /// Parses and validates scene text; `source` is used in messages and for the default
-    /// output path.
-    pub fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
+    fn parse(text: &str, source: &Path) -> Result<Scene, Error> {
         Scene::parse_with(text, source, &Overrides::default())
     }
 
-    /// Parses scene text, applies `overrides` and validates the result.
-    ///
-    /// A large file is cut at its `[[sphere]]` headers into pieces parsed and validated in
-    /// parallel, so the whole document is never held as a TOML tree (a million spheres would
-    /// take gigabytes). Messages are the same either way.
-    pub fn parse_with(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
+    fn parse_with(text: &str, source: &Path, overrides: &Overrides) -> Result<Scene, Error> {
         if text.len() >= pieces::PIECES_FROM_BYTES
             && let Some(result) =
                 pieces::parse_in_pieces(text, source, overrides, pieces::PIECE_SPHERES)
         {
-            return device::check(result?, overrides);
+            return result;
         }
-        device::check(parse_whole(text, source, overrides)?, overrides)
+        parse_whole(text, source, overrides)
     }
 }
 
@@ -105,7 +121,7 @@ pub(super) fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
     let shown = crate::error::elide_path(path);
     let bad = |what: &dyn std::fmt::Display| Error::Scene(format!("{shown}: {what}"));
     let meta = std::fs::metadata(path).map_err(|e| bad(&e))?;
-    let kind = file_kind(&meta.file_type());
+    let kind = crate::io::file_kind(&meta.file_type());
     if !meta.is_file() {
         return Err(bad(&format_args!(
             "is {kind}, not a scene file (scenes are read from regular files only)"
@@ -127,7 +143,7 @@ pub(super) fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
     if !meta.is_file() {
         return Err(bad(&format_args!(
             "is {}, not a scene file (scenes are read from regular files only)",
-            file_kind(&meta.file_type())
+            crate::io::file_kind(&meta.file_type())
         )));
     }
     let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
@@ -138,30 +154,6 @@ pub(super) fn read_scene(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
         return Err(too_big(&format_args!("longer than its size says")));
     }
     Ok(bytes)
-}
-
-/// What kind of file system object a path is, for messages.
-pub(crate) fn file_kind(t: &std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_fifo() {
-            return "a named pipe";
-        }
-        if t.is_char_device() || t.is_block_device() {
-            return "a device";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    if t.is_dir() {
-        "a directory"
-    } else if t.is_file() {
-        "a file"
-    } else {
-        "not a regular file"
-    }
 }
 
 /// `2 GiB`, `3.5 GiB`, `100 MiB`, `12 bytes`.

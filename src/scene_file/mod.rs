@@ -13,7 +13,7 @@
 //! [`schema_curve`] holds the shutter curve's part of the schema, and `validate::points` the
 //! `[[points]]` tables' checks.
 //!
-//! [`report`] words the errors found in the text, and [`show`] the numbers they quote.
+//! [`report`] words the errors found in the text (`crate::show` the numbers they quote).
 //! [`generate`] writes large random test scenes as scene-file text.
 //!
 //! This file only declares and re-exports: the children import each other directly.
@@ -27,12 +27,10 @@ mod report;
 mod scan;
 mod schema;
 mod schema_curve;
-mod show;
 mod validate;
 
 #[cfg(test)]
 mod tests;
 
-pub(crate) use load::file_kind;
-pub use load::{MAX_FILE_BYTES, SceneSource};
+pub use load::{MAX_FILE_BYTES, SceneFile, SceneSource};
 pub use overrides::Overrides;

@@ -124,6 +124,17 @@ pub(super) trait Keyword: Sized + Copy + 'static {
     }
 }
 
+/// A keyword of the description's own (a device, a denoise quality, a cache format, a colour
+/// map) as a scene file names it: read by its [`Keyword`] names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Named<T>(pub(super) T);
+
+impl<'de, T: Keyword> Deserialize<'de> for Named<T> {
+    fn deserialize<D: de::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        T::deserialize_keyword(d).map(Named)
+    }
+}
+
 macro_rules! keyword {
     ($t:ty) => {
         impl<'de> Deserialize<'de> for $t {
@@ -215,7 +226,7 @@ pub(super) struct RawOutput {
     pub(super) clip: Option<String>,
     pub(super) passes: Option<Vec<RawPass>>,
     pub(super) denoise: Option<bool>,
-    pub(super) denoise_quality: Option<crate::scene::DenoiseQuality>,
+    pub(super) denoise_quality: Option<Named<crate::scene::DenoiseQuality>>,
 }
 
 impl Keyword for crate::scene::DenoiseQuality {
@@ -228,7 +239,6 @@ impl Keyword for crate::scene::DenoiseQuality {
         ]
     };
 }
-keyword!(crate::scene::DenoiseQuality);
 
 /// A pass name of `[output] passes`.
 #[derive(Clone, Copy)]
@@ -258,7 +268,7 @@ pub(super) struct RawRender {
     pub(super) max_depth: Option<Number>,
     pub(super) seed: Option<Number>,
     pub(super) sampler: Option<RawSampler>,
-    pub(super) device: Option<crate::scene::Device>,
+    pub(super) device: Option<Named<crate::scene::Device>>,
 }
 
 #[derive(Clone, Copy)]
@@ -546,13 +556,13 @@ pub(super) struct RawPoints {
     pub(super) material: MaterialRef,
     pub(super) radius: Option<F>,
     pub(super) motion: Option<RawPointMotion>,
-    pub(super) format: Option<crate::points::CacheFormat>,
+    pub(super) format: Option<Named<crate::points::CacheFormat>>,
     pub(super) snapshots: Option<RawSnapshots>,
     pub(super) dt: Option<F>,
     pub(super) velocity_scale: Option<F>,
     pub(super) periodic: Option<bool>,
     pub(super) color_by: Option<String>,
-    pub(super) colormap: Option<crate::colormap::Colormap>,
+    pub(super) colormap: Option<Named<crate::colormap::Colormap>>,
     pub(super) color_range: Option<V3<2>>,
     pub(super) radius_by: Option<String>,
     pub(super) types: Option<BTreeMap<String, RawTypeLook>>,
@@ -588,8 +598,6 @@ impl Keyword for crate::points::CacheFormat {
     const NAMES: &'static [(&'static str, Self)] = &crate::points::CacheFormat::ALL;
 }
 
-keyword!(crate::points::CacheFormat);
-
 /// `[[points]] snapshots`.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum RawSnapshots {
@@ -608,5 +616,3 @@ keyword!(RawSnapshots);
 impl Keyword for crate::colormap::Colormap {
     const NAMES: &'static [(&'static str, Self)] = &crate::colormap::Colormap::ALL;
 }
-
-keyword!(crate::colormap::Colormap);

@@ -60,7 +60,7 @@ impl<'de> Deserialize<'de> for RawCurve {
                 if end != 1.0 {
                     return Err(de::Error::custom(format_args!(
                         "expected the last point's s to be 1, found {}",
-                        super::show::show(end)
+                        crate::show::show(end)
                     )));
                 }
                 if points.iter().all(|p| p.1 == 0.0) {
@@ -103,7 +103,7 @@ impl<'de> Visitor<'de> for CurvePoint {
             return Err(wrong(n));
         }
         // s: 0 for the first point; above the previous one, and below 1 unless it is the last.
-        let shown = self.previous.map(super::show::show);
+        let shown = self.previous.map(crate::show::show);
         let s_expected = match (&shown, self.last) {
             (None, _) => "0 (the first point's s)".to_string(),
             (Some(p), Some(true)) => format!("1 (the last point's s, after {p})"),

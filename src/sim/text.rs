@@ -53,7 +53,7 @@ pub fn open_regular(path: &Path, what: &str) -> Result<File, ReadError> {
     if !meta.is_file() {
         return Err(ReadError::Bad(format!(
             "is {}, not a {what} (point caches are read from regular files only)",
-            crate::scene_file::file_kind(&meta.file_type())
+            crate::io::file_kind(&meta.file_type())
         )));
     }
     let file = File::open(path).map_err(|e| ReadError::Bad(e.to_string()))?;

@@ -12,6 +12,7 @@ use glam::DVec3;
 use raytrace::film::Film;
 use raytrace::renderer::{Budget, CpuShot, FrameJob};
 use raytrace::scene::Scene;
+use raytrace::scene_file::SceneFile;
 
 /// Parses a scene from TOML text, panicking with the error message if it is invalid.
 pub fn scene(toml: &str) -> Scene {

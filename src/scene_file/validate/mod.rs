@@ -15,10 +15,9 @@ use glam::DVec3;
 use super::overrides::Overrides;
 use super::report;
 use super::schema::{
-    MaterialRef, Number, RawCamera, RawCurve, RawMaterial, RawOutput, RawPass, RawReadoutDirection,
-    RawSampler, RawScene, RawShot, RawShutterPosition, RawSphere, V3,
+    MaterialRef, Named, Number, RawCamera, RawCurve, RawMaterial, RawOutput, RawPass,
+    RawReadoutDirection, RawSampler, RawScene, RawShot, RawShutterPosition, RawSphere, V3,
 };
-use super::show::{show, show_approx};
 use crate::camera::{
     CameraRig, DEGENERATE_UP, DEGENERATE_VIEW, TINY, most_parallel_on_segment, robust_length,
     shortest_on_segment,
@@ -30,6 +29,7 @@ use crate::pass::{Pass, PassSet};
 use crate::path_pattern::{self, FramePattern};
 use crate::sampler::SamplerKind;
 use crate::scene::{DenoiseSettings, MAX_SIDE, OutputSettings, RenderSettings, Scene};
+use crate::show::{show, show_approx};
 use crate::shutter::{
     ReadoutDirection, RollingShutter, Shot, ShutterCurve, ShutterPosition, shutter_from_angle,
 };
@@ -128,10 +128,10 @@ impl<'a> Check<'a> {
             raw.output.denoise = Some(d);
         }
         if let Some(d) = o.device {
-            raw.render.device = Some(d);
+            raw.render.device = Some(Named(d));
         }
         if let Some(q) = o.denoise_quality {
-            raw.output.denoise_quality = Some(q);
+            raw.output.denoise_quality = Some(Named(q));
         }
         if let Some(k) = o.sampler {
             raw.render.sampler = Some(match k {
@@ -306,7 +306,7 @@ impl<'a> Check<'a> {
                 Some(RawSampler::Independent) => SamplerKind::Independent,
                 Some(RawSampler::Sobol) => SamplerKind::Sobol,
             },
-            device: raw.render.device.unwrap_or_default(),
+            device: raw.render.device.map(|d| d.0).unwrap_or_default(),
         };
         let camera = self.camera(&raw.camera)?;
         let background = match raw.background.as_ref().and_then(|b| b.color) {
@@ -530,7 +530,7 @@ impl<'a> Check<'a> {
             clip,
             passes: self.passes(o.passes.as_deref().unwrap_or(&[]), format, denoise)?,
             denoise: denoise.then(|| DenoiseSettings {
-                quality: o.denoise_quality.unwrap_or_default(),
+                quality: o.denoise_quality.map(|q| q.0).unwrap_or_default(),
                 temporal,
             }),
             path,

@@ -65,7 +65,9 @@ impl Check<'_> {
                 ));
             }
         }
-        let format = p.format.unwrap_or_else(|| CacheFormat::from_name(&p.file));
+        let format = p
+            .format
+            .map_or_else(|| CacheFormat::from_name(&p.file), |f| f.0);
         let color_by = self.color_by(field, p)?;
         let mut material = |m: &MaterialRef, at: &str| -> Result<u32, String> {
             let index = match m {
@@ -211,7 +213,9 @@ impl Check<'_> {
         };
         Ok(Some(ColorBy {
             column: column.clone(),
-            map: p.colormap.unwrap_or(crate::colormap::Colormap::Viridis),
+            map: p
+                .colormap
+                .map_or(crate::colormap::Colormap::Viridis, |m| m.0),
             range,
         }))
     }

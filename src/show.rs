@@ -3,7 +3,7 @@
 /// Formats a number as the scene file would, shortest first: `2`, `0.25`, `-0`, and in
 /// scientific form when very large or small (`1e-300`, `1.8446744073709552e19`), never as
 /// hundreds of digits.
-pub(crate) fn show(x: f64) -> String {
+pub fn show(x: f64) -> String {
     if x.is_nan() {
         return "nan".into();
     }
@@ -17,7 +17,7 @@ pub(crate) fn show(x: f64) -> String {
 
 /// Formats a computed number (not one written in the file) to 4 significant digits:
 /// `5e299`, `1.98e39`, `0.02083`.
-pub(crate) fn show_approx(x: f64) -> String {
+pub fn show_approx(x: f64) -> String {
     if !x.is_finite() || x == 0.0 {
         return show(x);
     }
