@@ -17,8 +17,8 @@
 use std::process::ExitCode;
 
 use glam::DVec3;
-use raytrace::io::read_exr_rgb;
-use raytrace::metrics;
+use raytrace_core::metrics;
+use raytrace_io::read_exr_rgb;
 
 /// Width, height and pixels of an EXR file.
 type Image = (usize, usize, Vec<DVec3>);

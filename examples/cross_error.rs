@@ -14,7 +14,7 @@
 
 use std::process::ExitCode;
 
-use raytrace::io::read_exr_rgb;
+use raytrace_io::read_exr_rgb;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -14,8 +14,8 @@ use std::path::Path;
 
 use glam::DVec3;
 use image::{Rgb, RgbImage};
-use raytrace::io::{linear_to_srgb8, read_exr_rgb};
-use raytrace::metrics::mse;
+use raytrace_core::metrics::mse;
+use raytrace_io::{linear_to_srgb8, read_exr_rgb};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -13,13 +13,13 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use raytrace::io::{FrameInfo, write_frame};
-use raytrace::pass::Pass;
-use raytrace::passes::PassImages;
-use raytrace::renderer::{CpuShot, FrameJob};
-use raytrace::scene::Scene;
-use raytrace::scene_file::Overrides;
-use raytrace::scene_file::SceneFile;
+use raytrace_core::pass::Pass;
+use raytrace_core::passes::PassImages;
+use raytrace_core::renderer::{CpuShot, FrameJob};
+use raytrace_core::scene::Scene;
+use raytrace_io::{FrameInfo, write_frame};
+use raytrace_scene::scene_file::Overrides;
+use raytrace_scene::scene_file::SceneFile;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -1,9 +1,17 @@
-//! The `raytrace` command line: parses arguments and calls the library.
+//! `raytrace`: renders animation sequences of moving spheres, with motion blur and defocus
+//! blur, as EXR or PNG frames. This binary is the command line ([`cli`]: one module per
+//! command), the live preview ([`preview`]) and `converge`'s analysis ([`analysis`]); the
+//! renderer is the workspace's library crates (docs/architecture.md).
+#![forbid(unsafe_code)]
+
+mod analysis;
+mod cli;
+mod preview;
 
 use std::process::ExitCode;
 
 use clap::Parser;
-use raytrace::cli::{self, Cli};
+use cli::Cli;
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {

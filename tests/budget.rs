@@ -155,22 +155,22 @@ fn render_lib(
     sampler: &str,
     samples: u32,
     seed: u64,
-    budget: &raytrace::renderer::Budget,
+    budget: &raytrace_core::renderer::Budget,
     threads: usize,
-) -> raytrace::renderer::FrameResult {
+) -> raytrace_core::renderer::FrameResult {
     let mut scene = common::scene(SCENE);
     // Four times the pixels: the frame's estimate averages over 3840 of them.
     (scene.output.width, scene.output.height) = (80, 48);
     scene.render.sampler = sampler.parse().unwrap();
     scene.render.samples = samples;
     scene.render.seed = seed;
-    let statics = raytrace::renderer::CpuShot::new(&scene);
+    let statics = raytrace_core::renderer::CpuShot::new(&scene);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        raytrace::renderer::FrameJob::new(&scene, 1)
+        raytrace_core::renderer::FrameJob::new(&scene, 1)
             .budget(*budget)
             .sample(&statics)
             .unwrap()
@@ -179,7 +179,7 @@ fn render_lib(
 
 #[test]
 fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
-    use raytrace::metrics::rel_mse;
+    use raytrace_core::metrics::rel_mse;
     // A reference of 4096 samples with another seed; its own error (estimated from its
     // samples, about a sixth of the threshold) is taken out of the measured one, since
     // E[(v - ref)^2] = E[(v - truth)^2] + E[(ref - truth)^2] for independent renders.
@@ -187,7 +187,7 @@ fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
     let reference_error = reference.stats.relative_error;
     assert!(reference_error < 0.006, "{reference_error}");
     let threshold = 0.03;
-    let budget = raytrace::renderer::Budget {
+    let budget = raytrace_core::renderer::Budget {
         noise_threshold: Some(threshold),
         ..Default::default()
     };
@@ -215,7 +215,7 @@ fn noise_threshold_is_met_against_a_reference_not_only_by_its_own_estimate() {
 
 #[test]
 fn adaptive_frames_are_the_same_on_any_thread_count() {
-    let budget = raytrace::renderer::Budget {
+    let budget = raytrace_core::renderer::Budget {
         noise_threshold: Some(0.02),
         ..Default::default()
     };

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use raytrace::io::{linear_to_srgb8, read_exr_rgb};
+use raytrace_io::{linear_to_srgb8, read_exr_rgb};
 
 mod common;
 use common::{ok, run, text};

@@ -530,8 +530,8 @@ fn one_sample_and_black_frames_print_no_infinities_or_nans() {
 
 #[test]
 fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
-    use raytrace::metrics::rel_mse;
-    use raytrace::renderer::{CpuShot, FrameJob};
+    use raytrace_core::metrics::rel_mse;
+    use raytrace_core::renderer::{CpuShot, FrameJob};
     let render = |sampler: &str, samples: u32, seed: u64| {
         let mut scene = common::scene(SCENE);
         scene.render.sampler = sampler.parse().unwrap();

@@ -21,12 +21,12 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use raytrace::devices::{Devices, Needs};
-use raytrace::point_cache;
-use raytrace::renderer::{CpuShot, FrameJob};
-use raytrace::scene::{DenoiseSettings, Scene};
-use raytrace::scene_file::Overrides;
-use raytrace::scene_file::SceneFile;
+use raytrace_core::renderer::{CpuShot, FrameJob};
+use raytrace_core::scene::{DenoiseSettings, Scene};
+use raytrace_render::devices::{Devices, Needs};
+use raytrace_scene::point_cache;
+use raytrace_scene::scene_file::Overrides;
+use raytrace_scene::scene_file::SceneFile;
 
 /// The bound on |stated / true - 1| the issue sets.
 const BOUND: f64 = 0.25;

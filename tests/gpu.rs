@@ -14,10 +14,10 @@ use std::path::Path;
 use std::process::Command;
 
 use common::{exr_bits_and_attributes, exr_channels, exr_number, gpu, render, render_gpu, text};
-use raytrace::film::Film;
-use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
-use raytrace::scene::Scene;
-use raytrace::scene_file::SceneFile;
+use raytrace_core::film::Film;
+use raytrace_core::renderer::{Budget, CpuShot, FrameJob, FrameResult};
+use raytrace_core::scene::Scene;
+use raytrace_scene::scene_file::SceneFile;
 
 /// How two independent renders of a frame agree.
 #[derive(Debug)]
@@ -156,8 +156,8 @@ fn every_shipped_scene_agrees_with_the_cpu_within_noise() {
             // Point caches are the CPU's alone (scenes_with_point_caches_are_refused_for_the_gpu).
             assert!(
                 matches!(
-                    raytrace::gpu::unsupported(&cpu),
-                    Some(raytrace::gpu::Unsupported::PointCaches { .. })
+                    raytrace_gpu::unsupported(&cpu),
+                    Some(raytrace_gpu::Unsupported::PointCaches { .. })
                 ),
                 "{name}"
             );
@@ -491,7 +491,7 @@ fn a_lost_device_ends_the_run_with_the_finished_frames_kept() {
     let dir = tempfile::tempdir().unwrap();
     let scene = "[shot]\nframes = 3\n[output]\npath = \"f_####.png\"\nwidth = 24\nheight = 16\n[render]\nsamples = 8\n[[sphere]]\ncenter = [0.0, 0.0, -2.0]\nradius = 0.5\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\nvelocity = [1.0, 0.0, 0.0]\n";
     std::fs::write(dir.path().join("s.toml"), scene).unwrap();
-    let env = [(raytrace::gpu::LOSE_AFTER_VARIABLE, Some("1"))];
+    let env = [(raytrace_gpu::LOSE_AFTER_VARIABLE, Some("1"))];
     let o = raytrace(dir.path(), &["render", "s.toml", "--device", "gpu"], &env);
     let all = text(&o);
     assert_eq!(o.status.code(), Some(1), "{all}");
@@ -588,12 +588,12 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
     let Some(gpu) = gpu() else { return };
     let mut scene = common::scene(MOVING);
     scene.transparent = true;
-    scene.output.passes = [raytrace::pass::Pass::Alpha].into_iter().collect();
-    scene.output.denoise = Some(raytrace::scene::DenoiseSettings::default());
-    let devices = raytrace::devices::Devices::for_scenes([&scene]).unwrap();
-    let finished = |scene: &Scene, gpu: Option<&raytrace::gpu::Gpu>| {
-        let shot: Box<dyn raytrace::renderer::ShotTracer> = match gpu {
-            Some(gpu) => Box::new(raytrace::gpu::GpuShot::new(gpu, scene).unwrap()),
+    scene.output.passes = [raytrace_core::pass::Pass::Alpha].into_iter().collect();
+    scene.output.denoise = Some(raytrace_core::scene::DenoiseSettings::default());
+    let devices = raytrace_render::devices::Devices::for_scenes([&scene]).unwrap();
+    let finished = |scene: &Scene, gpu: Option<&raytrace_gpu::Gpu>| {
+        let shot: Box<dyn raytrace_core::renderer::ShotTracer> = match gpu {
+            Some(gpu) => Box::new(raytrace_gpu::GpuShot::new(gpu, scene).unwrap()),
             None => Box::new(CpuShot::new(scene)),
         };
         let mut finishing = devices.finishing(scene).unwrap();
@@ -602,7 +602,7 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
     };
     let cpu = finished(&scene, None);
     let mut on_gpu = scene.clone();
-    on_gpu.render.device = raytrace::scene::Device::Gpu;
+    on_gpu.render.device = raytrace_core::scene::Device::Gpu;
     let g = finished(&on_gpu, Some(gpu));
     let d = g.denoised.as_ref().expect("denoised");
     assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
@@ -674,15 +674,15 @@ fn scenes_with_point_caches_are_refused_for_the_gpu() {
     assert!(o.status.success(), "{}", text(&o));
     assert!(dir.path().join("f_0001.png").exists());
     // The library says why, and a shot of it is not made for the GPU.
-    let s = raytrace::scene::Scene::load(&dir.path().join("cpu.toml")).unwrap();
+    let s = raytrace_core::scene::Scene::load(&dir.path().join("cpu.toml")).unwrap();
     assert_eq!(
-        raytrace::gpu::unsupported(&s),
-        Some(raytrace::gpu::Unsupported::PointCaches { tables: 1 })
+        raytrace_gpu::unsupported(&s),
+        Some(raytrace_gpu::Unsupported::PointCaches { tables: 1 })
     );
     if let Some(gpu) = gpu() {
         let mut on_gpu = s.clone();
-        on_gpu.render.device = raytrace::scene::Device::Gpu;
-        let e = raytrace::gpu::GpuShot::new(gpu, &on_gpu).unwrap_err();
+        on_gpu.render.device = raytrace_core::scene::Device::Gpu;
+        let e = raytrace_gpu::GpuShot::new(gpu, &on_gpu).unwrap_err();
         assert!(e.to_string().contains("point caches"), "{e}");
     }
 }

@@ -8,7 +8,7 @@ mod common;
 
 use common::hostile::{points, refused, run, scene, setup};
 use common::text;
-use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
+use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 /// An ASCII PLY file of float `x y z` rows: the header (7 lines), then `body`.
 fn ascii(body: &str) -> Vec<u8> {

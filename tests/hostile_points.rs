@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use common::{run_limited, text};
-use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
+use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 const SECONDS: u64 = 5;
 const MEMORY_KIB: u64 = 1 << 20;

@@ -15,9 +15,9 @@ use std::time::Instant;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
-use raytrace::Scene;
-use raytrace::renderer::{CpuShot, FrameJob};
-use raytrace::scene_file::SceneFile;
+use raytrace_core::Scene;
+use raytrace_core::renderer::{CpuShot, FrameJob};
+use raytrace_scene::scene_file::SceneFile;
 
 /// The shipped scenes, and one that uses every key of the format (camera keyframes and a
 /// keyframed sphere, which no shipped scene has).

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_same_bits, have_lammps, render_bits, run_lammps};
 use glam::DVec3;
-use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
+use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 /// The shot's rate, and the time between the dump's snapshots in LAMMPS time units (20 steps
 /// of 0.005): a snapshot a frame, velocities scaled into units per second.

@@ -5,7 +5,7 @@ mod common;
 
 use common::{block_means, f, render, render_with, scene, v};
 use glam::DVec3;
-use raytrace::motion::Motion;
+use raytrace_core::motion::Motion;
 
 /// A shot whose spheres move in every supported way, seen by a moving camera.
 fn moving_scene(shutter: f64, start_time: f64, samples: u32, camera_orbit: bool) -> String {
@@ -75,7 +75,7 @@ fn assert_blur_equals_mean_of_instants(make: impl Fn(f64, f64, u32) -> String, s
     let per_instant = 8;
     let blurred = render(&scene(&make(shutter, 0.0, blur_samples)), 1);
     // Jittered stratified instants: an unbiased estimate of the same time integral.
-    let mut rng = raytrace::rng::Pcg32::new(77, 1);
+    let mut rng = raytrace_core::rng::Pcg32::new(77, 1);
     let mut average = vec![DVec3::ZERO; blurred.means().len()];
     for k in 0..instants {
         let t = shutter * (k as f64 + rng.next_f64()) / instants as f64;
@@ -91,7 +91,7 @@ fn assert_blur_equals_mean_of_instants(make: impl Fn(f64, f64, u32) -> String, s
     }
     let w = blurred.width;
     let avg_film =
-        raytrace::film::Film::from_fn(w, blurred.height, |x, y| average[(y * w + x) as usize]);
+        raytrace_core::film::Film::from_fn(w, blurred.height, |x, y| average[(y * w + x) as usize]);
     let block = 8;
     let tol = tolerance(blur_samples, instants * per_instant, block * block);
     let a = block_means(&blurred, block);
@@ -187,17 +187,17 @@ fn zero_shutter_equals_the_scene_placed_at_that_instant() {
             let c = s.motion.at(time);
             let m = moving.materials[s.material as usize];
             let mat = match m {
-                raytrace::material::Material::Lambertian { albedo } => {
+                raytrace_core::material::Material::Lambertian { albedo } => {
                     format!("{{ type = \"lambertian\", albedo = {} }}", v(albedo))
                 }
-                raytrace::material::Material::Metal { albedo, fuzz } => {
+                raytrace_core::material::Material::Metal { albedo, fuzz } => {
                     format!(
                         "{{ type = \"metal\", albedo = {}, fuzz = {} }}",
                         v(albedo),
                         f(fuzz)
                     )
                 }
-                raytrace::material::Material::Dielectric { ior } => {
+                raytrace_core::material::Material::Dielectric { ior } => {
                     format!("{{ type = \"dielectric\", ior = {} }}", f(ior))
                 }
             };

@@ -10,9 +10,9 @@ use std::path::Path;
 use std::process::Command;
 
 use glam::{DVec2, DVec3};
-use raytrace::passes::PassImages;
-use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
-use raytrace::scene::Scene;
+use raytrace_core::passes::PassImages;
+use raytrace_core::renderer::{Budget, CpuShot, FrameJob, FrameResult};
+use raytrace_core::scene::Scene;
 
 use common::{ok, run, run_ok, scene};
 
@@ -664,8 +664,8 @@ fn exr_frames_hold_the_passes_channels_by_name_and_type() {
     let plain = dir.path().join("p.exr");
     run_ok(dir.path(), &["render", "-q", "s.toml", "-o", "p.exr"]);
     assert_eq!(
-        raytrace::io::read_exr_rgb(&plain).unwrap(),
-        raytrace::io::read_exr_rgb(&path).unwrap()
+        raytrace_io::read_exr_rgb(&plain).unwrap(),
+        raytrace_io::read_exr_rgb(&path).unwrap()
     );
 
     // OpenImageIO lists the channels by name.
@@ -735,7 +735,7 @@ fn png_frames_take_alpha_as_straight_rgba() {
             assert_eq!(p.0, [0, 0, 0, 0]);
         } else {
             // Straight: the premultiplied colour over its alpha.
-            assert_eq!(p.0[0], raytrace::io::linear_to_srgb8(r[i] / a[i]));
+            assert_eq!(p.0[0], raytrace_io::linear_to_srgb8(r[i] / a[i]));
             if a[i] < 1.0 {
                 partial += 1;
             }

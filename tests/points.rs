@@ -12,8 +12,8 @@ use std::collections::HashMap;
 
 use common::{exr_channels, f, ok, run, text, v};
 use glam::DVec3;
-use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
-use raytrace::rng::Pcg32;
+use raytrace_core::rng::Pcg32;
+use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 /// The shot, camera and image every scene here shares; `shot` adds keys to `[shot]`.
 fn head(shot: &str) -> String {

@@ -11,12 +11,12 @@ use common::{
 };
 use exr::meta::attribute::{AttributeValue, Text};
 use glam::DVec3;
-use raytrace::bvh::TraversalStack;
-use raytrace::film::Film;
-use raytrace::ray::Ray;
-use raytrace::rng::Pcg32;
-use raytrace::scene::Scene;
-use raytrace::world::{StaticGeometry, World, nearest_by_testing_every_sphere};
+use raytrace_core::bvh::TraversalStack;
+use raytrace_core::film::Film;
+use raytrace_core::ray::Ray;
+use raytrace_core::rng::Pcg32;
+use raytrace_core::scene::Scene;
+use raytrace_core::world::{StaticGeometry, World, nearest_by_testing_every_sphere};
 
 /// Distance from the camera to the plane the spheres move in.
 const DEPTH: f64 = 10.0;

@@ -16,8 +16,8 @@ use std::path::Path;
 
 use common::{assert_same_bits, ok, render_bits};
 use glam::DVec3;
-use raytrace::colormap::Colormap;
-use raytrace::ply::{Column, Encoding, Scalar, write_vertices};
+use raytrace_core::colormap::Colormap;
+use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 /// A scene of a few big spheres before the camera, with `points` as its cache table.
 fn scene(frames: u32, points: &str) -> String {

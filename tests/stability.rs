@@ -27,16 +27,16 @@ use std::time::Instant;
 use common::{f, scene, v};
 use glam::DVec3;
 use rayon::prelude::*;
-use raytrace::camera::View;
-use raytrace::material::schlick;
-use raytrace::ray::Ray;
-use raytrace::renderer::{Budget, CpuShot, FrameJob, FrameResult};
-use raytrace::sampler::{CameraUse, IndependentSampler, Sampler};
-use raytrace::scene::Scene;
-use raytrace::scene_file::SceneFile;
-use raytrace::sphere::{intersect, surface_point};
-use raytrace::tracer::{TraceStats, radiance};
-use raytrace::world::{StaticGeometry, World};
+use raytrace_core::camera::View;
+use raytrace_core::material::schlick;
+use raytrace_core::ray::Ray;
+use raytrace_core::renderer::{Budget, CpuShot, FrameJob, FrameResult};
+use raytrace_core::sampler::{CameraUse, IndependentSampler, Sampler};
+use raytrace_core::scene::Scene;
+use raytrace_core::sphere::{intersect, surface_point};
+use raytrace_core::tracer::{TraceStats, radiance};
+use raytrace_core::world::{StaticGeometry, World};
+use raytrace_scene::scene_file::SceneFile;
 
 /// Albedo of the lambertian spheres (a different value per channel).
 const MATTE: [f64; 3] = [0.7, 0.5, 0.3];
@@ -59,7 +59,7 @@ const GLASS_DEPTH: u32 = 128;
 #[derive(Clone, Copy)]
 enum Tracer {
     Cpu,
-    Gpu(&'static raytrace::gpu::Gpu),
+    Gpu(&'static raytrace_gpu::Gpu),
 }
 
 impl Tracer {
@@ -882,14 +882,15 @@ fn furnace_limb_crossing_the_frame_is_two_valued() {
 fn sweep_gpu(name: &str, cases: &[Furnace]) -> Option<(Figures, usize, usize)> {
     let gpu = common::gpu()?;
     let start = Instant::now();
-    let on_gpu = raytrace::scene_file::Overrides {
-        device: Some(raytrace::scene::Device::Gpu),
+    let on_gpu = raytrace_scene::scene_file::Overrides {
+        device: Some(raytrace_core::scene::Device::Gpu),
         ..Default::default()
     };
     let (mut fig, mut rendered, mut refused) = (Figures::none(), 0, 0);
     for c in cases {
         let (text, _) = c.scene();
-        match Scene::parse_with(&text, Path::new("furnace.toml"), &on_gpu) {
+        let parsed = Scene::parse_with(&text, Path::new("furnace.toml"), &on_gpu);
+        match parsed.and_then(|s| raytrace_render::devices::supported(s, &on_gpu)) {
             Err(e) => {
                 let message = e.to_string();
                 assert_eq!(e.exit_code(), 2, "{c:?}: {message}");
@@ -918,8 +919,8 @@ fn sweep_gpu(name: &str, cases: &[Furnace]) -> Option<(Figures, usize, usize)> {
 /// Whether the GPU takes the furnace `c` (not refused for its floats).
 fn gpu_takes(c: &Furnace) -> bool {
     let mut sc = scene(&c.scene().0);
-    sc.render.device = raytrace::scene::Device::Gpu;
-    raytrace::gpu::unsupported(&sc).is_none()
+    sc.render.device = raytrace_core::scene::Device::Gpu;
+    raytrace_gpu::unsupported(&sc).is_none()
 }
 
 #[test]
@@ -1064,7 +1065,7 @@ fn grazing_rays_are_neither_lost_nor_darkened() {
             let world = World::prepare(&sc, &statics, sc.shot.interval(1));
             let a = surface.albedo();
             let mut sampler = IndependentSampler::new(17, 1);
-            let mut rng = raytrace::rng::Pcg32::new(r.to_bits(), dist.to_bits());
+            let mut rng = raytrace_core::rng::Pcg32::new(r.to_bits(), dist.to_bits());
             let mut stats = TraceStats::default();
             let (mut hits, mut misses, mut failures) = (0u64, 0u64, Vec::new());
             // A unit direction resolves angles to about 1.1e-16, so from `reach` radii away
@@ -1540,7 +1541,7 @@ fn instantiate(template: &str, field: &str, value: &str) -> String {
     out
 }
 
-fn parse(text: &str) -> Result<Scene, raytrace::Error> {
+fn parse(text: &str) -> Result<Scene, raytrace_core::Error> {
     Scene::parse(text, Path::new("bad.toml"))
 }
 

@@ -6,10 +6,10 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use raytrace::scene_file::SceneFile;
-use raytrace::Scene;
-use raytrace::renderer::{Budget, render_frame};
-use raytrace::world::StaticGeometry;
+use raytrace_scene::scene_file::SceneFile;
+use raytrace_core::Scene;
+use raytrace_core::renderer::{Budget, render_frame};
+use raytrace_core::world::StaticGeometry;
 
 fuzz_target!(|data: &[u8]| {
     match Scene::parse_bytes(data, Path::new("fuzz.toml")) {

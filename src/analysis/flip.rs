@@ -28,7 +28,7 @@ mod tests {
     /// A 32x24 image of smooth gradients, with noise of amplitude `noise` (in 8-bit steps)
     /// from a fixed PCG32 stream.
     fn image(noise: f64) -> Vec<u8> {
-        let mut rng = crate::rng::Pcg32::new(3, 1);
+        let mut rng = raytrace_core::rng::Pcg32::new(3, 1);
         (0..32 * 24 * 3)
             .map(|i| {
                 let base = 40.0 + (i % 96) as f64 + (i / 96) as f64 * 2.0;

@@ -1,6 +1,6 @@
 //! Measuring renders for `converge`: a perceptual difference ([`flip`]), summaries of
 //! repeated measurements ([`stats`]), fitted convergence rates ([`fit`]) and log-log plots of
-//! them ([`plot`]). The errors themselves are [`crate::metrics`]'.
+//! them ([`plot`]). The errors themselves are [`raytrace_core::metrics`]'.
 
 pub(crate) mod fit;
 pub(crate) mod flip;

@@ -8,11 +8,11 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::renderer::Budget;
-use crate::sampler::SamplerKind;
-use crate::scene::DenoiseQuality;
-use crate::scene::Device;
-use crate::scene_file::Overrides;
+use raytrace_core::renderer::Budget;
+use raytrace_core::sampler::SamplerKind;
+use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::Device;
+use raytrace_scene::scene_file::Overrides;
 
 /// The `raytrace` command line.
 #[derive(Parser, Debug)]
@@ -225,11 +225,11 @@ fn denoise_quality(text: &str) -> Result<DenoiseQuality, String> {
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct PassList(pub Vec<crate::pass::Pass>);
+pub struct PassList(pub Vec<raytrace_core::pass::Pass>);
 
 /// Clap's value parser of `--passes`: pass names separated by commas.
 fn pass_list(text: &str) -> Result<PassList, String> {
-    use crate::pass::Pass;
+    use raytrace_core::pass::Pass;
     if text.trim().is_empty() {
         return Ok(PassList(Vec::new()));
     }
@@ -239,7 +239,7 @@ fn pass_list(text: &str) -> Result<PassList, String> {
                 let known: Vec<&str> = Pass::ALL.iter().map(|p| p.name()).collect();
                 format!(
                     "unknown pass \"{}\" (expected a comma list of {})",
-                    crate::error::elide(name.trim()),
+                    raytrace_core::error::elide(name.trim()),
                     known.join(", ")
                 )
             })
@@ -406,7 +406,7 @@ pub struct ClipArgs {
 pub struct GenerateArgs {
     /// Number of spheres (of a .toml scene).
     #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
-          value_parser = clap::value_parser!(u64).range(1..=crate::scene_file::generate::MAX_SPHERES))]
+          value_parser = clap::value_parser!(u64).range(1..=raytrace_scene::scene_file::generate::MAX_SPHERES))]
     pub spheres: u64,
     /// Fraction of the spheres that move, 0 to 1.
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = fraction)]
@@ -416,7 +416,7 @@ pub struct GenerateArgs {
     pub seed: u64,
     /// Particles of the fountain alive at once, about (of a .ply point cache).
     #[arg(long, default_value_t = 2000, allow_negative_numbers = true,
-          value_parser = clap::value_parser!(u64).range(1..=crate::fountain::MAX_POINTS))]
+          value_parser = clap::value_parser!(u64).range(1..=raytrace_scene::fountain::MAX_POINTS))]
     pub points: u64,
     /// How a .ply point cache is written.
     #[arg(long, value_enum, default_value_t = PlyEncoding::BinaryLittleEndian)]
@@ -441,11 +441,11 @@ pub enum PlyEncoding {
 
 impl PlyEncoding {
     /// The PLY encoding.
-    pub fn encoding(self) -> crate::ply::Encoding {
+    pub fn encoding(self) -> raytrace_scene::ply::Encoding {
         match self {
-            PlyEncoding::Ascii => crate::ply::Encoding::Ascii,
-            PlyEncoding::BinaryLittleEndian => crate::ply::Encoding::BinaryLittleEndian,
-            PlyEncoding::BinaryBigEndian => crate::ply::Encoding::BinaryBigEndian,
+            PlyEncoding::Ascii => raytrace_scene::ply::Encoding::Ascii,
+            PlyEncoding::BinaryLittleEndian => raytrace_scene::ply::Encoding::BinaryLittleEndian,
+            PlyEncoding::BinaryBigEndian => raytrace_scene::ply::Encoding::BinaryBigEndian,
         }
     }
 }
@@ -509,7 +509,7 @@ fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
     if let Ok(v) = t.parse::<T>() {
         return Ok(v);
     }
-    let shown = crate::error::elide(text);
+    let shown = raytrace_core::error::elide(text);
     if t.starts_with('-') && t[1..].bytes().all(|b| b.is_ascii_digit()) && t.len() > 1 {
         Err(format!("must be a whole number >= 0, got {shown}"))
     } else if !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()) {
@@ -570,7 +570,7 @@ fn number(text: &str, ok: impl Fn(f64) -> bool, bound: &str, what: &str) -> Resu
         Ok(v) => Err(format!("must be {bound}, got {v}")),
         Err(_) => Err(format!(
             "must be {what}, got \"{}\"",
-            crate::error::elide(text)
+            raytrace_core::error::elide(text)
         )),
     }
 }

@@ -6,13 +6,13 @@ use std::fmt::Write;
 use super::args::CheckArgs;
 use super::frames;
 use super::jobs::{Job, load_shots};
-use crate::devices::{Needs, adapter_line};
-use crate::error::{Error, elide, elide_path};
-use crate::memory::{check_memory, memory_estimate, mib};
-use crate::motion::Motion;
-use crate::point_cache::{Depth, FrameSurvey};
-use crate::points::PointCacheDesc;
-use crate::scene_file::Overrides;
+use raytrace_core::error::{Error, elide, elide_path};
+use raytrace_core::motion::Motion;
+use raytrace_core::points::PointCacheDesc;
+use raytrace_render::devices::{Needs, adapter_line};
+use raytrace_render::memory::{check_memory, memory_estimate, mib};
+use raytrace_scene::point_cache::{Depth, FrameSurvey};
+use raytrace_scene::scene_file::Overrides;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
 /// rendering (their frames and files, with the same code), and describes each. With several
@@ -142,7 +142,7 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
         scene.render.seed,
         elide(&scene.output.path)
     );
-    if let (crate::scene::Device::Gpu, Some(gpu)) = (scene.render.device, gpu) {
+    if let (raytrace_core::scene::Device::Gpu, Some(gpu)) = (scene.render.device, gpu) {
         let _ = writeln!(s, "device: gpu, adapter: {gpu}");
     }
     if !scene.output.passes.is_empty() || scene.transparent {
@@ -227,7 +227,7 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
 /// (viridis, range from the frames)`, `, periodic`, ...; nothing for a plain cache.
 fn looks(p: &PointCacheDesc) -> String {
     let mut parts = Vec::new();
-    if let crate::points::SnapshotTime::Timestep { dt } = p.snapshots {
+    if let raytrace_core::points::SnapshotTime::Timestep { dt } = p.snapshots {
         parts.push(format!("snapshots at TIMESTEP * {dt} s"));
     }
     if p.velocity_scale != 1.0 {

@@ -1,16 +1,16 @@
-//! `raytrace clip`: assembles a shot's rendered frames into a clip (see [`crate::clip`]).
+//! `raytrace clip`: assembles a shot's rendered frames into a clip (see [`raytrace_io::clip`]).
 
 use std::path::Path;
 
 use super::args::ClipArgs;
 use super::jobs::select_frames;
 use super::progress::print_line;
-use crate::clip::{self, Source};
-use crate::error::{Error, elide};
-use crate::format::{FRAME_FORMATS, Format};
-use crate::path_pattern::{self, FramePattern};
-use crate::scene::Scene;
-use crate::scene_file::SceneFile;
+use raytrace_core::error::{Error, elide};
+use raytrace_core::format::{FRAME_FORMATS, Format};
+use raytrace_core::path_pattern::{self, FramePattern};
+use raytrace_core::scene::Scene;
+use raytrace_io::clip::{self, Source};
+use raytrace_scene::scene_file::SceneFile;
 
 /// `raytrace clip`: the frames selected by `--frames` (default: every frame of the shot),
 /// found through `--input` or the scene's output path, assembled into the clip.

@@ -24,19 +24,19 @@ use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
 use crate::analysis::stats::{Figure, settled};
 use crate::analysis::{flip, plot};
-use crate::devices::{Devices, Needs, supported};
-use crate::error::Error;
-use crate::format::Format;
-use crate::io;
-use crate::io::file_kind;
-use crate::metrics;
-use crate::output;
-use crate::points::FramePoints;
-use crate::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
-use crate::rng::hash_words;
-use crate::sampler::SamplerKind;
-use crate::scene::Scene;
-use crate::scene_file::{Overrides, SceneSource};
+use raytrace_core::error::Error;
+use raytrace_core::format::Format;
+use raytrace_core::metrics;
+use raytrace_core::points::FramePoints;
+use raytrace_core::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
+use raytrace_core::rng::hash_words;
+use raytrace_core::sampler::SamplerKind;
+use raytrace_core::scene::Scene;
+use raytrace_io as io;
+use raytrace_io::file_kind;
+use raytrace_render::devices::{Devices, Needs, supported};
+use raytrace_render::output;
+use raytrace_scene::scene_file::{Overrides, SceneSource};
 use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 
 /// Default samples per pixel of each reference render.
@@ -214,7 +214,7 @@ fn measure(
     // The frame's points, read once for every render of it.
     let points = match scene.points.is_empty() {
         true => FramePoints::none(),
-        false => crate::point_cache::read_frame(scene, frame)?,
+        false => raytrace_scene::point_cache::read_frame(scene, frame)?,
     };
     let shot = (&devices, tracer.as_ref(), &points);
     let references = match references {

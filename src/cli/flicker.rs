@@ -11,14 +11,14 @@ use glam::DVec3;
 use super::args::ConvergeArgs;
 use super::frames::Selection;
 use super::progress::print_line;
-use crate::devices::{Devices, supported};
-use crate::error::Error;
-use crate::metrics::{self, FlickerSum};
-use crate::point_cache;
-use crate::renderer::FrameJob;
-use crate::rng::hash_words;
-use crate::scene::Scene;
-use crate::scene_file::{Overrides, SceneSource};
+use raytrace_core::error::Error;
+use raytrace_core::metrics::{self, FlickerSum};
+use raytrace_core::renderer::FrameJob;
+use raytrace_core::rng::hash_words;
+use raytrace_core::scene::Scene;
+use raytrace_render::devices::{Devices, supported};
+use raytrace_scene::point_cache;
+use raytrace_scene::scene_file::{Overrides, SceneSource};
 
 /// Samples of each frame's reference, unless --reference-samples says otherwise.
 const DEFAULT_REFERENCE_SAMPLES: u32 = 1024;

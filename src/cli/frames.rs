@@ -90,13 +90,13 @@ impl Selection {
                 return Err(format!(
                     "empty part {} in frame specification \"{}\" (parts are separated by commas)",
                     index + 1,
-                    crate::error::elide(spec.trim())
+                    raytrace_core::error::elide(spec.trim())
                 ));
             }
             let fail = |reason: String| {
                 format!(
                     "frame specification \"{}\": {reason}",
-                    crate::error::elide(part)
+                    raytrace_core::error::elide(part)
                 )
             };
             let (start, end, step) = parse_part(part).map_err(fail)?;
@@ -437,13 +437,13 @@ fn parse_number(text: &str, what: &str) -> Result<u32, String> {
     if !text.bytes().all(|b| b.is_ascii_digit()) {
         return Err(format!(
             "\"{}\" is not a valid {what}",
-            crate::error::elide(text)
+            raytrace_core::error::elide(text)
         ));
     }
     text.parse::<u32>().map_err(|_| {
         format!(
             "{what} {} is too large (the largest is {})",
-            crate::error::elide(text),
+            raytrace_core::error::elide(text),
             u32::MAX
         )
     })

@@ -1,13 +1,13 @@
-//! `raytrace generate`: writes a large random test scene (see [`crate::scene_file::generate`]),
-//! or a fountain's point cache, a PLY file per frame (see [`crate::fountain`]).
+//! `raytrace generate`: writes a large random test scene (see [`raytrace_scene::scene_file::generate`]),
+//! or a fountain's point cache, a PLY file per frame (see [`raytrace_scene::fountain`]).
 
 use super::args::GenerateArgs;
-use crate::error::{Error, elide_path};
-use crate::format::Format;
-use crate::fountain::{FPS, Fountain, write_frame};
-use crate::io;
-use crate::path_pattern::{FramePattern, frame_path, pattern_has_frame_number};
-use crate::scene_file::generate::{RandomScene, scene_text};
+use raytrace_core::error::{Error, elide_path};
+use raytrace_core::format::Format;
+use raytrace_core::path_pattern::{FramePattern, frame_path, pattern_has_frame_number};
+use raytrace_io as io;
+use raytrace_scene::fountain::{FPS, Fountain, write_frame};
+use raytrace_scene::scene_file::generate::{RandomScene, scene_text};
 
 /// Writes the scene to its `.toml` file, or the point cache's `.ply` files, atomically. The
 /// argument ranges were checked by the command line's parsers. Returns what was written.

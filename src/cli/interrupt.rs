@@ -16,8 +16,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use signal_hook::consts::{SIGINT, SIGTERM, SIGXFSZ};
 use signal_hook::iterator::Signals;
 
-use crate::error::Error;
-use crate::io;
+use raytrace_core::error::Error;
+use raytrace_io as io;
 
 /// What a render run has done, for the message of an interrupted run.
 struct Tally {

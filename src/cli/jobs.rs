@@ -5,14 +5,14 @@
 use std::path::PathBuf;
 
 use super::frames::{Selection, batch_chunk};
-use crate::devices::supported;
-use crate::error::{Error, elide_path};
-use crate::io;
-use crate::path_pattern::{self, FramePattern};
-use crate::point_cache::{Depth, Frames, PointLoad, ShotPoints};
-use crate::scene::Scene;
-use crate::scene_file::Overrides;
-use crate::scene_file::SceneFile;
+use raytrace_core::error::{Error, elide_path};
+use raytrace_core::path_pattern::{self, FramePattern};
+use raytrace_core::scene::Scene;
+use raytrace_io as io;
+use raytrace_render::devices::supported;
+use raytrace_scene::point_cache::{Depth, Frames, PointLoad, ShotPoints};
+use raytrace_scene::scene_file::Overrides;
+use raytrace_scene::scene_file::SceneFile;
 
 /// The frames a run renders: the `--frames` selection (absent or bare: the whole shot), then
 /// the chunk. Ranges, never a list: any shot length costs the same.
@@ -57,7 +57,7 @@ pub(crate) fn targets_of(scene: &Scene, selected: Selection) -> Result<Targets, 
     if selected.len() > 1 && !path_pattern::pattern_has_frame_number(pattern) {
         return Err(Error::Usage(format!(
             "output path \"{}\" has no '#' for the frame number, so {} frames would overwrite one file",
-            crate::error::elide(pattern),
+            raytrace_core::error::elide(pattern),
             selected.len()
         )));
     }
@@ -125,7 +125,7 @@ pub(crate) fn load_shots(
                 return Err(Error::Usage(format!(
                     "{flag} \"{}\" has no {{scene}}, so the {} scenes would write the same files: \
                      put {{scene}} (the scene file's name) in it",
-                    crate::error::elide(v),
+                    raytrace_core::error::elide(v),
                     paths.len()
                 )));
             }
@@ -173,11 +173,14 @@ fn check_distinct(shots: &[Job]) -> Result<(), Error> {
                 _ => false,
             };
             let what = if ta.pattern == tb.pattern && overlap {
-                Some(format!("frames \"{}\"", crate::error::elide(&ta.pattern)))
+                Some(format!(
+                    "frames \"{}\"",
+                    raytrace_core::error::elide(&ta.pattern)
+                ))
             } else {
                 match (&a.scene.output.clip, &b.scene.output.clip) {
                     (Some(ca), Some(cb)) if ca == cb => {
-                        Some(format!("the clip \"{}\"", crate::error::elide(ca)))
+                        Some(format!("the clip \"{}\"", raytrace_core::error::elide(ca)))
                     }
                     _ => None,
                 }

@@ -22,13 +22,9 @@ mod progress;
 mod render;
 mod threads;
 
-pub use args::{
-    BudgetArgs, CheckArgs, Cli, ClipArgs, Command, ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD,
-    GenerateArgs, MAX_THREADS, PassList, PlyEncoding, PreviewArgs, RenderArgs, SceneArgs,
-};
-pub use threads::thread_pool;
+pub use args::{Cli, Command};
 
-use crate::error::Error;
+use raytrace_core::error::Error;
 
 /// Runs a parsed command line. SIGINT and SIGTERM stop it (see [`interrupt`]).
 pub fn run(cli: &Cli) -> Result<(), Error> {

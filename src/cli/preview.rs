@@ -7,11 +7,11 @@ use std::net::SocketAddr;
 use super::args::PreviewArgs;
 use super::jobs::select_frames;
 use super::progress::print_line;
-use crate::devices::supported;
-use crate::error::Error;
 use crate::preview::{self, Frames, MAX_TIMELINE_FRAMES, Setup};
-use crate::scene::Scene;
-use crate::scene_file::{Overrides, SceneSource};
+use raytrace_core::error::Error;
+use raytrace_core::scene::Scene;
+use raytrace_render::devices::supported;
+use raytrace_scene::scene_file::{Overrides, SceneSource};
 
 /// Serves the preview until a signal ends the process; returns only on an error.
 pub(crate) fn preview(args: &PreviewArgs) -> Result<(), Error> {

@@ -9,15 +9,15 @@ use super::args::RenderArgs;
 use super::interrupt;
 use super::jobs::{Job, Targets, load_shots};
 use super::progress::Progress;
-use crate::clip;
-use crate::devices::Devices;
-use crate::error::{Error, elide_path};
-use crate::io;
-use crate::memory::{check_memory, mib, peak_memory_bytes};
-use crate::output;
-use crate::point_cache::{Depth, ShotPoints};
-use crate::renderer::{FrameJob, FrameResult, FrameStats};
-use crate::scene::{Device, Scene};
+use raytrace_core::error::{Error, elide_path};
+use raytrace_core::renderer::{FrameJob, FrameResult, FrameStats};
+use raytrace_core::scene::{Device, Scene};
+use raytrace_io as io;
+use raytrace_io::clip;
+use raytrace_render::devices::Devices;
+use raytrace_render::memory::{check_memory, mib, peak_memory_bytes};
+use raytrace_render::output;
+use raytrace_scene::point_cache::{Depth, ShotPoints};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
 /// names record no machine) is removed when its writer is not running here.
@@ -61,7 +61,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
                 return Err(Error::Usage(format!(
                     "{}: [output] clip asks for the clip {}, which one chunk cannot make: pass --no-clip to render the chunk without it, and make the clip with `raytrace clip` in a job after the array's",
                     elide_path(&shot.path),
-                    crate::error::elide(c)
+                    raytrace_core::error::elide(c)
                 )));
             }
             clip::check(Path::new(c), shot.scene.shot.fps)?;

@@ -1,6 +1,6 @@
 //! The worker threads a command runs on.
 
-use crate::error::Error;
+use raytrace_core::error::Error;
 
 /// A thread pool of `threads` workers (`None`: one per core) for a command to run in.
 pub fn thread_pool(threads: Option<u16>) -> Result<rayon::ThreadPool, Error> {

@@ -194,10 +194,12 @@ impl Board {
             return Err(format!("frame {f} is not one of the shot's frames shown"));
         }
         let view = match view {
-            Some(v) => *views
-                .iter()
-                .find(|n| **n == v)
-                .ok_or_else(|| format!("the shot has no view \"{}\"", crate::error::elide(v)))?,
+            Some(v) => *views.iter().find(|n| **n == v).ok_or_else(|| {
+                format!(
+                    "the shot has no view \"{}\"",
+                    raytrace_core::error::elide(v)
+                )
+            })?,
             None => s.chosen.value.view,
         };
         let chosen = Chosen {

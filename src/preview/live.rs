@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::board::Board;
 use super::server::serve;
 use super::worker::{Setup, start};
-use crate::error::Error;
+use raytrace_core::error::Error;
 
 /// Serves the preview of `setup`'s shot on `listener` (bound already) for ever.
 pub(crate) fn run(listener: TcpListener, setup: Setup) -> Result<(), Error> {

@@ -4,11 +4,11 @@
 //! is on, denoised when the scene says so. The same call `render` makes, so a frame's
 //! pixels are those `render --frames N` writes at the same size and samples.
 
-use crate::devices::Devices;
-use crate::error::Error;
-use crate::point_cache;
-use crate::renderer::{FrameJob, FrameResult, ShotTracer};
-use crate::scene::Scene;
+use raytrace_core::error::Error;
+use raytrace_core::renderer::{FrameJob, FrameResult, ShotTracer};
+use raytrace_core::scene::Scene;
+use raytrace_render::devices::Devices;
+use raytrace_scene::point_cache;
 
 /// Renders `frame` of `scene` with exactly its samples in every pixel on `tracer`'s device,
 /// finished as `render` finishes it (denoised when the scene asks, by `devices`' denoiser).

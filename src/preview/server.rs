@@ -24,7 +24,7 @@ use hyper_util::rt::{TokioIo, TokioTimer};
 use tokio::sync::{Semaphore, mpsc};
 
 use super::board::Board;
-use crate::error::Error;
+use raytrace_core::error::Error;
 
 /// The page, with its script and style: no build step, nothing else to fetch.
 const PAGE: &str = include_str!("page.html");

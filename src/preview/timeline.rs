@@ -5,8 +5,8 @@
 
 use serde_json::json;
 
-use crate::scene::Scene;
-use crate::shutter::ReadoutDirection;
+use raytrace_core::scene::Scene;
+use raytrace_core::shutter::ReadoutDirection;
 
 /// Most frames the timeline lists: a longer selection shows its first this many (narrow it
 /// with `--frames`).
@@ -63,7 +63,7 @@ pub(crate) fn shot_json(
 
 #[cfg(test)]
 mod tests {
-    use crate::scene_file::SceneFile;
+    use raytrace_scene::scene_file::SceneFile;
     use std::path::Path;
 
     use super::*;

@@ -10,13 +10,13 @@
 use ::image::ImageEncoder;
 use ::image::codecs::png::PngEncoder;
 
-use crate::error::Error;
-use crate::io::linear_to_srgb8;
-use crate::output;
-use crate::pass::Pass;
-use crate::passes::{NO_DEPTH, PassImages};
-use crate::renderer::FrameResult;
-use crate::scene::Scene;
+use raytrace_core::error::Error;
+use raytrace_core::pass::Pass;
+use raytrace_core::passes::{NO_DEPTH, PassImages};
+use raytrace_core::renderer::FrameResult;
+use raytrace_core::scene::Scene;
+use raytrace_io::linear_to_srgb8;
+use raytrace_render::output;
 
 /// One view of a frame: its name (`colour` or a pass's) and its PNG.
 pub(crate) struct View {
@@ -132,7 +132,7 @@ fn range(values: impl Iterator<Item = f32>) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pass::PassSet;
+    use raytrace_core::pass::PassSet;
 
     #[test]
     fn depth_runs_from_white_near_to_dark_far_and_misses_are_black() {

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use notify::{EventKind, RecursiveMode, Watcher};
 
 use super::board::Board;
-use crate::error::Error;
+use raytrace_core::error::Error;
 
 /// The files watched and the watcher of their folders.
 pub(crate) struct Watch {

@@ -25,12 +25,12 @@ use super::render::render_frame;
 use super::timeline::{shot_json, view_names};
 use super::views::encode_views;
 use super::watch::Watch;
-use crate::devices::{Devices, supported};
-use crate::error::{Error, elide_path};
-use crate::point_cache;
-use crate::renderer::{FrameResult, ShotTracer};
-use crate::scene::Scene;
-use crate::scene_file::{Overrides, SceneSource};
+use raytrace_core::error::{Error, elide_path};
+use raytrace_core::renderer::{FrameResult, ShotTracer};
+use raytrace_core::scene::Scene;
+use raytrace_render::devices::{Devices, supported};
+use raytrace_scene::point_cache;
+use raytrace_scene::scene_file::{Overrides, SceneSource};
 
 /// The samples per pixel of a frame other than the chosen one, before it takes the scene's.
 pub(crate) const COARSE_SAMPLES: u32 = 4;

@@ -9,10 +9,10 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use raytrace::film::Film;
-use raytrace::renderer::{Budget, CpuShot, FrameJob};
-use raytrace::scene::Scene;
-use raytrace::scene_file::SceneFile;
+use raytrace_core::film::Film;
+use raytrace_core::renderer::{Budget, CpuShot, FrameJob};
+use raytrace_core::scene::Scene;
+use raytrace_scene::scene_file::SceneFile;
 
 /// Parses a scene from TOML text, panicking with the error message if it is invalid.
 pub fn scene(toml: &str) -> Scene {
@@ -36,9 +36,9 @@ pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
 /// The GPU (wgpu's adapter: Mesa's lavapipe where CI runs), opened once per test binary.
 /// `None` where there is none, and the GPU test returns, except under `CI=true`, where a
 /// missing adapter fails the test instead (`.ci/run` installs lavapipe).
-pub fn gpu() -> Option<&'static raytrace::gpu::Gpu> {
-    static GPU: std::sync::OnceLock<Option<raytrace::gpu::Gpu>> = std::sync::OnceLock::new();
-    GPU.get_or_init(|| match raytrace::gpu::Gpu::new() {
+pub fn gpu() -> Option<&'static raytrace_gpu::Gpu> {
+    static GPU: std::sync::OnceLock<Option<raytrace_gpu::Gpu>> = std::sync::OnceLock::new();
+    GPU.get_or_init(|| match raytrace_gpu::Gpu::new() {
         Ok(g) => Some(g),
         Err(e) => {
             assert!(
@@ -54,14 +54,14 @@ pub fn gpu() -> Option<&'static raytrace::gpu::Gpu> {
 
 /// Renders frame `frame` of `scene` (whatever its `[render] device`) on `gpu`.
 pub fn render_gpu_frame(
-    gpu: &raytrace::gpu::Gpu,
+    gpu: &raytrace_gpu::Gpu,
     scene: &Scene,
     frame: u32,
     budget: &Budget,
-) -> raytrace::renderer::FrameResult {
+) -> raytrace_core::renderer::FrameResult {
     let mut scene = scene.clone();
-    scene.render.device = raytrace::scene::Device::Gpu;
-    let shot = raytrace::gpu::GpuShot::new(gpu, &scene).unwrap();
+    scene.render.device = raytrace_core::scene::Device::Gpu;
+    let shot = raytrace_gpu::GpuShot::new(gpu, &scene).unwrap();
     FrameJob::new(&scene, frame)
         .budget(*budget)
         .sample(&shot)
@@ -69,7 +69,7 @@ pub fn render_gpu_frame(
 }
 
 /// Renders frame `frame` of `scene` on `gpu`, its film.
-pub fn render_gpu(gpu: &raytrace::gpu::Gpu, scene: &Scene, frame: u32) -> Film {
+pub fn render_gpu(gpu: &raytrace_gpu::Gpu, scene: &Scene, frame: u32) -> Film {
     render_gpu_frame(gpu, scene, frame, &Budget::default()).film
 }
 

@@ -3,8 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-/// The folder the build provided Intel Open Image Denoise in (build.rs).
-pub const BUILD_FOLDER: &str = env!("RAYTRACE_OIDN_BUILD_LIB");
+/// The folder the build provided Intel Open Image Denoise in (the denoise crate's build.rs).
+pub const BUILD_FOLDER: &str = match raytrace_denoise::library::BUILD_FOLDER {
+    Some(folder) => folder,
+    None => panic!("the build names the folder it provided the library in"),
+};
 
 /// Whether that folder is the project's own `.oidn/lib` (the library fetched for the build),
 /// rather than a system folder, where the system's loader finds it anyway.

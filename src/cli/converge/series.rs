@@ -4,7 +4,7 @@
 
 use crate::analysis::fit::log_log_slope;
 use crate::analysis::stats::{Figure, crossing, nondecreasing, value_at};
-use crate::sampler::SamplerKind;
+use raytrace_core::sampler::SamplerKind;
 
 /// The relative error levels whose times `converge` reports (0.05 = 5%).
 pub(crate) const LEVELS: [f64; 3] = [0.05, 0.02, 0.01];

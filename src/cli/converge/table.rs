@@ -285,7 +285,7 @@ mod tests {
     use super::super::series::tests::{kind, point, two_series};
     use super::super::series::{Finish, Report, level_times};
     use super::*;
-    use crate::sampler::SamplerKind;
+    use raytrace_core::sampler::SamplerKind;
 
     #[test]
     fn rows_print_dashes_for_what_is_not_a_number() {

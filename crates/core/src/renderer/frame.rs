@@ -1,0 +1,366 @@
+//! One frame: its world and camera prepared for the frame's interval, then rounds of samples
+//! over the film's tiles until the requested samples are taken or the budget stops it.
+
+use std::time::Instant;
+
+use super::adaptive::{RoundPlan, plan_adaptive};
+use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
+use super::stop::{RawStop, StopRule, relative_error};
+use super::tiles::FrameRequest;
+use super::tracers::ShotTracer;
+use glam::DVec3;
+
+use crate::error::Error;
+use crate::film::{Film, Pixel};
+use crate::pass::PassSet;
+use crate::passes::{PassImages, SumLayout};
+use crate::points::FramePoints;
+use crate::prepared::PreparedFrame;
+use crate::scene::DenoiseQuality;
+use crate::scene::Scene;
+use crate::shutter::Interval;
+
+/// Figures of one rendered frame.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    /// Seconds spent preparing the frame's world (motion bounds, hierarchy build).
+    pub prepare_seconds: f64,
+    /// Seconds spent tracing, and denoising the frame when it is denoised.
+    pub render_seconds: f64,
+    /// Seconds the tiles took, summed over all threads: with `render_seconds` and the thread
+    /// count, how busy the cores were. On the GPU: seconds the host waited for the device,
+    /// so that the frame's time less these is the host's work.
+    pub tile_seconds: f64,
+    /// Bytes read back from the device (on the GPU: its film once a round and each
+    /// dispatch's counts; 0 on the CPU).
+    pub readback_bytes: u64,
+    /// Rays intersected with the scene.
+    pub rays: u64,
+    /// Camera samples taken, over the whole frame.
+    pub samples: u64,
+    /// The most samples a pixel took.
+    pub samples_per_pixel: u32,
+    /// The fewest samples a pixel took: below [`samples_per_pixel`](Self::samples_per_pixel)
+    /// when adaptive sampling gave some pixels more than others.
+    pub min_samples_per_pixel: u32,
+    /// The samples a pixel took on average.
+    pub mean_samples_per_pixel: f64,
+    /// Rounds the samples were taken in (one without a budget).
+    pub rounds: u32,
+    /// Why sampling stopped.
+    pub stop: StopReason,
+    /// Samples that were not finite (a NaN or infinite component), counted as black.
+    pub non_finite: u64,
+    /// Spheres moving during the frame's shutter.
+    pub moving_spheres: usize,
+    /// The relative error estimated from the pixels' replicates
+    /// ([`relative_error`](super::relative_error)): the square root of the estimated relative
+    /// mean squared error. Infinite with fewer than two samples per pixel. Of the frame
+    /// written: when the frame is denoised, the raw and denoised frames blended, bias
+    /// included (`denoise::estimate`).
+    pub relative_error: f64,
+    /// The raw (noisy) frame's estimated relative error: [`relative_error`](Self::relative_error)
+    /// before denoising.
+    pub noisy_relative_error: f64,
+    /// Seconds spent denoising (every run of the denoiser, estimates included), within
+    /// [`render_seconds`](Self::render_seconds) when the stop rule denoised.
+    pub denoise_seconds: f64,
+    /// Times the frame was denoised: at most two under a noise threshold, one otherwise.
+    pub denoises: u32,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    /// The frame number.
+    pub frame: u32,
+    /// The frame's interval: its whole exposure (see [`crate::shutter::Shot::interval`]), which the frame's
+    /// file records as its shutter's opening and closing.
+    pub interval: Interval,
+    /// The pixels' sums (their means, sample counts and estimated errors), and the sums of
+    /// the scene's `[output] passes`, if it asks for any.
+    pub film: Film,
+    /// Where the film keeps which pass sums.
+    pub layout: SumLayout,
+    /// The frame as finished for writing when the scene asks for denoising: the raw and
+    /// denoised frames blended ([`Finishing`](super::Finishing)); `None` for a raw frame.
+    pub denoised: Option<Denoised>,
+    pub stats: FrameStats,
+}
+
+impl FrameResult {
+    /// The images of the frame's passes, made from the film's sums, if it has any.
+    pub fn pass_images(&self) -> Option<PassImages> {
+        (!self.layout.passes().is_empty()).then(|| PassImages::from_film(&self.layout, &self.film))
+    }
+}
+
+/// A finished frame's written colour when the scene asks for denoising.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Denoised {
+    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
+    /// row-major, every value finite).
+    pub rgb: Vec<f32>,
+    /// Its estimated relative error, bias included.
+    pub relative_error: f64,
+    /// The mean weight of the denoised frame in the written one, in [0, 1].
+    pub denoised_share: f64,
+    /// With `--temporal`: the mean weight of the earlier frames in the written one, in
+    /// [0, 1].
+    pub history_share: Option<f64>,
+    /// The filter's quality.
+    pub quality: DenoiseQuality,
+}
+
+impl Denoised {
+    /// The written colour as linear radiance, a pixel each (row-major).
+    pub fn image(&self) -> Vec<DVec3> {
+        self.rgb
+            .chunks_exact(3)
+            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+            .collect()
+    }
+}
+
+/// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
+/// `[render]` samples, depth, seed and sampler), built up and then sampled
+/// ([`FrameJob::sample`]).
+///
+/// Without a budget, every pixel takes exactly the scene's samples, in one round. Under a
+/// budget, every pixel first takes the same samples, in rounds that double them
+/// ([`next_round`]), up to [`MIN_SAMPLES_FOR_THRESHOLD`]; then rounds are adaptive: each pixel
+/// doubles its samples or stops by its weight ([`StopRule::weights`]), until the stop rule
+/// finds the frame within the noise threshold, the time runs out or no pixel may take more.
+///
+/// Sample `i` of a pixel is the same whichever round takes it, and each pixel's mean is the
+/// plain sum of its samples over their count: a pixel that stopped at N samples is
+/// bit-identical to the same pixel rendered with exactly N samples.
+///
+/// The frame comes out raw: finishing it (denoising, history) is [`Finishing`](super::Finishing)'s.
+/// The scene's point caches are not read here (reading files is not the frame's business):
+/// the frame's points are given ([`FrameJob::points`]).
+pub struct FrameJob<'a> {
+    scene: &'a Scene,
+    frame: u32,
+    points: &'a FramePoints,
+    budget: Budget,
+    progress: &'a (dyn Fn(u64) + Sync),
+    read: PassSet,
+}
+
+/// The points of a frame without point caches.
+static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
+
+impl<'a> FrameJob<'a> {
+    /// Frame `frame` of `scene`: no points, no budget, no progress, the raw stop rule.
+    pub fn new(scene: &'a Scene, frame: u32) -> FrameJob<'a> {
+        FrameJob {
+            scene,
+            frame,
+            points: &NO_POINTS,
+            budget: Budget::default(),
+            progress: &|_| {},
+            read: PassSet::EMPTY,
+        }
+    }
+
+    /// Also samples `read`, the passes the frame's finishing reads without writing them
+    /// ([`Finishing::passes_read`](super::Finishing::passes_read)).
+    pub fn reading(self, read: PassSet) -> FrameJob<'a> {
+        FrameJob { read, ..self }
+    }
+
+    /// The frame's points of the scene's point caches (as `point_cache::read_frame` reads
+    /// them), among its spheres.
+    pub fn points(self, points: &'a FramePoints) -> FrameJob<'a> {
+        FrameJob { points, ..self }
+    }
+
+    /// Samples in rounds until `budget` stops them, instead of exactly the scene's samples.
+    pub fn budget(self, budget: Budget) -> FrameJob<'a> {
+        FrameJob { budget, ..self }
+    }
+
+    /// Called with the number of samples of each finished tile (or GPU batch), from worker
+    /// threads.
+    pub fn progress(self, progress: &'a (dyn Fn(u64) + Sync)) -> FrameJob<'a> {
+        FrameJob { progress, ..self }
+    }
+
+    /// Samples the frame on `tracer`'s device, judged under a noise threshold by the raw
+    /// film's own estimate ([`RawStop`]): see [`sample_with`](Self::sample_with).
+    pub fn sample(self, tracer: &dyn ShotTracer) -> Result<FrameResult, Error> {
+        self.sample_with(tracer, &mut RawStop)
+    }
+
+    /// Samples the frame on `tracer`'s device, judged under a noise threshold by `stop` (the
+    /// frame that will be written: `Finishing::stop_rule`): the same rounds, budgets and
+    /// film whichever device traces the samples. A device that fails mid-frame (lost, out of
+    /// memory), or a denoiser that fails while the stop rule judges the frame, is an
+    /// [`Error::Frame`] naming the frame, and nothing of the frame is kept. Runs on the
+    /// current rayon pool.
+    pub fn sample_with(
+        self,
+        tracer: &dyn ShotTracer,
+        stop: &mut dyn StopRule,
+    ) -> Result<FrameResult, Error> {
+        let frame = self.frame;
+        sample(self, tracer, stop).map_err(|e| e.in_frame(frame))
+    }
+}
+
+fn sample(
+    job: FrameJob<'_>,
+    tracer: &dyn ShotTracer,
+    stop: &mut dyn StopRule,
+) -> Result<FrameResult, Error> {
+    let FrameJob {
+        scene,
+        frame,
+        points,
+        budget,
+        progress,
+        read,
+    } = job;
+    let budget = &budget;
+    let frame_start = Instant::now();
+    let req = &FrameRequest::from_scene(scene);
+    let layout = SumLayout::keeping(scene.output.passes, read);
+    // One prepared frame, whichever device traces it.
+    let prepared = PreparedFrame::new(scene, tracer.statics(), points, frame);
+    let interval = prepared.interval();
+    let mut rounds = tracer.frame(prepared, points, &layout)?;
+    let prepare_seconds = frame_start.elapsed().as_secs_f64();
+
+    let render_start = Instant::now();
+    let mut film = Film::with_pass_sums(req.width, req.height, layout.stride);
+    let pixels = req.width as f64 * req.height as f64;
+
+    let mut stats = FrameStats {
+        prepare_seconds,
+        moving_spheres: rounds.moving_spheres(),
+        ..FrameStats::default()
+    };
+
+    stop.begin();
+    // Samples every pixel has taken in the uniform rounds.
+    let mut done = 0u32;
+    // Seconds a round took per sample of every pixel, and per sample of one pixel.
+    let mut seconds_per_sample = None;
+    let mut seconds_per_pixel_sample = f64::INFINITY;
+    let warm_up = MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX));
+    loop {
+        let weights = stop.weights();
+        let plan = if !budget.is_set() {
+            if done >= req.samples {
+                break;
+            }
+            RoundPlan::Uniform(req.samples)
+        } else if done < warm_up {
+            match next_round(
+                budget,
+                done,
+                frame_start.elapsed().as_secs_f64(),
+                seconds_per_sample,
+            ) {
+                Ok(size) => RoundPlan::Uniform(done + size),
+                Err(reason) => {
+                    stats.stop = reason;
+                    break;
+                }
+            }
+        } else {
+            match plan_adaptive(
+                &film,
+                &weights,
+                budget,
+                frame_start.elapsed().as_secs_f64(),
+                seconds_per_pixel_sample,
+            ) {
+                Ok(a) => RoundPlan::Adaptive(a, weights),
+                Err(reason) => {
+                    stats.stop = reason;
+                    break;
+                }
+            }
+        };
+        let round_start = Instant::now();
+        let counts = rounds.round(&mut film, &plan, progress)?;
+        let seconds = round_start.elapsed().as_secs_f64();
+        if let RoundPlan::Uniform(n) = plan {
+            seconds_per_sample = Some(seconds / (n - done) as f64);
+            done = n;
+        }
+        if counts.samples > 0 {
+            seconds_per_pixel_sample = seconds / counts.samples as f64;
+        }
+        stats.rays += counts.rays;
+        stats.samples += counts.samples;
+        stats.non_finite += counts.non_finite;
+        stats.tile_seconds += counts.busy_seconds;
+        stats.rounds += 1;
+        if let Some(threshold) = budget.noise_threshold
+            && done >= warm_up
+            && stop.reached(&film, threshold)?
+        {
+            stats.stop = StopReason::NoiseThreshold;
+            break;
+        }
+    }
+
+    stats.noisy_relative_error = relative_error(&film);
+    stats.relative_error = stats.noisy_relative_error;
+    let taken = film.all_pixels().iter().map(Pixel::taken);
+    stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
+    stats.min_samples_per_pixel = taken.min().unwrap_or(0);
+    stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
+    stats.readback_bytes = rounds.readback_bytes();
+    stats.render_seconds = render_start.elapsed().as_secs_f64();
+    Ok(FrameResult {
+        frame,
+        interval,
+        film,
+        layout,
+        denoised: None,
+        stats,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_degenerate_camera_counts_every_sample_as_black() {
+        use crate::material::Material;
+        use crate::motion::Motion;
+        use crate::sphere::SphereDesc;
+        let sphere = SphereDesc {
+            motion: Motion::Velocity {
+                origin: DVec3::ZERO,
+                velocity: DVec3::X,
+            },
+            radius: 1.0,
+            material: 0,
+        };
+        let grey = Material::Lambertian {
+            albedo: DVec3::splat(0.5),
+        };
+        let mut scene = crate::testing::scene(vec![sphere], vec![grey]);
+        (
+            scene.output.width,
+            scene.output.height,
+            scene.render.samples,
+        ) = (8, 4, 3);
+        // Looking at where it stands: every camera ray's direction is NaN.
+        scene.camera.look_from = Motion::Still(DVec3::new(0.0, 0.0, 5.0));
+        scene.camera.look_at = scene.camera.look_from.clone();
+        let frame = scene.shot.first_frame;
+        let result = FrameJob::new(&scene, frame)
+            .sample(&super::super::tracers::CpuShot::new(&scene))
+            .unwrap();
+        assert_eq!(result.stats.non_finite, 8 * 4 * 3);
+        assert_eq!(result.stats.rays, 0);
+        assert!(result.film.means().iter().all(|p| *p == glam::DVec3::ZERO));
+    }
+}

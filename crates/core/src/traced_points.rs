@@ -1,0 +1,452 @@
+//! One frame's points as the tracer reads them: a compact record per point (its `f32`
+//! position at its set's time, velocity and radius, and its number: 32 bytes), made straight
+//! from the columns of [`FramePoints`] and reordered in place into the leaf order of their
+//! own hierarchy ([`Topology::build_in_place`]). No object per point, no copy of the records
+//! and no array of boxes: the build reads each record's box as it goes, and the hierarchy's
+//! boxes are refitted from the records, in leaf order.
+//!
+//! A record at `dt` seconds after the shutter's opening is the sphere centred at
+//! `(P + v lead) + v dt` (`lead`: from its set's time to the opening), computed in `f64`
+//! from the `f32` values: exactly the centre [`PointSet::prepare`] gives it, and a
+//! `[[sphere]]` with the same centre and velocity gets. Sets are grouped by their time, one
+//! hierarchy a group (a frame's sets usually share one time, so one hierarchy in all).
+//!
+//! [`PointSet::prepare`]: crate::points::PointSet::prepare
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::aabb::Aabb;
+use crate::bvh::{Boxes, BuildBox, BvhView, PACKET, PacketRay, Topology, TraversalStack};
+use crate::points::FramePoints;
+use crate::ray::Ray;
+use crate::shutter::Interval;
+use crate::sphere::{intersect, pad_for_interpolation};
+
+/// A point as the tracer reads it. Thirty-two bytes, aligned, so a record never straddles a
+/// cache line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(align(32))]
+struct Record {
+    /// Its position at its set's time.
+    p: Vec3,
+    radius: f32,
+    /// Its velocity; zero for a point that does not move.
+    v: Vec3,
+    /// Its number as a sphere of the frame (the scene's spheres first).
+    id: u32,
+}
+
+/// The cost of visiting a node relative to testing one point, for the points' hierarchy: 4,
+/// so leaves hold up to four points. Measured on a frame of 1e7 points (docs/performance.md):
+/// against 0.5 (spheres' choice, one point a leaf almost everywhere), a third of the nodes
+/// (0.7 GB less at the peak), a build a quarter faster, and the same render time: a ray
+/// tests more points, which lie together, and fewer nodes, which do not.
+const NODE_COST: f64 = 4.0;
+
+/// Bytes per point of the tracer's records.
+pub(crate) const RECORD_BYTES: usize = std::mem::size_of::<Record>();
+
+/// Nodes of the points' hierarchy per point, about: 0.103 measured on the fountain's frame
+/// of 1.009e7 moving points (1,043,244 nodes; leaves of up to four points, eight children a
+/// node), taken as 0.11. A closer or looser cloud of points changes it a little.
+const NODES_PER_POINT: f64 = 0.11;
+
+/// Bytes per point a frame's [`TracedPoints`] hold at their peak, about: the record, and its
+/// share of the hierarchy's moving nodes (their links and boxes). The build itself
+/// holds nothing per point but the links it pushes (reordering the records in place).
+pub const BYTES_PER_POINT: u64 =
+    (RECORD_BYTES as f64 + NODES_PER_POINT * crate::bvh::MOVING_NODE_BYTES as f64) as u64;
+
+/// The points of the sets that share one time, with their hierarchy.
+#[derive(Debug)]
+struct Group {
+    /// From the sets' time to the shutter's opening, seconds.
+    lead: f64,
+    /// In the hierarchy's leaf order.
+    records: Vec<Record>,
+    topology: Topology,
+    boxes: Boxes,
+}
+
+impl Group {
+    /// The centre of `q` at `dt` seconds after the shutter opened.
+    #[inline(always)]
+    fn center(&self, q: &Record, dt: f64) -> DVec3 {
+        let v = q.v.as_dvec3();
+        (q.p.as_dvec3() + v * self.lead) + v * dt
+    }
+
+    fn view(&self) -> BvhView<'_> {
+        BvhView::new(&self.topology, &self.boxes)
+    }
+}
+
+/// What a ray hits of the points: the distance, the sphere's centre at the ray's time, its
+/// radius and its number.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PointHit {
+    pub t: f64,
+    pub center: DVec3,
+    pub radius: f64,
+    pub id: u32,
+}
+
+/// One frame's points, prepared for its interval, with their hierarchies.
+#[derive(Debug, Default)]
+pub(crate) struct TracedPoints {
+    groups: Vec<Group>,
+    /// Points that move during the interval.
+    pub moving: usize,
+}
+
+impl TracedPoints {
+    /// The points of `points` prepared for `interval` (in parallel on the current rayon
+    /// pool), point `k` (numbered over every set) numbered `first_id + k`. The same records
+    /// and hierarchies on any number of threads.
+    pub(crate) fn prepare(points: &FramePoints, first_id: u32, interval: Interval) -> TracedPoints {
+        let duration = interval.close - interval.open;
+        let still = interval.is_instant();
+        // The sets' first numbers, and their distinct times in the order met.
+        let mut firsts = Vec::with_capacity(points.sets.len());
+        let mut times: Vec<f64> = Vec::new();
+        let mut n = 0;
+        for s in &points.sets {
+            firsts.push(first_id + n);
+            n += s.len() as u32;
+            if !times.iter().any(|t| t.to_bits() == s.time.to_bits()) {
+                times.push(s.time);
+            }
+        }
+        let mut out = TracedPoints::default();
+        for time in times {
+            let lead = interval.open - time;
+            let members: Vec<usize> = (0..points.sets.len())
+                .filter(|&k| points.sets[k].time.to_bits() == time.to_bits())
+                .collect();
+            let count: usize = members.iter().map(|&k| points.sets[k].len()).sum();
+            let mut records = Vec::with_capacity(count);
+            for &k in &members {
+                let s = &points.sets[k];
+                let first = firsts[k];
+                records.par_extend((0..s.len()).into_par_iter().map(|i| Record {
+                    p: s.centers[i],
+                    radius: s.radii.get(i).copied().unwrap_or(s.radius),
+                    v: s.velocities.get(i).copied().unwrap_or(Vec3::ZERO),
+                    id: first + i as u32,
+                }));
+            }
+            if records.is_empty() {
+                continue;
+            }
+            let moving = if still {
+                0
+            } else {
+                records.par_iter().filter(|q| q.v != Vec3::ZERO).count()
+            };
+            out.moving += moving;
+            // The build's boxes, in `f32` (they only steer its splits).
+            let (lead32, duration32) = (lead as f32, duration as f32);
+            let bounds = |q: &Record| {
+                let start = q.p + q.v * lead32;
+                BuildBox {
+                    lo: start - q.radius,
+                    hi: start + q.radius,
+                    shift: q.v * duration32,
+                }
+            };
+            let topology = Topology::build_in_place(&mut records, bounds, NODE_COST);
+            let mut group = Group {
+                lead,
+                records,
+                topology,
+                boxes: Boxes::default(),
+            };
+            group.boxes = if moving == 0 {
+                group.topology.refit_still_with(&|pos| {
+                    let q = &group.records[pos as usize];
+                    Aabb::point(group.center(q, 0.0))
+                        .grow(q.radius.into())
+                        .pad_for_rounding()
+                })
+            } else {
+                // As `PreparedPoint::shutter_boxes`: the sphere at the opening and at the
+                // closing, padded for the interpolation's rounding.
+                group.topology.refit_moving_with(&|pos| {
+                    let q = &group.records[pos as usize];
+                    let r = f64::from(q.radius);
+                    let start = group.center(q, 0.0);
+                    let open = Aabb::point(start).grow(r);
+                    let close = Aabb::point(start + q.v.as_dvec3() * duration).grow(r);
+                    pad_for_interpolation(open, close)
+                })
+            };
+            out.groups.push(group);
+        }
+        out
+    }
+
+    /// Whether there are no points.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.groups.is_empty()
+    }
+
+    /// The nearest point `ray` hits before `t_max`, other than the sphere numbered `skip`;
+    /// `dt` is the ray's time after the shutter's opening and `s` that as a fraction of the
+    /// shutter.
+    #[inline]
+    pub(crate) fn closest(
+        &self,
+        ray: &Ray,
+        dt: f64,
+        s: f64,
+        skip: u32,
+        mut t_max: f64,
+        stack: &mut TraversalStack,
+    ) -> Option<PointHit> {
+        let mut best = None;
+        for g in &self.groups {
+            let found = g.view().closest_hit(
+                ray.origin,
+                ray.dir,
+                s,
+                t_max,
+                stack,
+                #[inline(always)]
+                |pos, t_max| {
+                    let q = &g.records[pos as usize];
+                    if q.id == skip {
+                        return None;
+                    }
+                    intersect(g.center(q, dt), q.radius.into(), ray, t_max)
+                },
+            );
+            if let Some((t, pos)) = found {
+                t_max = t;
+                best = Some(g.hit(t, pos, dt));
+            }
+        }
+        best
+    }
+
+    /// [`TracedPoints::closest`] for a packet of rays that skip nothing (camera rays), each
+    /// ray `r` at `dt[r]` seconds after the opening, shutter fraction `rays[r].s`, up to
+    /// `t_max[r]`: the same hits, traced together.
+    #[inline]
+    pub(crate) fn closest_packet(
+        &self,
+        rays: &[Ray],
+        lanes: &[PacketRay],
+        dt: &[f64; PACKET],
+        mut t_max: [f64; PACKET],
+        stack: &mut TraversalStack,
+    ) -> [Option<PointHit>; PACKET] {
+        let mut best = [None; PACKET];
+        for g in &self.groups {
+            let found = g.view().closest_hits(
+                lanes,
+                t_max,
+                stack,
+                #[inline(always)]
+                |r, pos, t_max| {
+                    let q = &g.records[pos as usize];
+                    intersect(g.center(q, dt[r]), q.radius.into(), &rays[r], t_max)
+                },
+            );
+            for r in 0..rays.len() {
+                if let Some((t, pos)) = found[r] {
+                    t_max[r] = t;
+                    best[r] = Some(g.hit(t, pos, dt[r]));
+                }
+            }
+        }
+        best
+    }
+}
+
+impl Group {
+    /// The hit at `t` on the record at `pos`, for a ray at `dt`.
+    #[inline(always)]
+    fn hit(&self, t: f64, pos: u32, dt: f64) -> PointHit {
+        let q = &self.records[pos as usize];
+        PointHit {
+            t,
+            center: self.center(q, dt),
+            radius: q.radius.into(),
+            id: q.id,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::points::PointSet;
+    use crate::rng::Pcg32;
+
+    /// Three sets: two at one time (one moving, one still with colours and one radius for
+    /// all), one at another time, moving; `n` points each.
+    fn frame_points(n: usize, seed: u64) -> FramePoints {
+        let mut r = Pcg32::new(seed, 3);
+        let mut u = || (r.next_f64() * 2.0 - 1.0) as f32;
+        let mut set = |time: f64, moving: bool, radii: bool| PointSet {
+            material: 0,
+            time,
+            centers: (0..n).map(|_| Vec3::new(u(), u(), u()) * 10.0).collect(),
+            velocities: if moving {
+                (0..n).map(|_| Vec3::new(u(), u(), u()) * 40.0).collect()
+            } else {
+                Vec::new()
+            },
+            radii: if radii {
+                (0..n).map(|_| 0.05 + 0.2 * u().abs()).collect()
+            } else {
+                Vec::new()
+            },
+            radius: 0.15,
+            colors: Vec::new(),
+        };
+        FramePoints {
+            sets: vec![
+                set(0.0, true, true),
+                set(0.0, false, false),
+                set(0.25, true, true),
+            ],
+        }
+    }
+
+    /// The nearest point along `ray` by testing every one where [`PointSet::prepare`]
+    /// places it: its distance and number.
+    fn brute(
+        points: &FramePoints,
+        first: u32,
+        interval: Interval,
+        ray: &Ray,
+    ) -> Option<(f64, u32)> {
+        let dt = ray.time - interval.open;
+        let mut best: Option<(f64, u32)> = None;
+        let mut k = first;
+        for s in &points.sets {
+            for i in 0..s.len() {
+                let q = s.prepare(i, interval);
+                let t_max = best.map_or(f64::INFINITY, |b| b.0);
+                if let Some(t) = intersect(q.start + q.velocity * dt, q.radius, ray, t_max) {
+                    best = Some((t, k));
+                }
+                k += 1;
+            }
+        }
+        best
+    }
+
+    fn random_ray(r: &mut Pcg32, interval: Interval) -> Ray {
+        let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5;
+        let origin = v() * 30.0;
+        let target = v() * 12.0;
+        Ray {
+            origin,
+            dir: (target - origin).normalize(),
+            time: interval.at(r.next_f64()),
+        }
+    }
+
+    /// Every ray finds, alone and in packets, the point testing every point finds, at the
+    /// same distance bit for bit (the same centres, computed the same way), over moving and
+    /// still intervals.
+    #[test]
+    fn finds_what_testing_every_point_finds() {
+        let points = frame_points(3000, 5);
+        let mut r = Pcg32::new(1, 1);
+        for interval in [
+            Interval {
+                open: 0.1,
+                close: 0.12,
+            },
+            Interval::instant(0.3),
+        ] {
+            let traced = TracedPoints::prepare(&points, 7, interval);
+            assert_eq!(traced.groups.len(), 2);
+            let all_moving = 2 * 3000;
+            assert_eq!(
+                traced.moving,
+                if interval.is_instant() { 0 } else { all_moving }
+            );
+            let mut stack = TraversalStack::default();
+            let duration = interval.close - interval.open;
+            let mut hits = 0;
+            for _ in 0..300 {
+                let rays: Vec<Ray> = (0..PACKET).map(|_| random_ray(&mut r, interval)).collect();
+                let mut lanes = [PacketRay {
+                    origin: DVec3::ZERO,
+                    dir: DVec3::ZERO,
+                    s: 0.0,
+                }; PACKET];
+                let mut dt = [0.0; PACKET];
+                for (k, ray) in rays.iter().enumerate() {
+                    dt[k] = ray.time - interval.open;
+                    let s = if duration > 0.0 {
+                        dt[k] / duration
+                    } else {
+                        0.0
+                    };
+                    lanes[k] = PacketRay {
+                        origin: ray.origin,
+                        dir: ray.dir,
+                        s,
+                    };
+                }
+                let packet =
+                    traced.closest_packet(&rays, &lanes, &dt, [f64::INFINITY; PACKET], &mut stack);
+                for (k, ray) in rays.iter().enumerate() {
+                    let want = brute(&points, 7, interval, ray);
+                    let alone = traced
+                        .closest(ray, dt[k], lanes[k].s, u32::MAX, f64::INFINITY, &mut stack)
+                        .map(|h| (h.t, h.id));
+                    assert_eq!(alone, want, "{ray:?}");
+                    assert_eq!(packet[k].map(|h| (h.t, h.id)), want, "{ray:?}");
+                    hits += usize::from(want.is_some());
+                    // Skipping the point hit finds the next one, as testing every other does.
+                    if let Some((_, id)) = want {
+                        let next =
+                            traced.closest(ray, dt[k], lanes[k].s, id, f64::INFINITY, &mut stack);
+                        let mut others = points.clone();
+                        let (mut set, mut i) = (0, (id - 7) as usize);
+                        while i >= others.sets[set].len() {
+                            i -= others.sets[set].len();
+                            set += 1;
+                        }
+                        // Moved out of every ray's way, far behind the rays' origins.
+                        others.sets[set].centers[i] = Vec3::splat(1e6);
+                        let want_next = brute(&others, 7, interval, ray);
+                        assert_eq!(next.map(|h| (h.t, h.id)), want_next, "{ray:?}");
+                    }
+                }
+            }
+            assert!(hits > 300, "{hits}");
+        }
+    }
+
+    /// The same records and hierarchies on one thread and on three.
+    #[test]
+    fn prepared_alike_on_any_number_of_threads() {
+        let points = frame_points(40_000, 8);
+        let interval = Interval {
+            open: 0.0,
+            close: 0.02,
+        };
+        let prepare = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| TracedPoints::prepare(&points, 0, interval))
+        };
+        let (a, b) = (prepare(1), prepare(3));
+        for (g, h) in a.groups.iter().zip(&b.groups) {
+            assert_eq!(g.records, h.records);
+            assert_eq!(g.topology, h.topology);
+            assert_eq!(g.boxes, h.boxes);
+        }
+        assert_eq!(a.groups.len(), b.groups.len());
+    }
+}

@@ -1,0 +1,290 @@
+//! The path tracer: the books' `ray_color`, as a loop.
+//!
+//! Every bounce takes the same numbers from the sampler, its [`BounceSample`] (pbrt-v4's
+//! `uc` and `u`), drawn here and handed to the material, which uses those it needs. So the
+//! numbers of bounce k depend only on the sample and k, not on the materials of the bounces
+//! before it.
+
+use glam::DVec3;
+
+use crate::bvh::{PACKET, TraversalStack};
+use crate::hit::Hit;
+use crate::material::Scatter;
+use crate::ray::{Ray, offset_origin};
+use crate::sampler::{BounceSample, Sampler};
+use crate::world::World;
+
+/// Per-thread state of the tracer: counters, and scratch space reused from ray to ray.
+#[derive(Clone, Debug, Default)]
+pub struct TraceStats {
+    /// Rays intersected with the scene.
+    pub rays: u64,
+    /// The hierarchy traversal's stack.
+    pub stack: TraversalStack,
+}
+
+/// The radiance arriving along `ray`, following at most `max_depth` bounces; a path that
+/// reaches `max_depth` returns black. The scattered rays keep the camera ray's time.
+///
+/// `sampler` is positioned at the ray's sample: each hit takes the sample's next bounce
+/// ([`Sampler::next_bounce`]), so the k-th hit of the path gets bounce k's numbers.
+///
+/// A ray whose origin, direction or time is NaN or infinite (a degenerate camera view, say)
+/// is not traced: its radiance is NaN, which the pixel's accumulator drops and counts.
+#[inline]
+pub fn radiance<S: Sampler>(
+    world: &World,
+    ray: Ray,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+) -> DVec3 {
+    // With nothing to report and an opaque background, the loop compiles to the plain
+    // tracer: the closure and the transparency test are constants once inlined.
+    trace(world, ray, None, max_depth, sampler, stats, false, |_| {})
+}
+
+/// [`radiance`] of the camera rays of samples `first..first + rays.len()` of pixel (`x`,
+/// `y`), at most [`PACKET`]: their first intersections are found together, in one traversal
+/// ([`World::hit_packet`]: coherent rays share its order, stack and branches), then each path
+/// goes on alone, its sampler positioned at its sample. The same values, bit for bit, as
+/// [`radiance`] of each ray in turn.
+#[inline]
+pub(crate) fn radiance_packet<S: Sampler>(
+    world: &World,
+    rays: &[Ray],
+    at: (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+) -> [DVec3; PACKET] {
+    camera_radiance_packet(world, rays, at, max_depth, sampler, stats, false, |_, _| {})
+}
+
+/// [`radiance_packet`] handing each camera ray's first intersection to `first` (with the
+/// ray's index in `rays`), as [`camera_radiance`] does for one ray; with `transparent`, a
+/// camera ray that misses every sphere returns black. The same values, bit for bit, as
+/// [`camera_radiance`] of each ray in turn.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn camera_radiance_packet<S: Sampler, F: FnMut(usize, Option<&Hit>)>(
+    world: &World,
+    rays: &[Ray],
+    (x, y, first_sample): (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    mut first: F,
+) -> [DVec3; PACKET] {
+    let hits = world.hit_packet(rays, &mut stats.stack);
+    let mut out = [DVec3::ZERO; PACKET];
+    for (k, (ray, hit)) in rays.iter().zip(hits).enumerate() {
+        sampler.start_sample(x, y, first_sample + k as u32);
+        out[k] = trace(
+            world,
+            *ray,
+            Some(hit),
+            max_depth,
+            sampler,
+            stats,
+            transparent,
+            |h| first(k, h),
+        );
+    }
+    out
+}
+
+/// The loop of [`radiance`], [`camera_radiance`] and their packets; `camera_hit`, if
+/// given, is the ray's first intersection, found already.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
+    world: &World,
+    mut ray: Ray,
+    mut camera_hit: Option<Option<Hit>>,
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+    transparent: bool,
+    first: F,
+) -> DVec3 {
+    if !(ray.origin.is_finite() && ray.dir.is_finite() && ray.time.is_finite()) {
+        return DVec3::NAN;
+    }
+    let mut first = Some(first);
+    let mut throughput = DVec3::ONE;
+    // The sphere the ray just left through its outside, which it cannot hit again.
+    let mut skip = u32::MAX;
+    for _ in 0..max_depth {
+        stats.rays += 1;
+        let found = match camera_hit.take() {
+            Some(found) => found,
+            None => world.hit(&ray, skip, &mut stats.stack),
+        };
+        let camera_ray = match first.take() {
+            Some(f) => {
+                f(found.as_ref());
+                true
+            }
+            None => false,
+        };
+        let Some(hit) = found else {
+            if transparent && camera_ray {
+                return DVec3::ZERO;
+            }
+            return throughput * world.background.radiance(ray.dir);
+        };
+        let sample: BounceSample = sampler.next_bounce();
+        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
+            Scatter::Absorbed => return DVec3::ZERO,
+            Scatter::Continue {
+                dir,
+                attenuation,
+                leaves_outside,
+            } => {
+                throughput *= attenuation;
+                skip = if leaves_outside { hit.sphere } else { u32::MAX };
+                ray = scattered(&hit, dir, ray.time);
+            }
+        }
+    }
+    DVec3::ZERO
+}
+
+/// The ray scattered from `hit` in direction `dir`, offset off the surface.
+#[inline]
+fn scattered(hit: &Hit, dir: DVec3, time: f64) -> Ray {
+    Ray {
+        origin: offset_origin(hit.surface.p, hit.surface.p_error, hit.surface.normal, dir),
+        dir,
+        time,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use crate::sampler::{CameraSample, CameraUse, IndependentSampler, SobolSampler};
+    use crate::scene::Scene;
+    use crate::world::StaticGeometry;
+
+    /// A sampler that records the bounce numbers it hands out.
+    struct Recording<S> {
+        inner: S,
+        bounces: Vec<BounceSample>,
+    }
+
+    impl<S: Sampler> Sampler for Recording<S> {
+        fn start_sample(&mut self, x: u32, y: u32, index: u32) {
+            self.inner.start_sample(x, y, index);
+            self.bounces.clear();
+        }
+        fn camera(&mut self, uses: CameraUse) -> CameraSample {
+            self.inner.camera(uses)
+        }
+        fn next_bounce(&mut self) -> BounceSample {
+            let b = self.inner.next_bounce();
+            self.bounces.push(b);
+            b
+        }
+    }
+
+    /// A closed room (the inside of a large diffuse sphere) with a sharp mirror, a fuzzy
+    /// metal and a glass sphere in it: no path escapes, so each ray traced hits something.
+    fn room() -> Scene {
+        use crate::material::{Background, Material};
+        use crate::testing::still;
+        let grey = glam::DVec3::splat(0.5);
+        let silver = glam::DVec3::splat(0.9);
+        let mut scene = crate::testing::scene(
+            vec![
+                still([0.0, 0.0, 0.0], 10.0, 0),
+                still([2.0, 0.0, 0.0], 1.5, 1),
+                still([-2.0, 0.0, 0.0], 1.5, 2),
+                still([0.0, 2.5, 0.0], 1.0, 3),
+            ],
+            vec![
+                Material::Lambertian { albedo: grey },
+                Material::Metal {
+                    albedo: silver,
+                    fuzz: 0.0,
+                },
+                Material::Dielectric { ior: 1.5 },
+                Material::Metal {
+                    albedo: silver,
+                    fuzz: 0.8,
+                },
+            ],
+        );
+        scene.shot.shutter = 0.0;
+        scene.background = Background::Uniform(glam::DVec3::ONE);
+        scene
+    }
+
+    fn bounce_numbers_follow_the_hits(sampler: impl Sampler) {
+        let scene = room();
+        let statics = StaticGeometry::new(&scene);
+        let world = World::prepare(&scene, &statics, scene.shot.interval(1));
+        let mut sampler = Recording {
+            inner: sampler,
+            bounces: vec![],
+        };
+        let mut r = Pcg32::new(1, 2);
+        let mut stats = TraceStats::default();
+        let mut longest = 0;
+        for i in 0..2000 {
+            let dir = crate::material::unit_vector((r.next_f64(), r.next_f64()));
+            let ray = Ray {
+                origin: DVec3::new(0.0, 0.0, 4.0),
+                dir,
+                time: 0.0,
+            };
+            sampler.start_sample(0, 0, i);
+            let rays = stats.rays;
+            radiance(&world, ray, 12, &mut sampler, &mut stats);
+            // One bounce's numbers per hit, whatever the material (a sharp mirror uses none,
+            // glass one, a fuzzy metal three)...
+            assert_eq!(sampler.bounces.len() as u64, stats.rays - rays);
+            longest = longest.max(sampler.bounces.len());
+            // ...and bounce k's numbers are the sample's bounce k, whatever came before.
+            sampler.inner.start_sample(0, 0, i);
+            for b in &sampler.bounces {
+                assert_eq!(sampler.inner.next_bounce(), *b);
+            }
+        }
+        assert_eq!(longest, 12);
+    }
+
+    #[test]
+    fn non_finite_rays_give_nan_and_find_nothing() {
+        let scene = room();
+        let statics = StaticGeometry::new(&scene);
+        let world = World::prepare(&scene, &statics, scene.shot.interval(1));
+        let mut stats = TraceStats::default();
+        let (nan, inf) = (f64::NAN, f64::INFINITY);
+        for (origin, dir, time) in [
+            (DVec3::splat(nan), DVec3::Z, 0.0),
+            (DVec3::ZERO, DVec3::splat(nan), 0.0),
+            (DVec3::new(inf, 0.0, 0.0), DVec3::Z, 0.0),
+            (DVec3::ZERO, DVec3::new(0.0, -inf, 0.0), 0.0),
+            (DVec3::ZERO, DVec3::Z, nan),
+        ] {
+            let ray = Ray { origin, dir, time };
+            if time.is_finite() {
+                assert!(world.hit(&ray, u32::MAX, &mut stats.stack).is_none());
+            }
+            let mut sampler = IndependentSampler::new(1, 1);
+            sampler.start_sample(0, 0, 0);
+            assert!(radiance(&world, ray, 8, &mut sampler, &mut stats).is_nan());
+        }
+        assert_eq!(stats.rays, 0);
+    }
+
+    #[test]
+    fn every_hit_takes_its_bounces_numbers() {
+        bounce_numbers_follow_the_hits(IndependentSampler::new(3, 1));
+        bounce_numbers_follow_the_hits(SobolSampler::new(3, 1));
+    }
+}

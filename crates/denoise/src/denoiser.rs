@@ -1,0 +1,311 @@
+//! The denoiser: Intel Open Image Denoise's `RT` filter on its CPU device, through the `oidn`
+//! crate (vendored: vendor/README.md).
+//!
+//! Images are interleaved RGB `f32`, row-major, linear HDR radiance. The filter takes the
+//! colour alone: guides (the first hit's albedo and normal), prefiltered as OIDN recommends for
+//! noisy guides, were measured on every shipped scene against colour-only filtering and did
+//! not pay for their cost (docs/denoising.md, "Measured and not kept"). A filter is made once
+//! for an image size and quality ([`Denoiser::filter`]) and run on every image of a shot.
+//!
+//! Determinism: OIDN's documentation promises no bit-identical output, only the same quality
+//! on every device type with possibly small numerical differences between them. Its own
+//! `oidnDenoise` tool (2.5.1) checks repeated runs for the same output hash and reports a
+//! mismatch as "non-deterministic output". The tests check that repeated runs, a second
+//! device and 1, 2 and 3 device threads (`OIDN_NUM_THREADS`) give the same bytes on the CPU
+//! device.
+
+use std::fmt;
+
+use raytrace_core::scene::DenoiseQuality;
+
+/// The largest width and height OIDN accepts (its `ImageDesc` refuses larger sides as
+/// "image size is too large").
+pub const MAX_SIDE: usize = 65536;
+
+/// What can go wrong when denoising.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DenoiseError {
+    /// The library could not be loaded: where it was looked for and how to provide it
+    /// ([`super::library::load`]).
+    Missing(String),
+    /// OIDN could not make a CPU device: the library or its CPU device module could not be
+    /// loaded, or the CPU is not supported (OIDN needs SSE4.1 on x86-64).
+    Unavailable(String),
+    /// An image side beyond [`MAX_SIDE`], or no pixels at all.
+    Size { width: usize, height: usize },
+    /// An image or guide whose length is not three values for each of `width * height`
+    /// pixels.
+    Length {
+        what: &'static str,
+        len: usize,
+        expected: usize,
+    },
+    /// OIDN reported an error while filtering.
+    Filter(String),
+}
+
+impl fmt::Display for DenoiseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DenoiseError::Missing(m) => write!(f, "{m}"),
+            DenoiseError::Unavailable(m) => write!(
+                f,
+                "Intel Open Image Denoise (libOpenImageDenoise 2.5) could not start a CPU \
+                 device: {m}. It needs its CPU device module \
+                 (libOpenImageDenoise_device_cpu.so) and oneTBB (libtbb.so.12) beside \
+                 libOpenImageDenoise, and a CPU with SSE4.1. The build provides them in the \
+                 project's .oidn folder (from pkg-config or the pyoidn 2.5.1 wheel): rebuild to \
+                 restore it, or install OIDN 2.5 (https://github.com/RenderKit/oidn/releases) \
+                 and set OIDN_DIR to it before building"
+            ),
+            DenoiseError::Size { width, height } => write!(
+                f,
+                "cannot denoise a {width}x{height} image: Intel Open Image Denoise takes \
+                 1 to {MAX_SIDE} pixels a side"
+            ),
+            DenoiseError::Length {
+                what,
+                len,
+                expected,
+            } => write!(
+                f,
+                "the {what} image holds {len} values, not {expected} (RGB for each pixel)"
+            ),
+            DenoiseError::Filter(m) => write!(f, "Intel Open Image Denoise failed: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for DenoiseError {}
+
+impl From<DenoiseError> for raytrace_core::error::Error {
+    fn from(e: DenoiseError) -> Self {
+        raytrace_core::error::Error::Resource(Box::new(e))
+    }
+}
+
+/// An OIDN CPU device, made once and used for every frame.
+pub struct Denoiser {
+    device: oidn::Device,
+}
+
+impl Denoiser {
+    /// Starts OIDN's CPU device (it uses every core unless `OIDN_NUM_THREADS` says
+    /// otherwise).
+    pub fn new() -> Result<Denoiser, DenoiseError> {
+        super::library::load().map_err(DenoiseError::Missing)?;
+        let device = oidn::Device::cpu().map_err(|e| DenoiseError::Unavailable(describe(&e)))?;
+        Ok(Denoiser { device })
+    }
+
+    /// A colour-only `RT` filter for HDR images of `width` x `height` at `quality`, made once
+    /// and run on every image of that size ([`Filter::run`]): OIDN builds its network and
+    /// scratch memory when a filter is first run, not again while its size stays.
+    pub fn filter(
+        &self,
+        width: usize,
+        height: usize,
+        quality: DenoiseQuality,
+    ) -> Result<Filter<'_>, DenoiseError> {
+        let len = check_size(width, height)?;
+        let mut filter = oidn::RayTracing::try_new(&self.device)
+            .map_err(|e| DenoiseError::Filter(describe(&e)))?;
+        filter
+            .image_dimensions(width, height)
+            .hdr(true)
+            .filter_quality(oidn_quality(quality));
+        Ok(Filter { filter, len })
+    }
+}
+
+/// A filter of one image size and quality ([`Denoiser::filter`]).
+pub struct Filter<'d> {
+    filter: oidn::RayTracing<'d>,
+    /// The values of an image: three a pixel.
+    len: usize,
+}
+
+impl Filter<'_> {
+    /// `colour` (interleaved RGB `f32`, linear HDR, row-major) denoised.
+    pub fn run(&self, colour: &[f32]) -> Result<Vec<f32>, DenoiseError> {
+        if colour.len() != self.len {
+            return Err(DenoiseError::Length {
+                what: "colour",
+                len: colour.len(),
+                expected: self.len,
+            });
+        }
+        let mut out = vec![0.0f32; self.len];
+        self.filter
+            .filter(colour, &mut out)
+            .map_err(|e| DenoiseError::Filter(describe(&e)))?;
+        Ok(out)
+    }
+}
+
+/// OIDN's name for `quality`.
+fn oidn_quality(quality: DenoiseQuality) -> oidn::Quality {
+    match quality {
+        DenoiseQuality::Fast => oidn::Quality::Fast,
+        DenoiseQuality::Balanced => oidn::Quality::Balanced,
+        DenoiseQuality::High => oidn::Quality::High,
+    }
+}
+
+/// The number of `f32` values of a `width` x `height` RGB image, or the error for a size OIDN
+/// refuses.
+fn check_size(width: usize, height: usize) -> Result<usize, DenoiseError> {
+    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(DenoiseError::Size { width, height });
+    }
+    Ok(3 * width * height)
+}
+
+/// OIDN's error kind and message.
+fn describe(e: &oidn::Error) -> String {
+    let message = e.message();
+    if message.is_empty() {
+        e.kind().as_str().to_string()
+    } else {
+        format!("{} ({})", message, e.kind().as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::{self, to_f32};
+
+    /// A small noisy frame's full image, interleaved.
+    fn noisy() -> (usize, usize, Vec<f32>) {
+        let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
+        (f.width, f.height, to_f32(&f.full()))
+    }
+
+    fn denoised() -> Vec<f32> {
+        let (w, h, color) = noisy();
+        let denoiser = Denoiser::new().unwrap();
+        let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
+        filter.run(&color).unwrap()
+    }
+
+    /// FNV-1a over the values' bits.
+    fn hash(values: &[f32]) -> u64 {
+        values.iter().fold(0xcbf2_9ce4_8422_2325, |h, v| {
+            (h ^ v.to_bits() as u64).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+
+    #[test]
+    fn denoising_brings_the_image_closer_to_the_truth_at_every_quality() {
+        let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
+        let denoiser = Denoiser::new().unwrap();
+        let before = raytrace_core::metrics::rel_mse(&f.full(), &f.truth);
+        for q in DenoiseQuality::ALL {
+            let filter = denoiser.filter(64, 48, q).unwrap();
+            let out = synthetic::from_f32(&filter.run(&to_f32(&f.full())).unwrap());
+            let after = raytrace_core::metrics::rel_mse(&out, &f.truth);
+            assert!(after < before / 4.0, "{q}: {after} vs {before}");
+        }
+    }
+
+    #[test]
+    fn a_filter_runs_again_and_again_with_the_same_bytes() {
+        let (w, h, color) = noisy();
+        let denoiser = Denoiser::new().unwrap();
+        let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
+        let once = filter.run(&color).unwrap();
+        // Another image between two runs of the same one.
+        let other = filter.run(&vec![0.25; color.len()]).unwrap();
+        assert_ne!(hash(&once), hash(&other));
+        assert_eq!(hash(&once), hash(&filter.run(&color).unwrap()));
+        // A second device, a second filter.
+        let second = Denoiser::new().unwrap();
+        let again = second.filter(w, h, DenoiseQuality::Fast).unwrap();
+        assert_eq!(hash(&once), hash(&again.run(&color).unwrap()));
+    }
+
+    #[test]
+    fn balanced_is_high_on_the_cpu_and_fast_is_not() {
+        // What the quality's documentation says of OIDN's CPU device.
+        let (w, h, color) = noisy();
+        let denoiser = Denoiser::new().unwrap();
+        let run = |q| hash(&denoiser.filter(w, h, q).unwrap().run(&color).unwrap());
+        assert_eq!(run(DenoiseQuality::Balanced), run(DenoiseQuality::High));
+        assert_ne!(run(DenoiseQuality::Fast), run(DenoiseQuality::High));
+    }
+
+    /// Prints the hash of [`denoised`] for `the_thread_count_does_not_change_the_bytes`, which
+    /// runs it in a child process with `OIDN_NUM_THREADS` set (the device reads it when made).
+    #[test]
+    #[ignore = "run in a child process by the_thread_count_does_not_change_the_bytes"]
+    fn print_the_denoised_hash() {
+        println!("denoised hash {:016x}", hash(&denoised()));
+    }
+
+    #[test]
+    fn the_thread_count_does_not_change_the_bytes() {
+        let here = format!("{:016x}", hash(&denoised()));
+        for threads in ["1", "2", "3"] {
+            let out = std::process::Command::new(std::env::current_exe().unwrap())
+                .args(["--exact", "denoiser::tests::print_the_denoised_hash"])
+                .args(["--ignored", "--nocapture", "--test-threads", "1"])
+                .env("OIDN_NUM_THREADS", threads)
+                .output()
+                .unwrap();
+            let text = String::from_utf8_lossy(&out.stdout);
+            let line = text
+                .lines()
+                // The harness prints the test's name on the same line.
+                .find_map(|l| l.split("denoised hash ").nth(1))
+                .unwrap_or_else(|| {
+                    let err = String::from_utf8_lossy(&out.stderr);
+                    panic!("no hash from the child: {text} {err}")
+                });
+            assert_eq!(line, here, "OIDN_NUM_THREADS={threads}");
+        }
+    }
+
+    #[test]
+    fn sizes_beyond_what_oidn_takes_are_refused() {
+        let denoiser = Denoiser::new().unwrap();
+        let n = MAX_SIDE + 1;
+        let refused = denoiser
+            .filter(n, 1, DenoiseQuality::Fast)
+            .err()
+            .expect("refused");
+        assert_eq!(
+            refused,
+            DenoiseError::Size {
+                width: n,
+                height: 1
+            }
+        );
+        assert!(refused.to_string().contains("1 to 65536 pixels a side"));
+        assert!(matches!(
+            denoiser.filter(0, 1, DenoiseQuality::Fast),
+            Err(DenoiseError::Size { .. })
+        ));
+        // OIDN itself draws the line at the same place: one side of 65536 passes, 65537 not.
+        let device = oidn::Device::cpu().unwrap();
+        let color = vec![0.5f32; 3 * n];
+        let run = |w: usize| {
+            let mut out = vec![0.0f32; 3 * w];
+            oidn::RayTracing::try_new(&device)
+                .unwrap()
+                .image_dimensions(w, 1)
+                .hdr(true)
+                .filter_quality(oidn::Quality::Fast)
+                .filter(&color[..3 * w], &mut out)
+        };
+        assert!(run(MAX_SIDE).is_ok());
+        let e = run(MAX_SIDE + 1).unwrap_err();
+        assert!(e.message().contains("too large"), "{e}");
+        // An image of another size than the filter's.
+        let filter = denoiser.filter(1, 2, DenoiseQuality::Fast).unwrap();
+        assert!(matches!(
+            filter.run(&color[..3]),
+            Err(DenoiseError::Length { .. })
+        ));
+    }
+}

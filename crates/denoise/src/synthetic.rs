@@ -1,0 +1,124 @@
+//! Test images with a known truth: a true image and two replicates with seeded noise of known
+//! variance. For the denoiser's and the estimate's tests.
+
+use glam::DVec3;
+use raytrace_core::rng::Pcg32;
+
+/// A synthetic frame: the truth and what a film would hold for it.
+pub(crate) struct Frame {
+    pub width: usize,
+    pub height: usize,
+    pub truth: Vec<DVec3>,
+    /// The replicates' means (`a`: even samples, `b`: odd).
+    pub a: Vec<DVec3>,
+    pub b: Vec<DVec3>,
+    /// Samples per pixel (half in each replicate).
+    pub samples: u32,
+}
+
+/// A smooth image: slow waves between about 0.1 and 0.7.
+pub(crate) fn smooth(x: usize, y: usize) -> DVec3 {
+    let (u, v) = (x as f64 / 64.0, y as f64 / 48.0);
+    let w = (std::f64::consts::TAU * u).sin() * (std::f64::consts::TAU * v).cos();
+    DVec3::new(0.4 + 0.3 * w, 0.35 + 0.2 * w, 0.3 - 0.15 * w)
+}
+
+/// An image with edges: a checkerboard of 16-pixel squares (0.1 and 0.8) and a bright disk
+/// (2.0, beyond 1 as HDR radiance is).
+pub(crate) fn edges(x: usize, y: usize) -> DVec3 {
+    let (dx, dy) = (x as f64 - 80.0, y as f64 - 48.0);
+    if dx * dx + dy * dy < 20.0 * 20.0 {
+        return DVec3::new(2.0, 1.8, 1.2);
+    }
+    if (x / 16 + y / 16).is_multiple_of(2) {
+        DVec3::new(0.8, 0.7, 0.6)
+    } else {
+        DVec3::new(0.1, 0.12, 0.15)
+    }
+}
+
+/// A standard normal number (Box-Muller).
+fn gaussian(rng: &mut Pcg32) -> f64 {
+    let u1 = 1.0 - rng.next_f64(); // in (0, 1]
+    let u2 = rng.next_f64();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A `width` x `height` frame of `truth` whose replicates each carry noise of standard
+/// deviation `noise * truth` per channel (noise growing with brightness, as a path tracer's):
+/// the truth times seeded log-normal factors.
+pub(crate) fn frame(
+    width: usize,
+    height: usize,
+    truth_at: fn(usize, usize) -> DVec3,
+    noise: f64,
+    seed: u64,
+) -> Frame {
+    let mut rng = Pcg32::new(seed, 7);
+    let truth: Vec<DVec3> = (0..width * height)
+        .map(|i| truth_at(i % width, i / width))
+        .collect();
+    // Log-normal factors of mean 1 and standard deviation `noise`: exp(s z - s^2 / 2) with
+    // s^2 = ln(1 + noise^2). Non-negative and skewed, as a path tracer's samples.
+    let s2 = (1.0 + noise * noise).ln();
+    let mut factor = || (s2.sqrt() * gaussian(&mut rng) - s2 / 2.0).exp();
+    let mut noisy = |t: DVec3| t * DVec3::new(factor(), factor(), factor());
+    let a: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
+    let b: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
+    Frame {
+        width,
+        height,
+        truth,
+        a,
+        b,
+        samples: 16,
+    }
+}
+
+impl Frame {
+    /// The full frame's means: the replicates' mean (equal halves).
+    pub(crate) fn full(&self) -> Vec<DVec3> {
+        self.a
+            .iter()
+            .zip(&self.b)
+            .map(|(a, b)| (*a + *b) * 0.5)
+            .collect()
+    }
+
+    /// Each pixel's replicates as a film holds them.
+    pub(crate) fn halves(&self) -> Vec<raytrace_core::replicates::Halves> {
+        self.a
+            .iter()
+            .zip(&self.b)
+            .zip(self.variances())
+            .map(|((a, b), v)| raytrace_core::replicates::Halves::new(*a, *b, self.samples, v))
+            .collect()
+    }
+
+    /// The film's estimated variance of the full mean, as `film::Pixel` forms it from the
+    /// replicates' difference: `(a - b)^2 / ((1/n_a + 1/n_b) n)`.
+    pub(crate) fn variances(&self) -> Vec<DVec3> {
+        let n = self.samples as f64;
+        let half = n / 2.0;
+        self.a
+            .iter()
+            .zip(&self.b)
+            .map(|(a, b)| (*a - *b) * (*a - *b) / ((2.0 / half) * n))
+            .collect()
+    }
+}
+
+/// Interleaved `f32` RGB.
+pub(crate) fn to_f32(image: &[DVec3]) -> Vec<f32> {
+    image
+        .iter()
+        .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
+        .collect()
+}
+
+/// Back from interleaved `f32` RGB.
+pub(crate) fn from_f32(rgb: &[f32]) -> Vec<DVec3> {
+    rgb.chunks_exact(3)
+        .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+        .collect()
+}

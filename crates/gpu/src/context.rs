@@ -1,0 +1,347 @@
+//! The GPU itself: finding an adapter through wgpu (Vulkan, Metal or DirectX 12), opening a
+//! device, compiling the tracer's compute shader once, and the errors a device can give.
+
+use std::fmt;
+use std::sync::{Arc, Mutex};
+
+use super::layout::{COUNTER_WORDS, Counting, PARAMS_WORDS, WORKGROUP, wgsl_prelude};
+use super::quiet::without_stray_lines;
+
+/// The shaders' text, put after the layout's constants: the 64-bit words and samplers, the
+/// geometry (motions, spheres, hierarchies), the camera and time, the materials, the tracer.
+const SHADERS: &str = concat!(
+    include_str!("shaders/words.wgsl"),
+    include_str!("shaders/sampler.wgsl"),
+    include_str!("shaders/geometry.wgsl"),
+    include_str!("shaders/camera.wgsl"),
+    include_str!("shaders/material.wgsl"),
+    include_str!("shaders/trace.wgsl"),
+);
+
+/// The environment variable that makes the device lost after that many dispatches: a fault
+/// injected on purpose, for the tests of what a lost device leaves behind.
+pub const LOSE_AFTER_VARIABLE: &str = "RAYTRACE_GPU_LOSE_AFTER";
+
+/// What can go wrong with a GPU.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GpuError {
+    /// No adapter was found: the message says what was looked for and how to get one.
+    NoAdapter(String),
+    /// The device was lost (a driver reset, a GPU removed, a fault injected).
+    Lost(String),
+    /// The device ran out of memory.
+    OutOfMemory(String),
+    /// Anything else the device or the driver reported.
+    Failed(String),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter(m) => write!(f, "{m}"),
+            GpuError::Lost(m) => write!(f, "the GPU device was lost: {m}"),
+            GpuError::OutOfMemory(m) => write!(f, "the GPU ran out of memory: {m}"),
+            GpuError::Failed(m) => write!(f, "the GPU failed: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}
+
+impl From<GpuError> for raytrace_core::error::Error {
+    fn from(e: GpuError) -> Self {
+        raytrace_core::error::Error::Resource(Box::new(e))
+    }
+}
+
+/// An open GPU device with the tracer's pipeline. Cheap to clone (wgpu's handles are shared).
+#[derive(Clone, Debug)]
+pub struct Gpu {
+    pub(super) device: wgpu::Device,
+    pub(super) queue: wgpu::Queue,
+    pub(super) pipeline: wgpu::ComputePipeline,
+    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
+    #[cfg(test)]
+    pub(super) numbers: wgpu::ComputePipeline,
+    pub(super) layout: wgpu::BindGroupLayout,
+    adapter: wgpu::Adapter,
+    info: wgpu::AdapterInfo,
+    /// The first fault the device reported on its own (lost, an error outside any scope).
+    fault: Arc<Mutex<Option<GpuError>>>,
+    /// Dispatches so far, and after how many the device is lost on purpose.
+    dispatches: Arc<Mutex<(u64, Option<u64>)>>,
+}
+
+/// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
+/// by kind (a discrete GPU, an integrated one, a virtual one, another, and last a software
+/// device such as lavapipe, llvmpipe or WARP, which run on the CPU).
+#[derive(Debug)]
+pub struct Adapter {
+    adapter: wgpu::Adapter,
+    info: wgpu::AdapterInfo,
+}
+
+impl Adapter {
+    /// Finds the adapter. Without one: [`GpuError::NoAdapter`], naming what was looked for and
+    /// how to get it.
+    pub fn find() -> Result<Adapter, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::PRIMARY,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapters = without_stray_lines(|| {
+            pollster::block_on(instance.enumerate_adapters(wgpu::Backends::PRIMARY))
+        });
+        let rank = |t: wgpu::DeviceType| match t {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Other => 3,
+            wgpu::DeviceType::Cpu => 4,
+        };
+        // The first of the best kind, in wgpu's order.
+        let best = adapters
+            .into_iter()
+            .map(|adapter| {
+                let info = adapter.get_info();
+                Adapter { adapter, info }
+            })
+            .min_by_key(|a| rank(a.info.device_type));
+        match best {
+            Some(a) => Ok(a),
+            None => {
+                // wgpu's own account of why there is none.
+                let why = without_stray_lines(|| {
+                    pollster::block_on(instance.request_adapter(&Default::default()))
+                })
+                .err()
+                .map_or("none listed".to_string(), |e| e.to_string());
+                Err(GpuError::NoAdapter(no_adapter(&why)))
+            }
+        }
+    }
+
+    /// The adapter, as frame lines and docs name it: `llvmpipe (LLVM 15.0.6, 256 bits)
+    /// (vulkan, Mesa 22.3.6 (LLVM 15.0.6))`.
+    pub fn describe(&self) -> String {
+        let driver = if self.info.driver_info.is_empty() {
+            self.info.driver.clone()
+        } else {
+            self.info.driver_info.clone()
+        };
+        format!("{} ({}, {driver})", self.info.name, self.info.backend)
+    }
+
+    /// Whether the adapter is a software one (a device that runs on the CPU: lavapipe,
+    /// llvmpipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// For a software adapter, what the user should know: it runs on the CPU, where the CPU
+    /// tracer is faster, and no hardware GPU was found.
+    pub fn software_note(&self) -> Option<String> {
+        self.is_software().then(|| {
+            format!(
+                "the GPU device found is a software one, {}: it runs on this machine's CPU, \
+                 where --device cpu renders the same image faster. No hardware GPU was found: \
+                 is its Vulkan driver installed, and visible here (a container needs the GPU's \
+                 graphics capability)?",
+                self.describe()
+            )
+        })
+    }
+}
+
+impl Gpu {
+    /// Opens the adapter [`Adapter::find`] takes and compiles the tracer. Without an
+    /// adapter: [`GpuError::NoAdapter`], naming what was looked for and how to get it.
+    pub fn new() -> Result<Gpu, GpuError> {
+        Gpu::open(Adapter::find()?)
+    }
+
+    /// Opens a device on `adapter` and compiles the tracer.
+    pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
+        let Adapter { adapter, info } = adapter;
+        let (counting, features) = match adapter.features().contains(wgpu::Features::SUBGROUP) {
+            true => (Counting::Subgroups, wgpu::Features::SUBGROUP),
+            false => (Counting::Atomics, wgpu::Features::empty()),
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("raytrace"),
+            required_features: features,
+            required_limits: wgpu::Limits::default(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
+        let fault = Arc::new(Mutex::new(None));
+        let lost = fault.clone();
+        device.set_device_lost_callback(move |_, message| {
+            record(&lost, GpuError::Lost(message));
+        });
+        let uncaptured = fault.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            record(&uncaptured, classify(&e));
+        }));
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tracer"),
+            source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_prelude(counting)).into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tracer"),
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, false),
+                storage(3, false),
+                storage(5, true),
+                storage(6, true),
+                slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
+                slot(
+                    7,
+                    wgpu::BufferBindingType::Storage { read_only: false },
+                    COUNTER_WORDS,
+                ),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tracer"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("tracer"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("trace"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        #[cfg(test)]
+        let numbers = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("numbers"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("numbers"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
+        }
+        let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
+            .ok()
+            .and_then(|v| v.parse().ok());
+        Ok(Gpu {
+            device,
+            queue,
+            pipeline,
+            #[cfg(test)]
+            numbers,
+            layout,
+            adapter,
+            info,
+            fault,
+            dispatches: Arc::new(Mutex::new((0, lose_after))),
+        })
+    }
+
+    /// The adapter, as [`Adapter::describe`] names it.
+    pub fn describe(&self) -> String {
+        self.adapter().describe()
+    }
+
+    /// Whether the adapter is a software one ([`Adapter::is_software`]).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// For a software adapter, what the user should know ([`Adapter::software_note`]).
+    pub fn software_note(&self) -> Option<String> {
+        self.adapter().software_note()
+    }
+
+    fn adapter(&self) -> Adapter {
+        Adapter {
+            adapter: self.adapter.clone(),
+            info: self.info.clone(),
+        }
+    }
+
+    /// The fault the device reported on its own, if any.
+    pub(super) fn fault(&self) -> Option<GpuError> {
+        self.fault.lock().map(|f| f.clone()).unwrap_or(None)
+    }
+
+    /// Counts a dispatch; loses the device on purpose when [`LOSE_AFTER_VARIABLE`] says so.
+    pub(super) fn count_dispatch(&self) {
+        let Ok(mut d) = self.dispatches.lock() else {
+            return;
+        };
+        d.0 += 1;
+        if d.1.is_some_and(|n| d.0 > n) {
+            self.device.destroy();
+        }
+    }
+}
+
+/// Keeps the first fault.
+fn record(slot: &Mutex<Option<GpuError>>, e: GpuError) {
+    if let Ok(mut f) = slot.lock()
+        && f.is_none()
+    {
+        *f = Some(e);
+    }
+}
+
+/// A wgpu error as one of ours.
+pub(super) fn classify(e: &wgpu::Error) -> GpuError {
+    match e {
+        wgpu::Error::OutOfMemory { .. } => GpuError::OutOfMemory(e.to_string()),
+        _ => GpuError::Failed(e.to_string()),
+    }
+}
+
+/// The message for no adapter: what was looked for and how to get one.
+fn no_adapter(why: &str) -> String {
+    format!(
+        "no GPU found: wgpu looked for a Vulkan, Metal or DirectX 12 adapter and found none \
+         ({why}). Install your GPU's driver with Vulkan support; without a GPU, Mesa's \
+         software Vulkan device (lavapipe) serves, on Debian or Ubuntu: `apt-get install \
+         mesa-vulkan-drivers`. Or render on the CPU: --device cpu"
+    )
+}
+
+/// A binding of the compute stage at a dynamic offset (a dispatch's slot), `words` long.
+fn slot(binding: u32, ty: wgpu::BufferBindingType, words: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: true,
+            min_binding_size: std::num::NonZeroU64::new(4 * words as u64),
+        },
+        count: None,
+    }
+}
+
+/// A storage buffer binding of the compute stage.
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Workgroups for `n` invocations.
+pub(super) fn workgroups(n: u32) -> u32 {
+    n.div_ceil(WORKGROUP)
+}

@@ -1,0 +1,307 @@
+//! A shot and a frame in the GPU's words ([`super::layout`]): a serialisation of what the
+//! CPU prepared, deciding nothing of its own. A shot's words ([`ShotWords`]) hold what never
+//! changes: the materials, the Sobol tables, and the shot's [`StaticGeometry`] (the spheres
+//! that never move, in their hierarchy's leaf order, and that hierarchy flattened,
+//! [`super::flatten`]). A frame's words ([`FrameWords`]) hold its [`PreparedFrame`]: its header
+//! (size, depth, the sampler's key, the camera's and the shutter's settings), the shutter
+//! curve, the camera's motion, and its world's animated spheres prepared for its interval
+//! with their hierarchy and curved paths. Which spheres are still is the world's rule
+//! ([`raytrace_core::world::one_hierarchy`]).
+//! Times on the GPU are `f32` seconds since the frame's opening, so a late frame keeps its
+//! digits as on the CPU.
+
+use glam::DVec3;
+use sobol_burley::parts::sobol_int4_rev;
+
+use super::flatten::{Flat, flatten};
+use super::layout::*;
+use raytrace_core::material::{Background, Material};
+use raytrace_core::motion::{FrameMotion, Motion};
+use raytrace_core::passes::SumLayout;
+use raytrace_core::prepared::PreparedFrame;
+use raytrace_core::rng::hash_words;
+use raytrace_core::sampler::SamplerKind;
+use raytrace_core::scene::Scene;
+use raytrace_core::shutter::{Interval, ReadoutDirection};
+use raytrace_core::world::{StaticGeometry, TracedSphere};
+
+/// What a shot keeps on the GPU for all its frames.
+#[derive(Clone, Debug)]
+pub(super) struct ShotWords {
+    pub(super) words: Words,
+    materials: u32,
+    tables: u32,
+    spheres: u32,
+    hierarchy: Flat,
+}
+
+/// One frame's words.
+#[derive(Clone, Debug)]
+pub(super) struct FrameWords {
+    pub(super) words: Words,
+}
+
+impl ShotWords {
+    /// The words of `scene`'s shot: its materials, the Sobol tables, and `statics` (built for
+    /// `scene`): its spheres that never move with their hierarchy.
+    pub(super) fn new(scene: &Scene, statics: &StaticGeometry) -> Result<ShotWords, String> {
+        if !scene.points.is_empty() {
+            // Refused when the scene is validated (`super::support`).
+            return Err("the GPU renders no point caches ([[points]])".to_string());
+        }
+        let mut w = Words::default();
+        let materials = w.at();
+        for m in &scene.materials {
+            let start = w.at();
+            let (kind, albedo, fuzz, ior) = match *m {
+                Material::Lambertian { albedo } => (LAMBERTIAN, albedo, 0.0, 1.0),
+                Material::Metal { albedo, fuzz } => (METAL, albedo, fuzz, 1.0),
+                Material::Dielectric { ior } => (DIELECTRIC, DVec3::ONE, 0.0, ior),
+            };
+            w.u(kind);
+            w.v(albedo);
+            w.f(fuzz);
+            w.f(ior);
+            w.pad_to(start, MATERIAL_WORDS);
+        }
+        w.align();
+        let tables = w.at();
+        // The first four dimensions of the Sobol sequence for the low and the high byte of a
+        // 16-bit index, as the CPU's SobolSampler tabulates them.
+        for high in [false, true] {
+            for b in 0..256u32 {
+                let index = if high { b << 8 } else { b };
+                let entry: [u32; 4] = sobol_int4_rev(index.reverse_bits(), 0).into();
+                entry.iter().for_each(|&x| w.u(x));
+            }
+        }
+        let (still, hierarchy) = statics.still_spheres();
+        w.align();
+        let spheres = w.at();
+        for s in still {
+            sphere(&mut w, &s, NONE);
+        }
+        let eye = scene.camera.look_from.at(0.0).as_vec3().to_array();
+        let hierarchy = flatten(hierarchy, eye, &mut w);
+        Ok(ShotWords {
+            words: w,
+            materials,
+            tables,
+            spheres,
+            hierarchy,
+        })
+    }
+}
+
+/// Appends the record of sphere `s` (at a multiple of four words when the last record ends
+/// there), with its motion record at `motion` ([`NONE`]: its centre plus its velocity times
+/// the time).
+fn sphere(w: &mut Words, s: &TracedSphere, motion: u32) {
+    let start = w.at();
+    debug_assert_eq!(start % 4, 0);
+    w.v(s.center);
+    w.f(s.radius);
+    w.v(s.velocity);
+    w.u(s.material);
+    w.u(s.id);
+    w.u(motion);
+    w.pad_to(start, SPHERE_WORDS);
+}
+
+/// Appends the record of `m` (prepared over an interval opening at `t0`), evaluated on the
+/// GPU at `tau = t + shift` for `t` the seconds since `open`, the frame's opening; returns its
+/// offset. A keyframed path's keys follow its record.
+fn motion(w: &mut Words, m: &FrameMotion, t0: f64, open: f64) -> u32 {
+    w.align();
+    let start = w.at();
+    let (kind, a) = match m {
+        FrameMotion::Fixed(p) => (FIXED, *p),
+        FrameMotion::Linear { start, .. } => (LINE, *start),
+        FrameMotion::Circle(c) => (CIRCLE, c.center),
+        FrameMotion::Keyframes(_) => (KEYS, DVec3::ZERO),
+    };
+    w.u(kind);
+    w.f(open - t0);
+    if let FrameMotion::Circle(c) = m {
+        // The angle at t0, reduced to [0, 360) in f64 (Motion::prepare), then its rate.
+        w.f(c.degrees0);
+        w.f(c.degrees_per_second);
+    }
+    w.pad_to(start, MO_A);
+    w.v(a);
+    w.pad_to(start, MO_B);
+    match m {
+        FrameMotion::Linear { velocity, .. } => w.v(*velocity),
+        FrameMotion::Circle(c) => {
+            w.v(c.e1);
+            w.pad_to(start, MO_C);
+            w.v(c.e2);
+        }
+        _ => {}
+    }
+    w.pad_to(start, MOTION_WORDS);
+    if let FrameMotion::Keyframes(keys) = m {
+        w.set(start + MO_B, w.at());
+        w.set(start + MO_B + 1, keys.len() as u32);
+        for k in keys.iter() {
+            w.f(k.time - t0);
+            w.v(k.position);
+        }
+    }
+    start
+}
+
+impl FrameWords {
+    /// The words of the frame `prepared`, with `shot` (its shot's words) already on the GPU,
+    /// for a film kept by `layout`.
+    pub(super) fn new(
+        prepared: &PreparedFrame,
+        shot: &ShotWords,
+        layout: &SumLayout,
+    ) -> FrameWords {
+        let scene = prepared.scene;
+        let (width, height) = (scene.output.width, scene.output.height);
+        let times = &prepared.times;
+        let interval = prepared.interval();
+        let open = interval.open;
+        let period = 1.0 / scene.shot.fps;
+        // The camera and the motion pass look one frame period beyond the exposure.
+        let widened = Interval {
+            open: open - period,
+            close: interval.close + period,
+        };
+        let mut w = Words::default();
+        w.pad_to(0, HEADER_WORDS);
+        w.set(H_WIDTH, width);
+        w.set(H_HEIGHT, height);
+        w.set(H_MAX_DEPTH, scene.render.max_depth);
+        // The GPU's samplers start their hashes from the CPU samplers' key hashed once more
+        // (the CPU's `hash_words(&[key, pixel, index])` begins by mixing it).
+        let key = hash_words(&[prepared.key]);
+        w.set(H_KEY, key as u32);
+        w.set(H_KEY + 1, (key >> 32) as u32);
+        w.set_f(H_DURATION, interval.duration());
+        w.set_f(H_SHUTTER, times.shutter());
+        let mut flags = 0;
+        if prepared.sampler == SamplerKind::Sobol {
+            flags |= F_SOBOL;
+        }
+        if let Some((readout, direction)) = times.rolling() {
+            flags |= F_ROLLING;
+            if direction == ReadoutDirection::BottomToTop {
+                flags |= F_BOTTOM_TO_TOP;
+            }
+            w.set_f(H_READOUT, readout);
+        }
+        if let Some(table) = times.curve() {
+            let knots: Vec<(f64, f64, f64)> = table.knots().collect();
+            w.set(H_CURVE, w.at());
+            w.set(H_CURVE_N, knots.len() as u32);
+            knots.iter().for_each(|k| w.f(k.0));
+            knots.iter().for_each(|k| w.f(k.1));
+            knots.iter().for_each(|k| w.f(k.2));
+        }
+        if let Background::Uniform(c) = prepared.world.background {
+            flags |= F_UNIFORM;
+            for (i, x) in c.to_array().into_iter().enumerate() {
+                w.set_f(H_BACKGROUND + i as u32, x);
+            }
+        }
+        if scene.transparent {
+            flags |= F_TRANSPARENT;
+        }
+        w.set_f(H_PERIOD, period);
+        w.set(H_STRIDE, layout.stride as u32);
+        let s = layout.slots();
+        for (i, slot) in [s.hits, s.depth, s.normal, s.albedo, s.motion]
+            .into_iter()
+            .enumerate()
+        {
+            w.set(H_SLOTS + i as u32, slot.map_or(NONE, |x| x as u32));
+        }
+        // The camera: its view at the opening, which every sample takes when it does not move
+        // during the frame (as the CPU tracer), else its motion, to make a view per sample.
+        let cam = &scene.camera;
+        let (vectors, lens_radius) = prepared.fixed_view.vectors();
+        for (i, v) in vectors.iter().enumerate() {
+            for a in 0..3 {
+                w.set_f(H_VIEW + 3 * i as u32 + a, v[a as usize]);
+            }
+        }
+        w.set_f(H_VIEW + 18, lens_radius);
+        if prepared.camera_moves {
+            flags |= F_CAMERA_MOVES;
+        }
+        if prepared.has_lens {
+            flags |= F_LENS;
+        }
+        if prepared.sample_time {
+            flags |= F_TIME;
+        }
+        if cam.look_from.is_animated() || cam.look_at.is_animated() {
+            flags |= F_CAMERA_ANIMATED;
+        }
+        let from = motion(&mut w, &cam.look_from.prepare(widened), widened.open, open);
+        let at = motion(&mut w, &cam.look_at.prepare(widened), widened.open, open);
+        w.set(H_CAM_FROM, from);
+        w.set(H_CAM_AT, at);
+        for a in 0..3 {
+            w.set_f(H_CAM_UP + a, cam.up[a as usize]);
+        }
+        w.set_f(H_CAM_TAN, (cam.vfov.to_radians() / 2.0).tan());
+        w.set_f(H_CAM_LENS, cam.aperture / 2.0);
+        if let Some(f) = cam.focus_distance {
+            flags |= F_FOCUS;
+            w.set_f(H_CAM_FOCUS, f);
+        }
+        // The shot's buffer.
+        w.set(H_STILL_SPHERES, shot.spheres);
+        w.set(H_STILL_ENTRIES, shot.hierarchy.entries);
+        w.set(H_STILL_ENTRY_N, shot.hierarchy.count);
+        w.set(H_MATERIALS, shot.materials);
+        w.set(H_TABLES, shot.tables);
+        // The world's animated spheres, prepared for the frame's interval, and their
+        // hierarchy; each curved path's record follows them.
+        let (animated, hierarchy) = prepared.world.animated_spheres();
+        let mut curved = Vec::new();
+        w.align();
+        let spheres = w.at();
+        for s in animated {
+            if let Some(path) = s.path {
+                // Its record comes after the spheres: its place is set then.
+                curved.push((w.at() + S_MOTION, path));
+            }
+            sphere(&mut w, &s, NONE);
+        }
+        let eye = cam.look_from.at(open).as_vec3().to_array();
+        let hierarchy = flatten(hierarchy, eye, &mut w);
+        for (slot, path) in curved {
+            let record = motion(&mut w, path, open, open);
+            w.set(slot, record);
+        }
+        w.set(H_MOVING_SPHERES, spheres);
+        w.set(H_MOVING_ENTRIES, hierarchy.entries);
+        w.set(H_MOVING_ENTRY_N, hierarchy.count);
+        // The motion pass: every animated sphere's path over the widened interval, by its
+        // index in the scene.
+        w.set(H_PASS_MOTIONS, NONE);
+        if s.motion.is_some() {
+            let index = w.at();
+            w.set(H_PASS_MOTIONS, index);
+            w.pad_to(index, scene.spheres.len() as u32);
+            for i in index..w.at() {
+                w.set(i, NONE);
+            }
+            for (id, sphere) in scene.spheres.iter().enumerate() {
+                let path: &Motion = &sphere.motion;
+                if !path.is_animated() {
+                    continue;
+                }
+                let record = motion(&mut w, &path.prepare(widened), widened.open, open);
+                w.set(index + id as u32, record);
+            }
+        }
+        w.set(H_FLAGS, flags);
+        FrameWords { words: w }
+    }
+}

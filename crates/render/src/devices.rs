@@ -1,0 +1,197 @@
+//! The devices a run renders with, opened once from what its scenes need: the one place that
+//! decides whether a run needs the GPU and the denoiser ([`Needs`]), opens them before
+//! anything is written ([`Devices::open_for`]), and gives each shot its tracer
+//! ([`Devices::shot`]) and its finishing ([`Devices::finishing`]).
+
+use crate::finish::Finishing;
+use raytrace_core::error::Error;
+use raytrace_core::renderer::{CpuShot, ShotTracer};
+use raytrace_core::scene::{Device, Scene};
+use raytrace_denoise::denoiser::Denoiser;
+use raytrace_gpu::{Adapter, Gpu, GpuShot, Unsupported, unsupported};
+use raytrace_scene::scene_file::Overrides;
+
+/// What a set of scenes needs opened to render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Needs {
+    /// A scene traces on the GPU.
+    pub gpu: bool,
+    /// A scene's frames are denoised.
+    pub denoiser: bool,
+}
+
+impl Needs {
+    /// What `scenes` need: the rule, written once.
+    pub fn of<'a>(scenes: impl IntoIterator<Item = &'a Scene>) -> Needs {
+        scenes.into_iter().fold(Needs::default(), |n, s| Needs {
+            gpu: n.gpu || s.render.device == Device::Gpu,
+            denoiser: n.denoiser || s.output.denoise.is_some(),
+        })
+    }
+}
+
+/// The GPU and the denoiser a run has opened (none until a scene needs them). Cheap to clone:
+/// the clones share the devices.
+#[derive(Clone, Default)]
+pub struct Devices {
+    gpu: Option<Gpu>,
+    denoiser: Option<std::sync::Arc<Denoiser>>,
+}
+
+impl Devices {
+    /// The devices `scenes` need, opened ([`open`](Self::open)).
+    pub fn for_scenes<'a>(scenes: impl IntoIterator<Item = &'a Scene>) -> Result<Devices, Error> {
+        Devices::opened(Needs::of(scenes))
+    }
+
+    /// The devices `needs` says, opened ([`open`](Self::open)).
+    pub fn opened(needs: Needs) -> Result<Devices, Error> {
+        let mut devices = Devices::default();
+        devices.open(needs)?;
+        Ok(devices)
+    }
+
+    /// Opens what `scenes` need that is not open yet ([`open`](Self::open)).
+    pub fn open_for<'a>(
+        &mut self,
+        scenes: impl IntoIterator<Item = &'a Scene>,
+    ) -> Result<(), Error> {
+        self.open(Needs::of(scenes))
+    }
+
+    /// Opens what `needs` says that is not open yet: the GPU (on a software adapter, a
+    /// warning on standard error says so, whatever `--quiet` says: the CPU renders faster
+    /// there) and the denoiser. A device that cannot open is an error, before any frame is
+    /// rendered.
+    pub fn open(&mut self, needs: Needs) -> Result<(), Error> {
+        if needs.gpu && self.gpu.is_none() {
+            let gpu = Gpu::new()?;
+            if let Some(note) = gpu.software_note() {
+                eprintln!("warning: {note}");
+            }
+            self.gpu = Some(gpu);
+        }
+        if needs.denoiser && self.denoiser.is_none() {
+            self.denoiser = Some(std::sync::Arc::new(Denoiser::new()?));
+        }
+        Ok(())
+    }
+
+    /// The GPU, when a scene opened it.
+    pub fn gpu(&self) -> Option<&Gpu> {
+        self.gpu.as_ref()
+    }
+
+    /// `scene`'s shot on the device its `[render] device` names: its still geometry built,
+    /// and on the GPU uploaded.
+    pub fn shot(&self, scene: &Scene) -> Result<Box<dyn ShotTracer>, Error> {
+        match scene.render.device {
+            Device::Cpu => Ok(Box::new(CpuShot::new(scene))),
+            Device::Gpu => Ok(Box::new(GpuShot::new(opened(&self.gpu)?, scene)?)),
+        }
+    }
+
+    /// The stages that finish `scene`'s frames (its denoising with the run's denoiser, its
+    /// history).
+    pub fn finishing(&self, scene: &Scene) -> Result<Finishing<'_>, Error> {
+        let denoiser = match scene.output.denoise {
+            Some(_) => Some(opened(&self.denoiser)?.as_ref()),
+            None => None,
+        };
+        Finishing::new(scene, denoiser)
+    }
+}
+
+/// A device [`Devices::open`] opened, or the error of a run that did not open it first.
+fn opened<T>(device: &Option<T>) -> Result<&T, Error> {
+    device.as_ref().ok_or_else(|| {
+        Error::resource("a scene needs a device its run did not open (Devices::open_for)")
+    })
+}
+
+/// `scene` (validated with `overrides`) itself, or bad input ([`Error::Scene`], exit status
+/// 2) when it asks for the GPU and the GPU does not render it ([`unsupported`]: numbers a
+/// 32-bit float cannot carry, point caches): the message names the file, the field or flag
+/// that chose the GPU (`shot.toml: --device gpu: ...`, `shot.toml: render.device = "gpu":
+/// ...`), what is beyond the GPU's limits and the way out (`--device cpu`). Every command
+/// that renders or checks a scene asks this as it validates the scene, before anything else
+/// is checked of it.
+pub fn supported(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
+    if scene.render.device != Device::Gpu {
+        return Ok(scene);
+    }
+    let Some(why) = unsupported(&scene) else {
+        return Ok(scene);
+    };
+    let file = raytrace_core::error::elide_path(&scene.source);
+    // The file is named either way: with several scenes, `--device gpu` alone does not say
+    // which one the GPU refuses.
+    let chosen = if overrides.device.is_some() {
+        format!("{file}: --device gpu")
+    } else {
+        format!("{file}: render.device = \"gpu\"")
+    };
+    if let Unsupported::PointCaches { tables } = why {
+        let tables = match tables {
+            1 => "a [[points]] table".to_string(),
+            n => format!("{n} [[points]] tables"),
+        };
+        return Err(Error::Scene(format!(
+            "{chosen}: the GPU does not render point caches, and this scene has {tables}; render it with --device cpu"
+        )));
+    }
+    Err(Error::Scene(format!(
+        "{chosen}: the GPU computes in 32-bit floats and does not render this scene: {why}; render it with --device cpu"
+    )))
+}
+
+/// The line `check` gives for the GPU: the adapter a render would take, or why there is none
+/// (a check opens none).
+pub fn adapter_line() -> String {
+    match Adapter::find() {
+        Ok(a) => match a.software_note() {
+            Some(_) => format!(
+                "{}, a software device (it runs on the CPU, where --device cpu renders faster)",
+                a.describe()
+            ),
+            None => a.describe(),
+        },
+        Err(e) => format!("none here, which rendering needs ({e})"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use raytrace_scene::scene_file::SceneFile;
+    use std::path::Path;
+
+    use super::*;
+
+    #[test]
+    fn a_scene_the_gpu_floats_cannot_carry_is_refused_for_the_gpu_only() {
+        // Naming the file's field or the flag that chose the GPU; the CPU takes it.
+        let far = "[[sphere]]\ncenter = [1e6, 0.0, 0.0]\nradius = 1e-4\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+        let load = |text: &str, overrides: &Overrides| {
+            let scene = Scene::parse_with(text, Path::new("s.toml"), overrides).unwrap();
+            supported(scene, overrides)
+        };
+        let none = Overrides::default();
+        assert_eq!(load(far, &none).unwrap().render.device, Device::Cpu);
+        let e = load(&format!("[render]\ndevice = \"gpu\"\n{far}"), &none)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("s.toml: render.device = \"gpu\": the GPU computes in 32-bit floats")
+                && e.contains("sphere[0].radius 0.0001")
+                && e.ends_with("render it with --device cpu"),
+            "{e}"
+        );
+        let gpu = Overrides {
+            device: Some(Device::Gpu),
+            ..Overrides::default()
+        };
+        let e = load(far, &gpu).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().starts_with("s.toml: --device gpu: "), "{e}");
+    }
+}

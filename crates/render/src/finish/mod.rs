@@ -1,0 +1,166 @@
+//! Finishing a sampled frame for writing: raw film → denoise → history → the frame written. A
+//! shot's
+//! command assembles the stages its scene asks for once ([`Finishing::new`]) and runs every
+//! frame through them ([`Finishing::finish`]); the sampling never branches on them, but asks
+//! the pipeline's stop rule ([`Finishing::stop_rule`]) whether the frame that will be written
+//! is within a noise threshold.
+//!
+//! **Denoise** ([`Denoising`]): the film's two replicates are denoised, each alone, by one
+//! filter made for the shot; the written frame blends the raw frame and the denoised halves'
+//! mean per pixel by their estimated errors, and states its own error
+//! (`denoise::estimate`, derived there).
+//!
+//! **History** ([`History`], `--temporal`): the written frame is combined with the two frames
+//! before it, carried to its pixels along the motion vectors, each weighed by its estimated
+//! error (`denoise::history`, derived there). A frame reads the frames before it as they were
+//! written before their own history, so it depends on those two frames' renders and no
+//! others': the command renders them first where its run does not ([`Finishing::needs`]).
+//!
+//! **Under a noise threshold, at most two denoises a frame.** Once every pixel has its first
+//! samples, the frame is denoised; its written error over the raw film's, `ρ`, is the frame's
+//! own measured gain. The rounds then sample raw, and after each the written error is
+//! predicted from the raw estimate, `ρ` growing as `n^(1/3)` with the mean samples `n` (a
+//! smoother's squared error falls as `n^(-2/3)` in two dimensions, Stone, Ann. Statist. 10,
+//! 1982, and the raw frame's as `n^(-1)`); when the prediction meets the threshold the frame is
+//! denoised again. Every round also re-blends the last denoise with the film as it is now,
+//! exactly (the denoised halves are unchanged, the raw side is the film's): the frame stops
+//! as soon as that meets the threshold, and after the second denoise only that decides.
+
+mod denoising;
+mod history;
+
+use std::time::Instant;
+
+use denoising::Denoising;
+use history::History;
+use raytrace_core::error::Error;
+use raytrace_core::pass::{Pass, PassSet};
+use raytrace_core::renderer::{Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopRule};
+use raytrace_core::scene::Scene;
+use raytrace_denoise::denoiser::Denoiser;
+use raytrace_denoise::estimate::Blend;
+use raytrace_denoise::reproject::HISTORY;
+
+/// The passes the finishing stages of `scene` read from the film, written or not: with
+/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
+pub fn passes_read(scene: &Scene) -> PassSet {
+    match scene.output.denoise {
+        Some(d) if d.temporal => history_passes(),
+        _ => PassSet::EMPTY,
+    }
+}
+
+/// The passes history reads.
+pub(crate) fn history_passes() -> PassSet {
+    PassSet::EMPTY
+        .with(Pass::Depth)
+        .with(Pass::Normal)
+        .with(Pass::Motion)
+}
+
+/// The stages that finish a shot's frames.
+pub struct Finishing<'d> {
+    denoising: Option<Denoising<'d>>,
+    history: Option<History>,
+    first_frame: u32,
+    /// The passes the stages read ([`passes_read`]).
+    read: PassSet,
+    raw: RawStop,
+}
+
+impl<'d> Finishing<'d> {
+    /// The stages `scene` asks for: denoising by `denoiser` when `[output] denoise` is set
+    /// (`Devices::finishing` gives the run's denoiser then), history with `--temporal`.
+    pub fn new(scene: &Scene, denoiser: Option<&'d Denoiser>) -> Result<Finishing<'d>, Error> {
+        let denoising = match (&scene.output.denoise, denoiser) {
+            (Some(settings), Some(d)) => Some(Denoising::new(
+                d,
+                scene.output.width as usize,
+                scene.output.height as usize,
+                settings.quality,
+            )?),
+            _ => None,
+        };
+        let history = scene
+            .output
+            .denoise
+            .filter(|d| d.temporal)
+            .map(|_| History::default());
+        Ok(Finishing {
+            denoising,
+            history,
+            first_frame: scene.shot.first_frame,
+            read: passes_read(scene),
+            raw: RawStop,
+        })
+    }
+
+    /// The rule that stops this shot's frames under a noise threshold: the written frame's.
+    pub fn stop_rule(&mut self) -> &mut dyn StopRule {
+        match &mut self.denoising {
+            Some(d) => d,
+            None => &mut self.raw,
+        }
+    }
+
+    /// `job` sampled on `tracer`'s device, judged under a noise threshold by this pipeline's
+    /// stop rule, and finished.
+    pub fn render(
+        &mut self,
+        job: FrameJob<'_>,
+        tracer: &dyn ShotTracer,
+    ) -> Result<FrameResult, Error> {
+        let raw = job
+            .reading(self.passes_read())
+            .sample_with(tracer, self.stop_rule())?;
+        self.finish(raw)
+    }
+
+    /// The passes these stages read from the film, written or not: with history, the depth,
+    /// normal and motion that carry a pixel to earlier frames.
+    pub fn passes_read(&self) -> PassSet {
+        self.read
+    }
+
+    /// The frames that must be finished before `frame`, in order, that have not been: with
+    /// history, the [`HISTORY`] frames before it (of the shot); none otherwise. A command
+    /// renders and finishes them first, without writing them.
+    pub fn needs(&self, frame: u32) -> Vec<u32> {
+        let Some(history) = &self.history else {
+            return Vec::new();
+        };
+        let from = frame.saturating_sub(HISTORY as u32).max(self.first_frame);
+        (from..frame).filter(|k| !history.holds(*k)).collect()
+    }
+
+    /// `result`, sampled (with [`stop_rule`](Self::stop_rule) as its stop rule, or none),
+    /// finished: denoised and blended, and combined with its earlier frames, as the scene
+    /// asks; its figures those of the frame written.
+    pub fn finish(&mut self, mut result: FrameResult) -> Result<FrameResult, Error> {
+        let Some(d) = &mut self.denoising else {
+            return Ok(result);
+        };
+        let frame = result.frame;
+        let start = Instant::now();
+        let pixels = d.written(&result.film).map_err(|e| e.in_frame(frame))?;
+        let width = result.film.width as usize;
+        let blend = match &mut self.history {
+            None => Blend::from_written(width, &pixels),
+            Some(h) => h.combine(&result, &pixels),
+        };
+        let st = &mut result.stats;
+        // The frame's time holds its finishing, as it holds the denoises its rounds took.
+        st.render_seconds += start.elapsed().as_secs_f64();
+        st.relative_error = blend.relative_error;
+        (st.denoise_seconds, st.denoises) = d.spent();
+        result.denoised = Some(Denoised {
+            rgb: blend.rgb,
+            relative_error: blend.relative_error,
+            denoised_share: blend.denoised_share,
+            history_share: self.history.as_ref().map(|_| blend.history_share),
+            quality: d.quality(),
+        });
+        d.begin();
+        Ok(result)
+    }
+}
