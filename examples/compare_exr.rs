@@ -16,12 +16,10 @@
 
 use std::process::ExitCode;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics;
-use raytrace_io::read_exr_rgb;
-
-/// Width, height and pixels of an EXR file.
-type Image = (usize, usize, Vec<DVec3>);
+use raytrace_io::read_exr_colour;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -38,7 +36,7 @@ fn main() -> ExitCode {
         let read = if path.ends_with(".pfm") {
             read_pfm(path)
         } else {
-            read_exr_rgb(path.as_ref())
+            read_exr_colour(path.as_ref())
         };
         match read {
             Ok(image) => images.push(image),
@@ -48,24 +46,21 @@ fn main() -> ExitCode {
             }
         }
     }
-    if images
-        .iter()
-        .any(|i| (i.0, i.1) != (images[0].0, images[0].1))
-        || block == 0
-    {
+    let size = |i: &Image| (i.width(), i.height());
+    if images.iter().any(|i| size(i) != size(&images[0])) || block == 0 {
         eprintln!("the images differ in size, or BLOCK is 0");
         return ExitCode::from(2);
     }
     for (path, image) in args[1..].iter().zip(&images) {
-        let m = image.2.iter().sum::<DVec3>() / image.2.len() as f64;
+        let m = colour(image).sum::<DVec3>() / image.pixels() as f64;
         println!("{path}: mean {:.5} {:.5} {:.5}", m.x, m.y, m.z);
     }
     let (max, rms) = block_difference(&images[0], &images[1], block);
     println!("A vs B: block means differ by at most {max:.5}, rms {rms:.5}");
     for (name, image) in [("A", Some(&images[0])), ("C", images.get(2))] {
         if let Some(image) = image {
-            let rel = metrics::rel_mse(&image.2, &images[1].2).sqrt();
-            let rmse = metrics::mse(&image.2, &images[1].2).sqrt();
+            let rel = metrics::rel_mse(image, &images[1]).sqrt();
+            let rmse = metrics::mse(image, &images[1]).sqrt();
             println!(
                 "{name} against B as reference: relative error {:.4}%, RMSE {rmse:.6}",
                 100.0 * rel
@@ -108,26 +103,35 @@ fn read_pfm(path: &str) -> Result<Image, String> {
     if data.len() != w * h * 12 {
         return Err(format!("{} bytes of pixels for {w}x{h}", data.len()));
     }
-    let float = |i: usize| f32::from_le_bytes(data[4 * i..4 * i + 4].try_into().unwrap()) as f64;
-    let mut pixels = vec![DVec3::ZERO; w * h];
+    let float = |i: usize| f32::from_le_bytes(data[4 * i..4 * i + 4].try_into().unwrap());
+    let mut pixels = vec![Vec3::ZERO; w * h];
     for y in 0..h {
         for x in 0..w {
             let i = 3 * ((h - 1 - y) * w + x);
-            pixels[y * w + x] = DVec3::new(float(i), float(i + 1), float(i + 2));
+            pixels[y * w + x] = Vec3::new(float(i), float(i + 1), float(i + 2));
         }
     }
-    Ok((w, h, pixels))
+    let mut image = Image::new(w as u32, h as u32);
+    image.set_rgb(COLOUR, pixels.into_iter());
+    Ok(image)
+}
+
+/// An image's colour, a pixel after another.
+fn colour(image: &Image) -> impl Iterator<Item = DVec3> + '_ {
+    let c = image.rgb(COLOUR).expect("a colour read");
+    (0..image.pixels()).map(move |i| c.at_f64(i))
 }
 
 /// The largest and the root-mean-square difference, over channels and whole blocks, of the
 /// block means of two images of one size.
 fn block_difference(a: &Image, b: &Image, block: usize) -> (f64, f64) {
-    let (w, h) = (a.0, a.1);
+    let (w, h) = (a.width() as usize, a.height() as usize);
     let mean = |img: &Image, bx: usize, by: usize| {
+        let c = img.rgb(COLOUR).expect("a colour read");
         let mut sum = DVec3::ZERO;
         for y in by * block..(by + 1) * block {
             for x in bx * block..(bx + 1) * block {
-                sum += img.2[y * w + x];
+                sum += c.at_f64(y * w + x);
             }
         }
         sum / (block * block) as f64

@@ -8,13 +8,14 @@
 //! `mean((x - A)(x - B))`, over `(R + 0.01)^2` for the relative one with `R` the references'
 //! mean. The two references' noise is independent of each other's and of the image's, so the
 //! estimate is unbiased for the image's error against the truth whatever the references' own
-//! noise (docs/performance.md, docs/denoising.md). Also prints one reference's own relative
-//! error: half the relative mean square of their difference (its expectation is the sum of
-//! the two references' squared errors).
+//! noise (docs/performance.md, docs/denoising.md); `raytrace_core::metrics` computes them.
+//! Also prints one reference's own relative error: half the relative mean square of A
+//! against B (its expectation is the sum of the two references' squared errors).
 
 use std::process::ExitCode;
 
-use raytrace_io::read_exr_rgb;
+use raytrace_core::metrics;
+use raytrace_io::read_exr_colour;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -24,7 +25,7 @@ fn main() -> ExitCode {
     }
     let mut images = Vec::new();
     for path in &args {
-        match read_exr_rgb(std::path::Path::new(path)) {
+        match read_exr_colour(std::path::Path::new(path)) {
             Ok(image) => images.push(image),
             Err(e) => {
                 eprintln!("{path}: {e}");
@@ -32,28 +33,22 @@ fn main() -> ExitCode {
             }
         }
     }
-    let size = (images[0].0, images[0].1);
-    if images.iter().any(|(w, h, _)| (*w, *h) != size) {
+    let size = |i: &raytrace_core::image::Image| (i.width(), i.height());
+    if images.iter().any(|i| size(i) != size(&images[0])) {
         eprintln!("the images differ in size");
         return ExitCode::from(2);
     }
-    let (x, a, b) = (&images[0].2, &images[1].2, &images[2].2);
-    let (mut rel, mut mse, mut own) = (0.0, 0.0, 0.0);
-    for i in 0..x.len() {
-        let r = (a[i] + b[i]) * 0.5 + 0.01;
-        let cross = (x[i] - a[i]) * (x[i] - b[i]);
-        rel += (cross / (r * r)).element_sum();
-        mse += cross.element_sum();
-        let d = a[i] - b[i];
-        own += (d * d / (r * r)).element_sum() / 2.0;
-    }
-    let n = (3 * x.len()) as f64;
+    let (x, a, b) = (&images[0], &images[1], &images[2]);
     let root = |v: f64| v.max(0.0).sqrt();
-    println!("relative error {:.4}%", 100.0 * root(rel / n));
-    println!("RMSE {:.6e}", root(mse / n));
+    println!(
+        "relative error {:.4}%",
+        100.0 * root(metrics::cross_rel_mse(x, a, b))
+    );
+    println!("RMSE {:.6e}", root(metrics::cross_mse(x, a, b)));
+    // E[(A - B)^2] is twice one reference's error.
     println!(
         "one reference's own relative error {:.4}%",
-        100.0 * root(own / n)
+        100.0 * root(metrics::rel_mse(a, b) / 2.0)
     );
     ExitCode::SUCCESS
 }

@@ -12,10 +12,10 @@ use std::process::ExitCode;
 
 use std::path::Path;
 
-use glam::DVec3;
 use image::{Rgb, RgbImage};
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics::mse;
-use raytrace_io::{linear_to_srgb8, read_exr_rgb};
+use raytrace_io::{linear_to_srgb8, read_exr_colour};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -33,31 +33,36 @@ fn main() -> ExitCode {
     let gap = 8;
     let n = inputs.len() as u32;
     let mut out = RgbImage::from_pixel(n * w * zoom + (n - 1) * gap, h * zoom, Rgb([255; 3]));
-    // The crop's pixels of an image `width` wide.
-    let crop = |width: usize, pixels: &[DVec3]| -> Vec<DVec3> {
-        (y0..y0 + h)
-            .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
-            .map(|(x, y)| pixels[y as usize * width + x as usize])
-            .collect()
+    // The crop of an image.
+    let crop = |image: &Image| -> Image {
+        let c = image.rgb(COLOUR).expect("a colour read");
+        let width = image.width() as usize;
+        let mut crop = Image::new(w, h);
+        crop.set_rgb(
+            COLOUR,
+            (y0..y0 + h)
+                .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+                .map(|(x, y)| c.at(y as usize * width + x as usize)),
+        );
+        crop
     };
-    let mut reference: Option<Vec<DVec3>> = None;
+    let mut reference: Option<Image> = None;
     for (k, path) in inputs.iter().enumerate() {
-        let (width, _, pixels) =
-            read_exr_rgb(Path::new(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+        let image = read_exr_colour(Path::new(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
         match &reference {
-            None => reference = Some(pixels.clone()),
+            None => reference = Some(image.clone()),
             Some(r) => println!(
                 "{path}: MSE {:.4e} (crop {:.4e})",
-                mse(&pixels, r),
-                mse(&crop(width, &pixels), &crop(width, r))
+                mse(&image, r),
+                mse(&crop(&image), &crop(r))
             ),
         }
+        let (width, colour) = (image.width(), image.rgb(COLOUR).expect("a colour read"));
         let left = k as u32 * (w * zoom + gap);
         for y in 0..h * zoom {
             for x in 0..w * zoom {
-                let p = pixels[(y0 + y / zoom) as usize * width + (x0 + x / zoom) as usize];
-                let srgb = p.to_array().map(|c| linear_to_srgb8(c as f32));
-                out.put_pixel(left + x, y, Rgb(srgb));
+                let p = colour.at(((y0 + y / zoom) * width + (x0 + x / zoom)) as usize);
+                out.put_pixel(left + x, y, Rgb(p.to_array().map(linear_to_srgb8)));
             }
         }
     }

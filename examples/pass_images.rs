@@ -13,11 +13,12 @@
 use std::path::Path;
 use std::process::ExitCode;
 
+use raytrace_core::format::Format;
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::pass::Pass;
-use raytrace_core::passes::PassImages;
 use raytrace_core::renderer::{CpuShot, FrameJob};
 use raytrace_core::scene::Scene;
-use raytrace_io::{FrameInfo, write_frame};
+use raytrace_io::{FrameInfo, write_image};
 use raytrace_scene::scene_file::Overrides;
 use raytrace_scene::scene_file::SceneFile;
 
@@ -47,9 +48,9 @@ fn main() -> ExitCode {
     };
     let statics = CpuShot::new(&scene);
     let result = FrameJob::new(&scene, frame).sample(&statics).unwrap();
-    let p = result.pass_images().expect("every pass was requested");
+    let p = &result.image;
     let out = Path::new(&args[2]);
-    let (w, h) = (p.width, p.height);
+    let (w, h) = (p.width(), p.height());
     let info = FrameInfo {
         frame,
         fps: scene.shot.fps,
@@ -74,11 +75,11 @@ fn main() -> ExitCode {
         }
     };
     let write = |name: &str, rgb: Vec<f32>| {
-        write_frame(&out.join(name), w, h, &rgb, &info).expect("writes the picture");
+        let picture = Image::from_interleaved(w, h, COLOUR, &rgb);
+        write_image(&out.join(name), Format::Png, &picture, &info).expect("writes the picture");
     };
-    let (colour, _) = result.film.to_rgb_f32();
-    write("colour.png", colour);
-    let ch = |name: &str| channel(&p, name);
+    write("colour.png", p.interleaved(COLOUR).expect("a colour"));
+    let ch = |name: &str| channel(p, name);
     let grey = |values: Vec<f64>| values.iter().flat_map(|&v| [linear(v); 3]).collect();
     let rgb = |r: Vec<f64>, g: Vec<f64>, b: Vec<f64>| -> Vec<f32> {
         (0..r.len())
@@ -117,8 +118,8 @@ fn main() -> ExitCode {
 }
 
 /// The values of channel `name` as f64.
-fn channel(p: &PassImages, name: &str) -> Vec<f64> {
-    p.channel(name)
+fn channel(p: &Image, name: &str) -> Vec<f64> {
+    p.floats(name)
         .expect("a channel of the passes")
         .iter()
         .map(|&v| v as f64)

@@ -224,7 +224,12 @@ fn pub_items(text: &str) -> Vec<String> {
 /// whole body (its methods' signatures): what another crate sees of them.
 fn pub_signatures(text: &str) -> Vec<&str> {
     text.match_indices("pub ")
-        .filter(|(i, _)| text[..*i].chars().next_back().is_none_or(char::is_whitespace))
+        .filter(|(i, _)| {
+            text[..*i]
+                .chars()
+                .next_back()
+                .is_none_or(char::is_whitespace)
+        })
         .map(|(i, _)| {
             let rest = &text[i..];
             let end = match rest.starts_with("pub trait ") {

@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use raytrace_io::{linear_to_srgb8, read_exr_rgb};
+use raytrace_core::image::COLOUR;
+use raytrace_io::{linear_to_srgb8, read_exr_colour};
 
 mod common;
 use common::{ok, run, text};
@@ -190,12 +191,12 @@ fn apng_holds_the_frames_exactly_with_exact_delays_from_png_or_exr() {
     let (n, bright) = read_apng(&d.path().join("bright.apng"));
     assert_eq!(n, 2);
     for (k, frame) in [2, 3].into_iter().enumerate() {
-        let (_, _, linear) =
-            read_exr_rgb(&d.path().join(format!("e/shot_{frame:04}.exr"))).unwrap();
+        let linear = read_exr_colour(&d.path().join(format!("e/shot_{frame:04}.exr"))).unwrap();
         let want: Vec<u8> = linear
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(|v| linear_to_srgb8((2.0 * v) as f32))
+            .interleaved(COLOUR)
+            .unwrap()
+            .into_iter()
+            .map(|v| linear_to_srgb8((2.0 * v as f64) as f32))
             .collect();
         assert_eq!(bright[k].1, want, "frame {frame}");
         assert_ne!(bright[k].1, frames[frame - 1].1);

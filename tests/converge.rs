@@ -544,7 +544,7 @@ fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
     // E[(v - ref)^2] = E[(v - truth)^2] + E[(ref - truth)^2] for independent renders.
     let reference = render("independent", 4096, 1234);
     let reference_mse = reference.stats.relative_error.powi(2);
-    let reference = reference.film.means();
+    let reference = reference.image;
     for sampler in ["independent", "sobol"] {
         for samples in [16, 64] {
             // Squares summed over 8 seeds: one 48x32 frame's estimate and error both
@@ -554,7 +554,7 @@ fn the_printed_error_is_within_15_percent_of_the_true_one_for_both_samplers() {
             for seed in 0..8 {
                 let r = render(sampler, samples, seed);
                 estimated += r.stats.relative_error.powi(2);
-                truth += rel_mse(&r.film.means(), &reference) - reference_mse;
+                truth += rel_mse(&r.image, &reference) - reference_mse;
             }
             // Measured: independent 1.03 and 1.05, sobol 1.00 and 1.02.
             let ratio = (estimated / truth).sqrt();

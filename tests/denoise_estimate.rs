@@ -20,7 +20,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
+use raytrace_core::image::Image;
+use raytrace_core::metrics::cross_rel_mse;
 use raytrace_core::renderer::{CpuShot, FrameJob};
 use raytrace_core::scene::{DenoiseSettings, Scene};
 use raytrace_render::devices::{Devices, Needs};
@@ -61,7 +62,7 @@ fn shipped(name: &str) -> PathBuf {
 
 /// Two references of frame 1 (the first) of the scene at `path`, of `samples` each, with
 /// seeds of their own.
-fn references(path: &Path, size: Option<(u32, u32)>, samples: u32) -> [Vec<DVec3>; 2] {
+fn references(path: &Path, size: Option<(u32, u32)>, samples: u32) -> [Image; 2] {
     [0x5eed_0f7e_u64, 0x00dd_ba11].map(|seed| {
         let s = scene(path, size, samples, Some(seed), false);
         let frame = s.shot.first_frame;
@@ -70,28 +71,14 @@ fn references(path: &Path, size: Option<(u32, u32)>, samples: u32) -> [Vec<DVec3
             .points(&points)
             .sample(&CpuShot::new(&s))
             .unwrap()
-            .film
-            .means()
+            .image
     })
-}
-
-/// The relative MSE of `x` against the truth, cross-estimated from two references.
-fn true_rel_mse(x: &[DVec3], [a, b]: &[Vec<DVec3>; 2]) -> f64 {
-    let sum: f64 = x
-        .iter()
-        .zip(a.iter().zip(b))
-        .map(|(x, (a, b))| {
-            let r = (*a + *b) * 0.5 + 0.01;
-            ((*x - *a) * (*x - *b) / (r * r)).element_sum()
-        })
-        .sum();
-    sum / (3 * x.len()) as f64
 }
 
 /// One denoised render: its raw frame, the frame written, and the error it states.
 struct Rendered {
-    raw: Vec<DVec3>,
-    written: Vec<DVec3>,
+    raw: Image,
+    written: Image,
     stated: f64,
 }
 
@@ -106,10 +93,10 @@ fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, devices: &Devices
         .sample(&CpuShot::new(&s))
         .unwrap();
     let result = finishing.finish(raw).unwrap();
-    let written = result.denoised.as_ref().unwrap();
+    assert!(result.denoised.is_some());
     Rendered {
-        raw: result.film.means(),
-        written: written.image(),
+        raw: result.film.colour(),
+        written: result.image,
         stated: result.stats.relative_error,
     }
 }
@@ -128,7 +115,9 @@ fn check(path: &Path) {
     let mut worst: f64 = 0.0;
     for n in [16, 64, 256, 1024] {
         let r = render(path, None, n, &devices);
-        let (raw, written) = (true_rel_mse(&r.raw, &refs), true_rel_mse(&r.written, &refs));
+        // Against the truth, cross-estimated from two references.
+        let [a, b] = &refs;
+        let (raw, written) = (cross_rel_mse(&r.raw, a, b), cross_rel_mse(&r.written, a, b));
         let truth = written.max(0.0).sqrt();
         eprintln!(
             "{name} {n:>4} spp: raw {:.3}%, written {:.3}%, stated {:.3}% ({:.3})",
@@ -152,7 +141,9 @@ fn check(path: &Path) {
     let small = Some((64, 36));
     let refs = references(path, small, 4096);
     let r = render(path, small, 4096, &devices);
-    let (raw, written) = (true_rel_mse(&r.raw, &refs), true_rel_mse(&r.written, &refs));
+    // Against the truth, cross-estimated from two references.
+    let [a, b] = &refs;
+    let (raw, written) = (cross_rel_mse(&r.raw, a, b), cross_rel_mse(&r.written, a, b));
     eprintln!(
         "{name} 4096 spp at 64x36: raw {:.4}%, written {:.4}%",
         100.0 * raw.max(0.0).sqrt(),

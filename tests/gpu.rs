@@ -113,10 +113,13 @@ fn agreement(
 
 /// A film's means and estimated variances of the means, row-major.
 fn moments(f: &Film) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    (
-        f.means().iter().map(|m| m.to_array()).collect(),
-        f.variances().iter().map(|v| v.to_array()).collect(),
-    )
+    (f.means().iter().map(|m| m.to_array()).collect(), {
+        let variances = f.variances();
+        let planes = variances.rgb(raytrace_core::pass::VARIANCE).unwrap();
+        (0..variances.pixels())
+            .map(|i| planes.at_f64(i).to_array())
+            .collect()
+    })
 }
 
 fn films_agree(a: &Film, b: &Film) -> Agreement {
@@ -360,8 +363,10 @@ fn passes_are_the_cpus_with_the_same_seed() {
     for frame in [1, 2] {
         let cpu: FrameResult = FrameJob::new(&scene, frame).sample(&statics).unwrap();
         let g = common::render_gpu_frame(gpu, &scene, frame, &Budget::default());
-        let (cpu, g) = (cpu.pass_images().unwrap(), g.pass_images().unwrap());
-        for (c, d) in cpu.channels.iter().zip(&g.channels) {
+        let (cpu, g) = (cpu.image, g.image);
+        // The passes' channels: those beside the colour.
+        let passes = |i: &raytrace_core::image::Image| i.channels()[3..].to_vec();
+        for (c, d) in passes(&cpu).iter().zip(&passes(&g)) {
             assert_eq!(c.name, d.name);
             // Motion vectors in pixels, depths relative to the depth, the rest absolute.
             let close = |a: f32, b: f32| {
@@ -372,25 +377,20 @@ fn passes_are_the_cpus_with_the_same_seed() {
                 };
                 (a - b).abs() <= tol
             };
-            let differ = c
-                .values
+            let (cv, dv) = (c.floats().unwrap(), d.floats().unwrap());
+            let differ = cv.iter().zip(dv).filter(|(a, b)| !close(**a, **b)).count();
+            let most = cv
                 .iter()
-                .zip(&d.values)
-                .filter(|(a, b)| !close(**a, **b))
-                .count();
-            let most = c
-                .values
-                .iter()
-                .zip(&d.values)
+                .zip(dv)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0f32, f32::max);
             println!(
                 "[gpu] frame {frame} {}: {differ} of {} pixels differ, largest difference {most:e}",
                 c.name,
-                c.values.len()
+                cv.len()
             );
             assert!(
-                differ * 100 <= c.values.len(),
+                differ * 100 <= cv.len(),
                 "{}: {differ} pixels differ",
                 c.name
             );
@@ -605,7 +605,8 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
     on_gpu.render.device = raytrace_core::scene::Device::Gpu;
     let g = finished(&on_gpu, Some(gpu));
     let d = g.denoised.as_ref().expect("denoised");
-    assert!(d.relative_error.is_finite() && d.rgb.iter().all(|c| c.is_finite()));
+    let written = g.image.interleaved(raytrace_core::image::COLOUR).unwrap();
+    assert!(d.relative_error.is_finite() && written.iter().all(|c| c.is_finite()));
     // The same estimate as the CPU's frame, within its noise.
     let ratio = g.stats.relative_error / cpu.stats.relative_error;
     assert!(
@@ -615,8 +616,7 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
         cpu.stats
     );
     // Transparent: a pixel no camera ray hit (alpha 0) is black.
-    let alpha = g.pass_images().unwrap();
-    let alpha = alpha.channel("A").unwrap();
+    let alpha = g.image.floats("A").unwrap();
     let means = g.film.means();
     let empty: Vec<usize> = (0..alpha.len()).filter(|&i| alpha[i] == 0.0).collect();
     assert!(!empty.is_empty());

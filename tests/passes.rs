@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::Command;
 
 use glam::{DVec2, DVec3};
-use raytrace_core::passes::PassImages;
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::renderer::{Budget, CpuShot, FrameJob, FrameResult};
 use raytrace_core::scene::Scene;
 
@@ -21,8 +21,8 @@ fn render(scene: &Scene, frame: u32) -> FrameResult {
     FrameJob::new(scene, frame).sample(&statics).unwrap()
 }
 
-fn passes(r: &FrameResult) -> PassImages {
-    r.pass_images().expect("the frame has passes")
+fn passes(r: &FrameResult) -> &Image {
+    &r.image
 }
 
 /// A pinhole camera of the test's own: the image plane at the focal length `f` in pixels,
@@ -130,7 +130,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     );
     let s = scene(&text);
     let r = render(&s, 1);
-    let alpha = passes(&r).channel("A").unwrap().to_vec();
+    let alpha = passes(&r).floats("A").unwrap().to_vec();
     let sum: f64 = alpha.iter().map(|&a| a as f64).sum();
     let f = Pinhole::new(DVec3::ZERO, -DVec3::Z, 40.0, 64, 64).f;
     let area = projected_area(DVec3::new(0.0, 0.0, 5.0), 1.0, f);
@@ -158,7 +158,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     let s = scene(&text);
     let r = render(&s, 1);
     let sum: f64 = passes(&r)
-        .channel("A")
+        .floats("A")
         .unwrap()
         .iter()
         .map(|&a| a as f64)
@@ -189,8 +189,8 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     );
     let r = render(&scene(&text), 1);
     let p = passes(&r);
-    assert!(p.channel("A").unwrap().iter().all(|&a| a == 1.0));
-    for &z in p.channel("Z").unwrap() {
+    assert!(p.floats("A").unwrap().iter().all(|&a| a == 1.0));
+    for &z in p.floats("Z").unwrap() {
         assert!((z - 3.0).abs() < 1e-4, "{z}");
     }
 }
@@ -208,9 +208,9 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     let r = render(&scene(&text), 1);
     let p = passes(&r);
     let cam = Pinhole::new(DVec3::ZERO, -DVec3::Z, 40.0, 48, 32);
-    let (a, z) = (p.channel("A").unwrap(), p.channel("Z").unwrap());
+    let (a, z) = (p.floats("A").unwrap(), p.floats("Z").unwrap());
     let n = |i: usize| {
-        let c = |name| p.channel(name).unwrap()[i] as f64;
+        let c = |name| p.floats(name).unwrap()[i] as f64;
         DVec3::new(c("N.X"), c("N.Y"), c("N.Z"))
     };
     let mut covered = 0;
@@ -250,8 +250,8 @@ fn motion_against(
 ) -> Vec<((DVec2, DVec2), (DVec2, DVec2))> {
     let r = render(&scene(text), 1);
     let p = passes(&r);
-    let (w, h) = (p.width as usize, p.height as usize);
-    let ch = |name, i| p.channel(name).unwrap()[i] as f64;
+    let (w, h) = (p.width() as usize, p.height() as usize);
+    let ch = |name, i| p.floats(name).unwrap()[i] as f64;
     let cam = camera_at(t);
     let mut out = Vec::new();
     for i in 0..w * h {
@@ -259,7 +259,7 @@ fn motion_against(
         let Some(q) = hit(cam.from, cam.dir(x, y), centre_at(t), radius, 0.8) else {
             continue;
         };
-        assert_eq!(p.channel("A").unwrap()[i], 1.0);
+        assert_eq!(p.floats("A").unwrap()[i], 1.0);
         let here = cam.project(q);
         let moved = |dt: f64| {
             let q2 = q + centre_at(t + dt) - centre_at(t);
@@ -317,14 +317,9 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
         assert!(forward.y.abs() < 1e-6 && forward.x > 0.0);
     }
     // Against the depth pass: forward.u z = f v / fps, within 1%, where the pixel is covered.
-    let (a, u) = (p.channel("A").unwrap(), p.channel("forward.u").unwrap());
+    let (a, u) = (p.floats("A").unwrap(), p.floats("forward.u").unwrap());
     let with_depth = scene(&text.replace("\"motion\", \"alpha\"", "\"depth\""));
-    let z = render(&with_depth, 1)
-        .pass_images()
-        .unwrap()
-        .channel("Z")
-        .unwrap()
-        .to_vec();
+    let z = render(&with_depth, 1).image.floats("Z").unwrap().to_vec();
     let mut n = 0;
     for i in 0..a.len() {
         if a[i] == 1.0 {
@@ -427,7 +422,7 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
         spread += (d * d).element_sum() / 2.0;
         estimated += ["variance.R", "variance.G", "variance.B"]
             .iter()
-            .map(|c| va.channel(c).unwrap()[i] as f64)
+            .map(|c| va.floats(c).unwrap()[i] as f64)
             .sum::<f64>();
     }
     assert!(estimated > 0.0);
@@ -490,15 +485,14 @@ fn bits(r: &FrameResult) -> (Vec<u64>, Vec<Vec<u32>>) {
         .iter()
         .flat_map(|p| p.to_array().map(f64::to_bits))
         .collect();
+    // The passes' channels: those beside the colour.
     let passes = r
-        .pass_images()
-        .map(|p| {
-            p.channels
-                .iter()
-                .map(|c| c.values.iter().map(|v| v.to_bits()).collect())
-                .collect()
-        })
-        .unwrap_or_default();
+        .image
+        .channels()
+        .iter()
+        .filter(|c| !COLOUR.0.contains(&c.name))
+        .map(|c| c.floats().unwrap().iter().map(|v| v.to_bits()).collect())
+        .collect();
     (colour, passes)
 }
 
@@ -508,7 +502,7 @@ fn colour_with_passes_is_the_same_bits_as_without() {
         let extra = format!("sampler = \"{sampler}\"");
         let without = render(&scene(&busy("[]", &extra)), 3);
         let with = render(&scene(&busy(ALL, &extra)), 3);
-        assert!(without.pass_images().is_none());
+        assert_eq!(without.image.channels().len(), 3, "the colour alone");
         assert_eq!(bits(&with).0, bits(&without).0);
         assert_eq!(with.film.all_pixels(), without.film.all_pixels());
     }
@@ -562,8 +556,8 @@ material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}
     };
     let opaque = render(&scene(&text(false)), 1);
     let clear = render(&scene(&text(true)), 1);
-    let alpha = passes(&clear).channel("A").unwrap().to_vec();
-    let albedo = passes(&clear).channel("albedo.B").unwrap().to_vec();
+    let alpha = passes(&clear).floats("A").unwrap().to_vec();
+    let albedo = passes(&clear).floats("albedo.B").unwrap().to_vec();
     let (mut inside, mut outside) = (0, 0);
     for (i, &a) in alpha.iter().enumerate() {
         let (c, o) = (clear.film.means()[i], opaque.film.means()[i]);
@@ -664,8 +658,8 @@ fn exr_frames_hold_the_passes_channels_by_name_and_type() {
     let plain = dir.path().join("p.exr");
     run_ok(dir.path(), &["render", "-q", "s.toml", "-o", "p.exr"]);
     assert_eq!(
-        raytrace_io::read_exr_rgb(&plain).unwrap(),
-        raytrace_io::read_exr_rgb(&path).unwrap()
+        raytrace_io::read_exr_colour(&plain).unwrap(),
+        raytrace_io::read_exr_colour(&path).unwrap()
     );
 
     // OpenImageIO lists the channels by name.

@@ -18,14 +18,13 @@ mod table;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glam::DVec3;
-
 use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
 use crate::analysis::stats::{Figure, settled};
 use crate::analysis::{flip, plot};
 use raytrace_core::error::Error;
 use raytrace_core::format::Format;
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics;
 use raytrace_core::points::FramePoints;
 use raytrace_core::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
@@ -182,8 +181,8 @@ fn reference_paths(scene: &Scene, frame: u32, args: &ConvergeArgs) -> Result<[Pa
 
 /// The two references, as written (f32), and what the measured renders are compared with.
 struct References {
-    a: Vec<DVec3>,
-    b: Vec<DVec3>,
+    a: Image,
+    b: Image,
     width: u32,
     height: u32,
     /// Their mean as 8-bit sRGB: FLIP's reference.
@@ -459,7 +458,8 @@ struct Figures {
 
 /// The figures of one measured render against the references.
 fn figures(result: &FrameResult, references: &References) -> Figures {
-    let image = measured_image(result);
+    // The frame as written: denoised when it was denoised.
+    let image = &result.image;
     let (a, b) = (&references.a, &references.b);
     let estimated_mse = match result.denoised {
         // A denoised frame states its relative error only.
@@ -468,35 +468,23 @@ fn figures(result: &FrameResult, references: &References) -> Figures {
     };
     Figures {
         samples: result.stats.mean_samples_per_pixel,
-        mse: metrics::cross_mse(&image, a, b),
-        rel_mse: metrics::cross_rel_mse(&image, a, b),
+        mse: metrics::cross_mse(image, a, b),
+        rel_mse: metrics::cross_rel_mse(image, a, b),
         estimated_mse,
         estimated_rel_mse: result.stats.relative_error.powi(2),
         flip: flip::mean_flip(
             references.width,
             references.height,
             &references.mean_srgb,
-            &srgb8(&image),
+            &srgb8(image),
         ),
     }
 }
 
-/// The image a render is measured by: the denoised frame when it was denoised, else the
-/// film's means.
-fn measured_image(result: &FrameResult) -> Vec<DVec3> {
-    match &result.denoised {
-        Some(d) => d.image(),
-        None => result.film.means(),
-    }
-}
-
-/// An image as 8-bit sRGB, as a PNG frame holds it.
-fn srgb8(image: &[DVec3]) -> Vec<u8> {
-    image
-        .iter()
-        .flat_map(|p| p.to_array())
-        .map(|v| io::linear_to_srgb8(v as f32))
-        .collect()
+/// An image's colour as 8-bit sRGB, as a PNG frame holds it.
+fn srgb8(image: &Image) -> Vec<u8> {
+    let colour = image.interleaved(COLOUR).expect("a frame's colour");
+    colour.into_iter().map(io::linear_to_srgb8).collect()
 }
 
 /// Renders one variant of the frame, timed: the one place `converge` calls the renderer.
@@ -571,7 +559,13 @@ fn read_references(
     let (width, height) = (scene.output.width, scene.output.height);
     let a = read_reference(&paths[0], width, height)?;
     let b = read_reference(&paths[1], width, height)?;
-    let mean: Vec<DVec3> = a.iter().zip(&b).map(|(a, b)| (*a + *b) * 0.5).collect();
+    let mut mean = Image::new(width, height);
+    let (ca, cb) = (a.rgb(COLOUR), b.rgb(COLOUR));
+    let (ca, cb) = (ca.expect("a colour read"), cb.expect("a colour read"));
+    mean.set_rgb(
+        COLOUR,
+        (0..a.pixels()).map(|i| ((ca.at_f64(i) + cb.at_f64(i)) * 0.5).as_vec3()),
+    );
     // Their difference tells their own error: E[(A - B)^2] = 2 var, and the mean of the two
     // has half the variance of one.
     let own = metrics::rel_mse(&a, &b) / 4.0;
@@ -589,18 +583,20 @@ fn read_references(
     })
 }
 
-/// Reads the RGB channels of an EXR reference of the given size, as linear radiance.
-pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<DVec3>, Error> {
+/// Reads the colour of an EXR reference of the given size, as linear radiance.
+pub(crate) fn read_reference(path: &Path, width: u32, height: u32) -> Result<Image, Error> {
     let bad = |message: String| Error::Usage(format!("reference {}: {message}", path.display()));
     check_readable(path).map_err(bad)?;
-    let (w, h, pixels) = io::read_exr_rgb(path).map_err(bad)?;
-    if (w, h) != (width as usize, height as usize) {
+    let image = io::read_exr_colour(path).map_err(bad)?;
+    let (w, h) = (image.width(), image.height());
+    if (w, h) != (width, height) {
         return Err(bad(format!("is {w}x{h}, the frame is {width}x{height}")));
     }
-    if pixels.iter().any(|p| !p.is_finite()) {
+    let colour = image.interleaved(COLOUR).expect("a colour read");
+    if colour.iter().any(|v| !v.is_finite()) {
         return Err(bad("has pixels that are not finite".into()));
     }
-    Ok(pixels)
+    Ok(image)
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use glam::DVec3;
+use raytrace_core::image::Image;
 
 use super::args::ConvergeArgs;
 use super::frames::Selection;
@@ -99,9 +99,9 @@ struct Scenes<'a> {
 
 /// One frame as measured: its reference, the reference's variances, and the three finishes.
 struct Measured {
-    reference: Vec<DVec3>,
-    variances: Vec<DVec3>,
-    images: [Vec<DVec3>; 3],
+    reference: Image,
+    variances: Image,
+    images: [Image; 3],
 }
 
 /// Renders the frames of `selection`, each sampled once from `scenes.temporal`, and measures
@@ -159,17 +159,19 @@ fn measure(
             .sample(tracer.as_ref())?;
         let sampled = start.elapsed().as_secs_f64();
         seconds[0] += sampled;
-        let mut images: [Vec<DVec3>; 3] = [raw.film.means(), Vec::new(), Vec::new()];
-        for (k, finishing) in [&mut denoised, &mut history].into_iter().enumerate() {
+        let mut finished = Vec::with_capacity(2);
+        for finishing in [&mut denoised, &mut history] {
             let start = Instant::now();
             let result = finishing.finish(raw.clone())?;
-            seconds[k + 1] += sampled + start.elapsed().as_secs_f64();
-            images[k + 1] = result.denoised.as_ref().expect("a denoised frame").image();
+            seconds[finished.len() + 1] += sampled + start.elapsed().as_secs_f64();
+            finished.push(result.image);
         }
+        let [denoised_image, history_image]: [Image; 2] =
+            finished.try_into().expect("two finishes");
         let now = Measured {
-            reference: r.film.means(),
             variances: r.film.variances(),
-            images,
+            reference: r.image,
+            images: [raw.image, denoised_image, history_image],
         };
         for k in 0..3 {
             errors[k] += (metrics::rel_mse(&now.images[k], &now.reference) - own)

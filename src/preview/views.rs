@@ -11,8 +11,10 @@ use ::image::ImageEncoder;
 use ::image::codecs::png::PngEncoder;
 
 use raytrace_core::error::Error;
+use raytrace_core::image::Image;
 use raytrace_core::pass::Pass;
-use raytrace_core::passes::{NO_DEPTH, PassImages};
+use raytrace_core::pass::{DEPTH, NORMAL, SAMPLES, VARIANCE};
+use raytrace_core::passes::NO_DEPTH;
 use raytrace_core::renderer::FrameResult;
 use raytrace_core::scene::Scene;
 use raytrace_io::linear_to_srgb8;
@@ -26,19 +28,17 @@ pub(crate) struct View {
 
 /// Every view of `result`, a frame of `scene`: the colour first, then the scene's passes.
 pub(crate) fn encode_views(scene: &Scene, result: &FrameResult) -> Result<Vec<View>, Error> {
-    let (colour, passes) = output::frame_png(scene, result)?;
     let mut views = vec![View {
         name: "colour",
-        png: colour,
+        png: output::frame_png(scene, result)?,
     }];
-    if let Some(p) = &passes {
-        for pass in scene.output.passes.iter() {
-            let rgb = pass_picture(p, pass);
-            views.push(View {
-                name: pass.name(),
-                png: encode_rgb(&rgb, p.width, p.height, scene)?,
-            });
-        }
+    let image = &result.image;
+    for pass in scene.output.passes.iter() {
+        let rgb = pass_picture(image, pass);
+        views.push(View {
+            name: pass.name(),
+            png: encode_rgb(&rgb, image.width(), image.height(), scene)?,
+        });
     }
     Ok(views)
 }
@@ -55,24 +55,24 @@ fn encode_rgb(rgb: &[u8], width: u32, height: u32, scene: &Scene) -> Result<Vec<
     Ok(png)
 }
 
-/// The picture of `pass` (which `images` holds), 8-bit RGB, row-major.
-fn pass_picture(images: &PassImages, pass: Pass) -> Vec<u8> {
-    let channel = |name: &str| images.channel(name).unwrap_or(&[]);
+/// The picture of `pass` (whose channels `image` holds), 8-bit RGB, row-major.
+fn pass_picture(image: &Image, pass: Pass) -> Vec<u8> {
+    let channel = |name: &str| image.floats(name).unwrap_or(&[]);
     let grey = |v: f32| {
         let g = (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
         [g, g, g]
     };
     let unit = |v: f32| ((0.5 + 0.5 * v).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-    let n = images.width as usize * images.height as usize;
+    let n = image.pixels();
     let pixels: Vec<[u8; 3]> = match pass {
         Pass::Alpha => channel("A").iter().map(|&a| grey(a)).collect(),
         Pass::Samples => {
-            let s = channel("samples");
+            let s = channel(SAMPLES);
             let most = s.iter().copied().fold(0.0f32, f32::max).max(1.0);
             s.iter().map(|&v| grey(v / most)).collect()
         }
         Pass::Depth => {
-            let z = channel("Z");
+            let z = channel(DEPTH);
             let hit = |v: f32| v.is_finite() && v < NO_DEPTH;
             let (near, far) = range(z.iter().copied().filter(|&v| hit(v)));
             z.iter()
@@ -83,7 +83,7 @@ fn pass_picture(images: &PassImages, pass: Pass) -> Vec<u8> {
                 .collect()
         }
         Pass::Normal => {
-            let (x, y, z) = (channel("N.X"), channel("N.Y"), channel("N.Z"));
+            let [x, y, z] = NORMAL.0.map(channel);
             (0..n)
                 .map(|i| [unit(x[i]), unit(y[i]), unit(z[i])])
                 .collect()
@@ -104,11 +104,7 @@ fn pass_picture(images: &PassImages, pass: Pass) -> Vec<u8> {
                 .collect()
         }
         Pass::Variance => {
-            let (r, g, b) = (
-                channel("variance.R"),
-                channel("variance.G"),
-                channel("variance.B"),
-            );
+            let [r, g, b] = VARIANCE.0.map(channel);
             let log = |i: usize| ((r[i] + g[i] + b[i]) / 3.0).max(1e-12).log10();
             let (low, high) = range((0..n).map(log));
             (0..n)
@@ -132,14 +128,17 @@ fn range(values: impl Iterator<Item = f32>) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raytrace_core::pass::PassSet;
+    use raytrace_core::image::{Precision, Values};
 
     #[test]
     fn depth_runs_from_white_near_to_dark_far_and_misses_are_black() {
-        let passes = PassSet::EMPTY.with(Pass::Depth);
-        let mut images = PassImages::new(passes, 3, 1);
-        images.channels[0].values = vec![2.0, 4.0, NO_DEPTH];
-        let rgb = pass_picture(&images, Pass::Depth);
+        let mut image = Image::new(3, 1);
+        image.set(
+            DEPTH,
+            Precision::Float,
+            Values::Float(vec![2.0, 4.0, NO_DEPTH]),
+        );
+        let rgb = pass_picture(&image, Pass::Depth);
         assert_eq!(&rgb[0..3], &[255, 255, 255]);
         // 1 - 0.9 = 0.1 of white.
         assert_eq!(&rgb[3..6], &[26, 26, 26]);
@@ -148,11 +147,8 @@ mod tests {
 
     #[test]
     fn normals_map_minus_one_to_black_and_one_to_white() {
-        let passes = PassSet::EMPTY.with(Pass::Normal);
-        let mut images = PassImages::new(passes, 1, 1);
-        for (c, v) in images.channels.iter_mut().zip([-1.0, 0.0, 1.0]) {
-            c.values = vec![v];
-        }
-        assert_eq!(pass_picture(&images, Pass::Normal), [0, 128, 255]);
+        let mut image = Image::new(1, 1);
+        image.set_rgb(NORMAL, [glam::Vec3::new(-1.0, 0.0, 1.0)].into_iter());
+        assert_eq!(pass_picture(&image, Pass::Normal), [0, 128, 255]);
     }
 }

@@ -48,7 +48,7 @@ impl Colormap {
     }
 
     /// The map's sRGB colour at `t` (clamped to [0, 1]), 8 bits a channel.
-    pub fn srgb(self, t: f64) -> [u8; 3] {
+    pub(crate) fn srgb(self, t: f64) -> [u8; 3] {
         let c = self.gradient().eval_continuous(t);
         [c.r, c.g, c.b]
     }

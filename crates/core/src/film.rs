@@ -9,12 +9,16 @@
 //! A frame with passes for compositing keeps their per-sample sums in the film too (as pbrt's
 //! `GBufferFilm` does): `pass_stride` numbers per pixel, stored tile by tile like the pixels,
 //! handed to the same tiles ([`FilmTile`]). The film does not know what they mean:
-//! [`crate::passes`] says what each number sums and makes the pass images from them.
+//! [`crate::passes`] says what each number sums and makes the pass channels from them.
+//!
+//! A finished film gives its images: the colour as written ([`Film::colour`]) and its
+//! replicates ([`Film::replicates`]), each an [`Image`] of named channels.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
-pub use crate::replicates::Halves;
-pub(crate) use crate::replicates::replicate_counts;
+use crate::image::{COLOUR, Image, Precision, Values};
+use crate::pass::{SAMPLES, VARIANCE};
+use crate::replicates::{REPLICATE_A, REPLICATE_B, replicate_counts};
 
 /// Side of the square tiles the image is split into for parallel work: a 400x225 frame has
 /// 375, handed to the threads one at a time.
@@ -85,12 +89,6 @@ impl Pixel {
         replicate_counts(self.taken)
     }
 
-    /// The pixel's replicates as the denoiser and its estimate read them ([`Halves`]).
-    pub fn halves(&self) -> Halves {
-        let (a, b) = self.replicate_means();
-        Halves::new(a, b, self.taken, self.variance_of_mean())
-    }
-
     /// The means of the two replicates: `a` of the even samples, `b` of the odd ones (black
     /// where a replicate has no sample).
     pub fn replicate_means(&self) -> (DVec3, DVec3) {
@@ -102,7 +100,7 @@ impl Pixel {
 
     /// The mean as written: `f32` RGB, black if a component is not finite as an `f32` (NaN,
     /// infinite, or beyond `f32::MAX`, which the conversion rounds to infinity).
-    pub fn rgb_f32(&self) -> [f32; 3] {
+    pub(crate) fn rgb_f32(&self) -> [f32; 3] {
         let m = self.mean();
         let v = [m.x as f32, m.y as f32, m.z as f32];
         if v.iter().all(|c| c.is_finite()) {
@@ -377,41 +375,79 @@ impl Film {
         &self.pixels
     }
 
+    /// The samples every pixel has taken, summed.
+    pub fn samples_taken(&self) -> u64 {
+        self.pixels.iter().map(|p| p.taken as u64).sum()
+    }
+
     /// The pixels' means, row-major, top row first.
     pub fn means(&self) -> Vec<DVec3> {
         self.row_major(Pixel::mean)
     }
 
-    /// The pixels' estimated variances of their means, row-major.
-    pub fn variances(&self) -> Vec<DVec3> {
-        self.row_major(Pixel::variance_of_mean)
+    /// The pixels' estimated variances of their means as an image ([`VARIANCE`], `f32`, as a
+    /// film's replicates image and the variance pass hold them), row-major.
+    pub fn variances(&self) -> Image {
+        let mut image = Image::new(self.width, self.height);
+        let variances = self.row_major(Pixel::variance_of_mean);
+        image.set_rgb(VARIANCE, variances.into_iter().map(|v| v.as_vec3()));
+        image
     }
 
-    /// Each pixel's replicates ([`Pixel::halves`]), row-major: what a denoiser reads of the
-    /// film.
-    pub fn halves(&self) -> Vec<Halves> {
-        self.row_major(Pixel::halves)
+    /// The film's replicates as an image, row-major: each pixel's replicate means
+    /// ([`REPLICATE_A`], [`REPLICATE_B`]) and its whole mean's estimated variance
+    /// ([`VARIANCE`]) as `f32`, kept as an `f32` rounds them (infinite where nothing is
+    /// known, so that nothing unknown looks known), and its samples ([`SAMPLES`], as counts):
+    /// what the denoiser and the written frame's estimate read of the film
+    /// ([`crate::replicates::Replicates`]).
+    pub fn replicates(&self) -> Image {
+        let pixels = self.pixels.len();
+        let mut planes: [Vec<Vec3>; 3] = std::array::from_fn(|_| vec![Vec3::ZERO; pixels]);
+        let mut taken = vec![0; pixels];
+        self.each_row_major(|i, p| {
+            let (a, b) = p.replicate_means();
+            planes[0][i] = a.as_vec3();
+            planes[1][i] = b.as_vec3();
+            planes[2][i] = p.variance_of_mean().as_vec3();
+            taken[i] = p.taken;
+        });
+        let mut image = Image::new(self.width, self.height);
+        for (names, plane) in [REPLICATE_A, REPLICATE_B, VARIANCE].into_iter().zip(planes) {
+            image.set_rgb(names, plane.into_iter());
+        }
+        image.set(SAMPLES, Precision::Float, Values::Count(taken));
+        image
+    }
+
+    /// The film's colour as written ([`COLOUR`], row-major): each pixel's mean as an `f32`,
+    /// black where that is not finite ([`Pixel::rgb_f32`]).
+    pub fn colour(&self) -> Image {
+        let mut colour = vec![Vec3::ZERO; self.pixels.len()];
+        self.each_row_major(|i, p| colour[i] = Vec3::from_array(p.rgb_f32()));
+        let mut image = Image::new(self.width, self.height);
+        image.set_rgb(COLOUR, colour.into_iter());
+        image
+    }
+
+    /// Calls `f` with each pixel's row-major index and its sums, tile by tile.
+    fn each_row_major(&self, mut f: impl FnMut(usize, &Pixel)) {
+        for (rect, pixels) in self.tiles() {
+            for (i, p) in pixels.iter().enumerate() {
+                let (x, y) = rect.position(i);
+                f(y as usize * self.width as usize + x as usize, p);
+            }
+        }
     }
 
     /// `f` of each pixel's sums, row-major, top row first.
     pub(crate) fn row_major<T: Copy + Default>(&self, f: impl Fn(&Pixel) -> T) -> Vec<T> {
         let mut out = vec![T::default(); self.pixels.len()];
-        for (rect, pixels) in self.tiles() {
-            for (i, p) in pixels.iter().enumerate() {
-                let (x, y) = rect.position(i);
-                out[y as usize * self.width as usize + x as usize] = f(p);
-            }
-        }
+        self.each_row_major(|i, p| out[i] = f(p));
         out
     }
 
-    /// Pixel (`x`, `y`)'s mean as written ([`Pixel::rgb_f32`]).
-    pub fn rgb_f32(&self, x: u32, y: u32) -> [f32; 3] {
-        self.pixel(x, y).rgb_f32()
-    }
-
-    /// The number of pixels [`rgb_f32`](Self::rgb_f32) writes as black because they are not
-    /// finite as `f32`.
+    /// The number of pixels [`colour`](Self::colour) writes as black because their means are
+    /// not finite as `f32`.
     pub fn non_finite(&self) -> u64 {
         self.pixels
             .iter()
@@ -422,18 +458,6 @@ impl Film {
                     .all(|c| c.is_finite())
             })
             .count() as u64
-    }
-
-    /// Interleaved RGB as `f32`, row-major (see [`rgb_f32`](Self::rgb_f32)), and the number of
-    /// pixels written as black. Every value returned is finite.
-    pub fn to_rgb_f32(&self) -> (Vec<f32>, u64) {
-        let mut rgb = Vec::with_capacity(self.pixels.len() * 3);
-        for y in 0..self.height {
-            for x in 0..self.width {
-                rgb.extend_from_slice(&self.rgb_f32(x, y));
-            }
-        }
-        (rgb, self.non_finite())
     }
 }
 
@@ -561,9 +585,10 @@ mod tests {
         }
         let means = film.means();
         assert_eq!(means[19 * 37 + 36], DVec3::new(36.0, 19.0, 0.0));
-        let (rgb, non_finite) = film.to_rgb_f32();
-        assert_eq!(&rgb[(37 + 2) * 3..(37 + 3) * 3], &[2.0, 1.0, 0.0]);
-        assert_eq!(non_finite, 0);
+        let colour = film.colour();
+        let rgb = colour.rgb(COLOUR).unwrap();
+        assert_eq!(rgb.at(37 + 2), Vec3::new(2.0, 1.0, 0.0));
+        assert_eq!(film.non_finite(), 0);
     }
 
     #[test]
@@ -575,8 +600,8 @@ mod tests {
             DVec3::new(0.5, f32::MAX as f64, 0.25),
         ];
         let f = Film::from_fn(2, 2, |x, y| values[(y * 2 + x) as usize]);
-        let (rgb, non_finite) = f.to_rgb_f32();
-        assert_eq!(non_finite, 2);
+        let rgb = f.colour().interleaved(COLOUR).unwrap();
+        assert_eq!(f.non_finite(), 2);
         assert!(rgb.iter().all(|c| c.is_finite()));
         assert_eq!(&rgb[..6], &[0.0; 6]);
         assert_eq!(&rgb[9..], &[0.5, f32::MAX, 0.25]);

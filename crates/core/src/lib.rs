@@ -17,6 +17,7 @@ pub mod error;
 pub mod film;
 pub mod format;
 pub mod hit;
+pub mod image;
 mod lerp;
 pub mod material;
 pub mod metrics;

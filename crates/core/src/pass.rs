@@ -2,6 +2,8 @@
 //! storage, and sets of passes. A low room of names that the description, the validator, the
 //! film's passes ([`crate::passes`]) and the writers all share.
 
+use crate::image::Rgb;
+
 /// A pass: a closed set, named as in the scene format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Pass {
@@ -24,14 +26,25 @@ pub enum Pass {
     Noisy,
 }
 
-/// How a pass's channels are stored in an EXR file.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Precision {
-    /// 16-bit float (`half`).
-    Half,
-    /// 32-bit float.
-    Float,
-}
+pub use crate::image::Precision;
+
+/// The variance pass's channels: the estimated variance of each pixel's mean colour (also a
+/// film's replicates image's).
+pub const VARIANCE: Rgb = Rgb(["variance.R", "variance.G", "variance.B"]);
+
+/// The depth pass's channel: distance along the view direction to the first hit.
+pub const DEPTH: &str = "Z";
+
+/// The normal pass's channels: the first hit's world-space unit normal.
+pub const NORMAL: Rgb = Rgb(["N.X", "N.Y", "N.Z"]);
+
+/// The motion pass's backward channels: where the first hit's surface was one frame period
+/// earlier, in pixels (`u` right, `v` up).
+pub const BACKWARD: [&str; 2] = ["backward.u", "backward.v"];
+
+/// The samples pass's channel: the samples each pixel took (also a film's replicates
+/// image's, as counts).
+pub const SAMPLES: &str = "samples";
 
 impl Pass {
     /// Every pass, in the order the scene format lists them.
@@ -65,16 +78,16 @@ impl Pass {
         Pass::ALL.into_iter().find(|p| p.name() == name)
     }
 
-    /// The EXR channels of the pass, in the order [`PassImages`] holds them.
+    /// The EXR channels of the pass, in the order a frame's image holds them.
     pub fn channels(self) -> &'static [&'static str] {
         match self {
             Pass::Alpha => &["A"],
-            Pass::Depth => &["Z"],
-            Pass::Normal => &["N.X", "N.Y", "N.Z"],
+            Pass::Depth => &[DEPTH],
+            Pass::Normal => &NORMAL.0,
             Pass::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
-            Pass::Motion => &["forward.u", "forward.v", "backward.u", "backward.v"],
-            Pass::Variance => &["variance.R", "variance.G", "variance.B"],
-            Pass::Samples => &["samples"],
+            Pass::Motion => &["forward.u", "forward.v", BACKWARD[0], BACKWARD[1]],
+            Pass::Variance => &VARIANCE.0,
+            Pass::Samples => &[SAMPLES],
             Pass::Noisy => &["noisy.R", "noisy.G", "noisy.B"],
         }
     }
@@ -126,15 +139,6 @@ impl FromIterator<Pass> for PassSet {
     fn from_iter<I: IntoIterator<Item = Pass>>(iter: I) -> PassSet {
         iter.into_iter().fold(PassSet::EMPTY, PassSet::with)
     }
-}
-
-/// One channel of a frame's passes: its EXR name, storage, and values row-major, top row
-/// first.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Channel {
-    pub name: &'static str,
-    pub precision: Precision,
-    pub values: Vec<f32>,
 }
 
 #[cfg(test)]

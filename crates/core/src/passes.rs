@@ -20,8 +20,9 @@ use glam::{DVec2, DVec3};
 use crate::camera::{CameraRig, View};
 use crate::film::{Film, Pixel};
 use crate::hit::Hit;
+use crate::image::{Image, Precision, Values};
 use crate::material::{Background, Material};
-use crate::pass::{Channel, Pass, PassSet};
+use crate::pass::{Pass, PassSet};
 use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::sphere::SphereDesc;
@@ -276,122 +277,86 @@ fn albedo(m: &Material) -> DVec3 {
 /// The depth written where no sample hit.
 pub const NO_DEPTH: f32 = 1e10;
 
-/// A frame's passes: one [`Channel`] per channel of each requested pass, in [`Pass::ALL`]'s
-/// order.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PassImages {
-    pub width: u32,
-    pub height: u32,
-    pub passes: PassSet,
-    pub channels: Vec<Channel>,
+/// Adds to `image` the channels of `passes` (whose sums `layout` keeps, or which need none),
+/// made from a finished film laid out by `layout`: one channel per channel of each pass, in
+/// [`Pass::ALL`]'s order, stored as each pass says ([`Pass::precision`]).
+pub fn add_pass_channels(image: &mut Image, passes: PassSet, layout: &SumLayout, film: &Film) {
+    let stride = layout.stride;
+    assert_eq!(
+        film.pass_stride(),
+        stride,
+        "the film keeps these passes' sums"
+    );
+    let names: Vec<(&'static str, Precision)> = passes
+        .iter()
+        .flat_map(|p| p.channels().iter().map(move |&n| (n, p.precision())))
+        .collect();
+    let n = film.width as usize * film.height as usize;
+    let mut planes = vec![vec![0.0f32; n]; names.len()];
+    for (rect, pixels, sums) in film.tiles_with_pass_sums() {
+        for (i, pixel) in pixels.iter().enumerate() {
+            let (x, y) = rect.position(i);
+            let at = y as usize * film.width as usize + x as usize;
+            let values = pixel_values(passes, layout, &sums[i * stride..(i + 1) * stride], pixel);
+            for (plane, v) in planes.iter_mut().zip(values) {
+                plane[at] = v;
+            }
+        }
+    }
+    for ((name, precision), plane) in names.into_iter().zip(planes) {
+        image.set(name, precision, Values::Float(plane));
+    }
 }
 
-impl PassImages {
-    /// Empty images of `passes` for a `width` x `height` frame.
-    pub fn new(passes: PassSet, width: u32, height: u32) -> PassImages {
-        let n = width as usize * height as usize;
-        let channels = passes
-            .iter()
-            .flat_map(|p| {
-                p.channels().iter().map(move |&name| Channel {
-                    name,
-                    precision: p.precision(),
-                    values: vec![0.0; n],
-                })
-            })
-            .collect();
-        PassImages {
-            width,
-            height,
-            passes,
-            channels,
-        }
-    }
-
-    /// The images of the passes of `layout` from a finished film: its pass sums (laid out by
-    /// `layout`), its pixels' sample counts, means and variances.
-    pub(crate) fn from_film(layout: &SumLayout, film: &Film) -> PassImages {
-        PassImages::of(layout.passes, layout, film)
-    }
-
-    /// The images of `passes` (whose sums `layout` keeps, or which need none) from a finished
-    /// film laid out by `layout`.
-    pub fn of(passes: PassSet, layout: &SumLayout, film: &Film) -> PassImages {
-        let stride = layout.stride;
-        assert_eq!(
-            film.pass_stride(),
-            stride,
-            "the film keeps these passes' sums"
-        );
-        let mut images = PassImages::new(passes, film.width, film.height);
-        for (rect, pixels, sums) in film.tiles_with_pass_sums() {
-            for (i, pixel) in pixels.iter().enumerate() {
-                let (x, y) = rect.position(i);
-                images.set(layout, x, y, &sums[i * stride..(i + 1) * stride], pixel);
-            }
-        }
-        images
-    }
-
-    /// The channel named `name`, if the frame has it.
-    pub fn channel(&self, name: &str) -> Option<&[f32]> {
-        self.channels
-            .iter()
-            .find(|c| c.name == name)
-            .map(|c| c.values.as_slice())
-    }
-
-    /// Sets pixel (`x`, `y`) from its pass sums `slots` and its colour's sums `pixel` (its
-    /// samples, its mean as written, its estimated variance of the mean).
-    pub fn set(&mut self, layout: &SumLayout, x: u32, y: u32, slots: &[f64], pixel: &Pixel) {
-        let samples = pixel.taken();
-        let i = y as usize * self.width as usize + x as usize;
-        let hits = if layout.counts_hits {
-            slots[layout.hits]
-        } else {
-            0.0
-        };
-        // Means over the hits: 0 where none hit.
-        let over_hits = |s: f64| if hits > 0.0 { s / hits } else { 0.0 };
-        let mut values: [f32; 21] = [0.0; 21];
-        let mut k = 0;
-        let mut push = |v: f64| {
-            values[k] = v as f32;
-            k += 1;
-        };
-        for pass in self.passes.iter() {
-            match pass {
-                Pass::Alpha => push(if samples > 0 {
-                    hits / samples as f64
+/// A pixel's values of the channels of `passes`, in order, from its pass sums `slots` (laid
+/// out by `layout`) and its colour's sums `pixel` (its samples, its mean as written, its
+/// estimated variance of the mean). At most 21 values (every pass but the noisy colour's 3
+/// and the samples' 1, with them).
+fn pixel_values(passes: PassSet, layout: &SumLayout, slots: &[f64], pixel: &Pixel) -> [f32; 21] {
+    let samples = pixel.taken();
+    let hits = if layout.counts_hits {
+        slots[layout.hits]
+    } else {
+        0.0
+    };
+    // Means over the hits: 0 where none hit.
+    let over_hits = |s: f64| if hits > 0.0 { s / hits } else { 0.0 };
+    let mut values: [f32; 21] = [0.0; 21];
+    let mut k = 0;
+    let mut push = |v: f64| {
+        values[k] = v as f32;
+        k += 1;
+    };
+    for pass in passes.iter() {
+        match pass {
+            Pass::Alpha => push(if samples > 0 {
+                hits / samples as f64
+            } else {
+                0.0
+            }),
+            Pass::Depth => push(if hits > 0.0 {
+                slots[layout.depth] / hits
+            } else {
+                NO_DEPTH as f64
+            }),
+            Pass::Normal => (0..3).for_each(|j| push(over_hits(slots[layout.normal + j]))),
+            Pass::Albedo => (0..3).for_each(|j| {
+                push(if samples > 0 {
+                    slots[layout.albedo + j] / samples as f64
                 } else {
                     0.0
-                }),
-                Pass::Depth => push(if hits > 0.0 {
-                    slots[layout.depth] / hits
-                } else {
-                    NO_DEPTH as f64
-                }),
-                Pass::Normal => (0..3).for_each(|j| push(over_hits(slots[layout.normal + j]))),
-                Pass::Albedo => (0..3).for_each(|j| {
-                    push(if samples > 0 {
-                        slots[layout.albedo + j] / samples as f64
-                    } else {
-                        0.0
-                    })
-                }),
-                Pass::Motion => (0..4).for_each(|j| push(over_hits(slots[layout.motion + j]))),
-                Pass::Variance => {
-                    let variance = pixel.variance_of_mean();
-                    (0..3).for_each(|j| push(variance[j]));
-                }
-                Pass::Samples => push(samples as f64),
-                Pass::Noisy => pixel.rgb_f32().iter().for_each(|&c| push(c as f64)),
+                })
+            }),
+            Pass::Motion => (0..4).for_each(|j| push(over_hits(slots[layout.motion + j]))),
+            Pass::Variance => {
+                let variance = pixel.variance_of_mean();
+                (0..3).for_each(|j| push(variance[j]));
             }
-        }
-        for (c, v) in self.channels.iter_mut().zip(values) {
-            c.values[i] = v;
+            Pass::Samples => push(samples as f64),
+            Pass::Noisy => pixel.rgb_f32().iter().for_each(|&c| push(c as f64)),
         }
     }
+    values
 }
 
 #[cfg(test)]
@@ -410,17 +375,17 @@ mod tests {
         assert_eq!(SumLayout::new(PassSet::EMPTY.with(Pass::Albedo)).stride, 3);
         let all: PassSet = Pass::ALL.into_iter().collect();
         assert_eq!(SumLayout::new(all).stride, 1 + 1 + 3 + 3 + 4);
-        let images = PassImages::new(all, 2, 1);
-        let names: Vec<&str> = images.channels.iter().map(|c| c.name).collect();
+        let names: Vec<&str> = all
+            .iter()
+            .flat_map(|p| p.channels().iter().copied())
+            .collect();
         assert_eq!(names.len(), 19);
-        assert_eq!(images.channel("Z").map(<[f32]>::len), Some(2));
     }
 
     #[test]
     fn means_divide_by_hits_or_by_samples() {
         let all: PassSet = Pass::ALL.into_iter().collect();
         let l = SumLayout::new(all);
-        let mut images = PassImages::new(all, 2, 1);
         // Pixel 0: 4 samples, 2 hits at depths 1 and 3, albedo sums 2.
         let mut slots = vec![0.0; l.stride];
         slots[l.hits] = 2.0;
@@ -432,19 +397,28 @@ mod tests {
         for v in [0.0, 2.0, 0.0, 2.0] {
             colour.add(DVec3::splat(v));
         }
-        images.set(&l, 0, 0, &slots, &colour);
+        let first = pixel_values(all, &l, &slots, &colour);
         // Pixel 1: no hit, 8 black samples.
         let mut black = Pixel::default();
         (0..8).for_each(|_| {
             black.add(DVec3::ZERO);
         });
-        images.set(&l, 1, 0, &vec![0.0; l.stride], &black);
-        assert_eq!(images.channel("A").unwrap(), &[0.5, 0.0]);
-        assert_eq!(images.channel("Z").unwrap(), &[2.0, NO_DEPTH]);
-        assert_eq!(images.channel("albedo.R").unwrap(), &[0.5, 0.0]);
-        assert_eq!(images.channel("N.X").unwrap(), &[0.0, 0.0]);
-        assert_eq!(images.channel("variance.G").unwrap(), &[1.0, 0.0]);
-        assert_eq!(images.channel("samples").unwrap(), &[4.0, 8.0]);
-        assert_eq!(images.channel("noisy.B").unwrap(), &[1.0, 0.0]);
+        let second = pixel_values(all, &l, &vec![0.0; l.stride], &black);
+        // The channels in Pass::ALL's order.
+        let names: Vec<&str> = all
+            .iter()
+            .flat_map(|p| p.channels().iter().copied())
+            .collect();
+        let channel = |name: &str| {
+            let k = names.iter().position(|n| *n == name).unwrap();
+            [first[k], second[k]]
+        };
+        assert_eq!(channel("A"), [0.5, 0.0]);
+        assert_eq!(channel("Z"), [2.0, NO_DEPTH]);
+        assert_eq!(channel("albedo.R"), [0.5, 0.0]);
+        assert_eq!(channel("N.X"), [0.0, 0.0]);
+        assert_eq!(channel("variance.G"), [1.0, 0.0]);
+        assert_eq!(channel("samples"), [4.0, 8.0]);
+        assert_eq!(channel("noisy.B"), [1.0, 0.0]);
     }
 }

@@ -1,8 +1,8 @@
 //! The denoiser: Intel Open Image Denoise's `RT` filter on its CPU device, through the `oidn`
 //! crate (vendored: vendor/README.md).
 //!
-//! Images are interleaved RGB `f32`, row-major, linear HDR radiance. The filter takes the
-//! colour alone: guides (the first hit's albedo and normal), prefiltered as OIDN recommends for
+//! The filter reads three channels of an image (linear HDR radiance) and gives them back
+//! denoised (OIDN takes them interleaved, a pixel after another). It takes the colour alone: guides (the first hit's albedo and normal), prefiltered as OIDN recommends for
 //! noisy guides, were measured on every shipped scene against colour-only filtering and did
 //! not pay for their cost (docs/denoising.md, "Measured and not kept"). A filter is made once
 //! for an image size and quality ([`Denoiser::filter`]) and run on every image of a shot.
@@ -16,6 +16,8 @@
 
 use std::fmt;
 
+use glam::Vec3;
+use raytrace_core::image::{Image, Rgb};
 use raytrace_core::scene::DenoiseQuality;
 
 /// The largest width and height OIDN accepts (its `ImageDesc` refuses larger sides as
@@ -126,8 +128,21 @@ pub struct Filter<'d> {
 }
 
 impl Filter<'_> {
-    /// `colour` (interleaved RGB `f32`, linear HDR, row-major) denoised.
-    pub fn run(&self, colour: &[f32]) -> Result<Vec<f32>, DenoiseError> {
+    /// The channels `names` of `image` (linear HDR radiance) denoised: an image of those
+    /// channels. A pixel with a value that is not finite is denoised as black (OIDN takes
+    /// finite values only).
+    pub fn run(&self, image: &Image, names: Rgb) -> Result<Image, DenoiseError> {
+        let planes = image.rgb(names).ok_or(DenoiseError::Length {
+            what: "colour",
+            len: 0,
+            expected: self.len,
+        })?;
+        let colour: Vec<f32> = (0..image.pixels())
+            .flat_map(|i| {
+                let c = planes.at(i);
+                if c.is_finite() { c } else { Vec3::ZERO }.to_array()
+            })
+            .collect();
         if colour.len() != self.len {
             return Err(DenoiseError::Length {
                 what: "colour",
@@ -137,9 +152,14 @@ impl Filter<'_> {
         }
         let mut out = vec![0.0f32; self.len];
         self.filter
-            .filter(colour, &mut out)
+            .filter(&colour, &mut out)
             .map_err(|e| DenoiseError::Filter(describe(&e)))?;
-        Ok(out)
+        Ok(Image::from_interleaved(
+            image.width(),
+            image.height(),
+            names,
+            &out,
+        ))
     }
 }
 
@@ -174,23 +194,25 @@ fn describe(e: &oidn::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synthetic::{self, to_f32};
+    use crate::synthetic;
+    use raytrace_core::image::COLOUR;
 
-    /// A small noisy frame's full image, interleaved.
-    fn noisy() -> (usize, usize, Vec<f32>) {
+    /// A small noisy frame's full image.
+    fn noisy() -> (usize, usize, Image) {
         let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
-        (f.width, f.height, to_f32(&f.full()))
+        (f.width, f.height, f.full())
     }
 
-    fn denoised() -> Vec<f32> {
+    fn denoised() -> Image {
         let (w, h, color) = noisy();
         let denoiser = Denoiser::new().unwrap();
         let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
-        filter.run(&color).unwrap()
+        filter.run(&color, COLOUR).unwrap()
     }
 
-    /// FNV-1a over the values' bits.
-    fn hash(values: &[f32]) -> u64 {
+    /// FNV-1a over the colour's bits.
+    fn hash(image: &Image) -> u64 {
+        let values = image.interleaved(COLOUR).unwrap();
         values.iter().fold(0xcbf2_9ce4_8422_2325, |h, v| {
             (h ^ v.to_bits() as u64).wrapping_mul(0x0100_0000_01b3)
         })
@@ -200,11 +222,11 @@ mod tests {
     fn denoising_brings_the_image_closer_to_the_truth_at_every_quality() {
         let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
         let denoiser = Denoiser::new().unwrap();
-        let before = raytrace_core::metrics::rel_mse(&f.full(), &f.truth);
+        let before = raytrace_core::metrics::rel_mse(&f.full(), &f.truth());
         for q in DenoiseQuality::ALL {
             let filter = denoiser.filter(64, 48, q).unwrap();
-            let out = synthetic::from_f32(&filter.run(&to_f32(&f.full())).unwrap());
-            let after = raytrace_core::metrics::rel_mse(&out, &f.truth);
+            let out = filter.run(&f.full(), COLOUR).unwrap();
+            let after = raytrace_core::metrics::rel_mse(&out, &f.truth());
             assert!(after < before / 4.0, "{q}: {after} vs {before}");
         }
     }
@@ -214,15 +236,16 @@ mod tests {
         let (w, h, color) = noisy();
         let denoiser = Denoiser::new().unwrap();
         let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
-        let once = filter.run(&color).unwrap();
+        let once = filter.run(&color, COLOUR).unwrap();
         // Another image between two runs of the same one.
-        let other = filter.run(&vec![0.25; color.len()]).unwrap();
+        let grey = Image::from_interleaved(w as u32, h as u32, COLOUR, &vec![0.25; 3 * w * h]);
+        let other = filter.run(&grey, COLOUR).unwrap();
         assert_ne!(hash(&once), hash(&other));
-        assert_eq!(hash(&once), hash(&filter.run(&color).unwrap()));
+        assert_eq!(hash(&once), hash(&filter.run(&color, COLOUR).unwrap()));
         // A second device, a second filter.
         let second = Denoiser::new().unwrap();
         let again = second.filter(w, h, DenoiseQuality::Fast).unwrap();
-        assert_eq!(hash(&once), hash(&again.run(&color).unwrap()));
+        assert_eq!(hash(&once), hash(&again.run(&color, COLOUR).unwrap()));
     }
 
     #[test]
@@ -230,7 +253,15 @@ mod tests {
         // What the quality's documentation says of OIDN's CPU device.
         let (w, h, color) = noisy();
         let denoiser = Denoiser::new().unwrap();
-        let run = |q| hash(&denoiser.filter(w, h, q).unwrap().run(&color).unwrap());
+        let run = |q| {
+            hash(
+                &denoiser
+                    .filter(w, h, q)
+                    .unwrap()
+                    .run(&color, COLOUR)
+                    .unwrap(),
+            )
+        };
         assert_eq!(run(DenoiseQuality::Balanced), run(DenoiseQuality::High));
         assert_ne!(run(DenoiseQuality::Fast), run(DenoiseQuality::High));
     }
@@ -303,8 +334,9 @@ mod tests {
         assert!(e.message().contains("too large"), "{e}");
         // An image of another size than the filter's.
         let filter = denoiser.filter(1, 2, DenoiseQuality::Fast).unwrap();
+        let one = Image::from_interleaved(1, 1, COLOUR, &color[..3]);
         assert!(matches!(
-            filter.run(&color[..3]),
+            filter.run(&one, COLOUR),
             Err(DenoiseError::Length { .. })
         ));
     }

@@ -1,6 +1,6 @@
 //! The written frame of a denoised render, and its error estimated without a reference.
 //!
-//! Every pixel's samples alternate between two replicates (`replicates::Halves`): `a`, the mean
+//! Every pixel's samples alternate between two replicates (`replicates::Replicate`): `a`, the mean
 //! of its `n_a = n - n/2` even samples, and `b`, the mean of its `n_b = n/2` odd ones, each an
 //! unbiased, independent estimate of the true value `T`. The raw frame is
 //! `F = s_a a + s_b b` (`s_a = n_a / n`, `s_b = n_b / n`), with the film's estimated variance
@@ -51,8 +51,10 @@
 
 use glam::{DVec3, Vec3};
 
+use raytrace_core::image::{COLOUR, Image, Precision, Rgb, Values};
 use raytrace_core::metrics::estimated_rel_mse_term;
-use raytrace_core::replicates::Halves;
+use raytrace_core::pass::SAMPLES;
+use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicate, Replicates};
 
 /// The half-side of the square over which a pixel's terms are averaged to choose its weight:
 /// 17x17 pixels. The terms are unbiased but noisy, and a weight chosen from noisy terms is
@@ -76,7 +78,7 @@ impl PixelTerms {
     /// The terms of a pixel whose replicates are `h` and denoised replicates `da`, `db` (see
     /// the module's derivation). With fewer than two samples nothing is known: the errors are
     /// infinite.
-    pub(crate) fn new(h: &Halves, da: DVec3, db: DVec3) -> PixelTerms {
+    pub(crate) fn new(h: &Replicate, da: DVec3, db: DVec3) -> PixelTerms {
         let (s_a, s_b) = h.shares();
         let denoised = da * s_a + db * s_b;
         if h.taken < 2 {
@@ -87,7 +89,7 @@ impl PixelTerms {
             };
         }
         // var(η_a) = v n / n_a = v / s_a.
-        let (a, b, v) = (h.a(), h.b(), h.variance_of_mean());
+        let (a, b, v) = (h.a, h.b, h.variance_of_mean);
         let (var_a, var_b) = (v / s_a, v / s_b);
         let cv_a = (da - b) * (da - b) - var_b;
         let cv_b = (db - a) * (db - a) - var_a;
@@ -110,7 +112,7 @@ impl PixelTerms {
 /// error, per channel, from (neighbourhood means of) the denoised error `e_d`, the raw
 /// variance `v` and their covariance `c`: `(v - c) / (e_d + v - 2c)` in [0, 1]. A raw pixel
 /// of unknown variance (fewer than two samples) takes the denoised value.
-pub fn weight(e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
+pub(crate) fn weight(e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
     let one = |e_d: f64, v: f64, c: f64| {
         if !v.is_finite() {
             return 1.0;
@@ -145,51 +147,43 @@ pub(crate) fn blended_error(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
     part(w * w, e_d) + part(r * r, v) + part(2.0 * w * r, c)
 }
 
-/// One pixel of a [`Snapshot`]: its [`PixelTerms`] in `f32` and the samples they were made
-/// from (40 bytes).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct SnapshotPixel {
-    denoised: Vec3,
-    denoised_error: Vec3,
-    cross: Vec3,
-    taken: u32,
-}
+/// The denoised frame `D̄` in a [`Snapshot`]'s terms.
+pub(crate) const DENOISED: Rgb = Rgb(["denoised.R", "denoised.G", "denoised.B"]);
+/// The denoised frame's error `E[(D̄ - T)^2]` in a snapshot's terms (kept infinite where
+/// nothing is known).
+pub(crate) const DENOISED_ERROR: Rgb =
+    Rgb(["denoisedError.R", "denoisedError.G", "denoisedError.B"]);
+/// `cov(D̄ - T, F - T)`: in a snapshot's terms at the samples denoised, in a written frame's
+/// terms now.
+pub(crate) const CROSS: Rgb = Rgb(["cross.R", "cross.G", "cross.B"]);
+/// The written frame `W = w D̄ + (1 - w) F`: the colour.
+pub(crate) const WRITTEN: Rgb = COLOUR;
+/// The raw frame `F` in a written frame's terms.
+pub(crate) const RAW: Rgb = Rgb(["raw.R", "raw.G", "raw.B"]);
+/// The denoised frame's weight `w` in a written frame's terms.
+pub(crate) const WEIGHT: Rgb = Rgb(["weight.R", "weight.G", "weight.B"]);
+/// `E[(W - T)^2]`, unbiased (possibly negative; infinite where nothing is known).
+pub(crate) const ERROR: Rgb = Rgb(["error.R", "error.G", "error.B"]);
+/// The same from the neighbourhood's means: smooth, never negative.
+pub(crate) const SMOOTH_ERROR: Rgb = Rgb(["smoothError.R", "smoothError.G", "smoothError.B"]);
+/// The raw frame's variance `v` in a written frame's terms.
+pub(crate) const RAW_VARIANCE: Rgb = Rgb(["rawVariance.R", "rawVariance.G", "rawVariance.B"]);
 
-/// One denoise of a film: every pixel's [`PixelTerms`] and the samples they were made from,
-/// row-major. It blends with the film as it is then or after more samples
+/// One denoise of a film: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
+/// [`DENOISED_ERROR`], [`CROSS`]) and the samples they were made from ([`SAMPLES`]), an image
+/// of 40 bytes a pixel. It blends with the film as it is then or after more samples
 /// ([`Snapshot::blend`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
-    width: usize,
-    pixels: Vec<SnapshotPixel>,
-}
-
-/// One pixel of the written frame, with what a later stage that combines it with other
-/// estimates of the same pixel needs (`denoise::history`): per channel, `f32`.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct WrittenPixel {
-    /// `W = w D̄ + (1 - w) F`.
-    pub written: Vec3,
-    /// The raw frame `F`.
-    pub raw: Vec3,
-    /// The denoised frame's weight `w`.
-    pub weight: Vec3,
-    /// `E[(W - T)^2]`, unbiased (possibly negative; infinite where nothing is known).
-    pub error: Vec3,
-    /// The same from the neighbourhood's means: smooth, never negative.
-    pub(crate) smooth_error: Vec3,
-    /// The raw frame's variance `v`.
-    pub(crate) raw_variance: Vec3,
-    /// `cov(D̄ - T, F - T)` now.
-    pub cross: Vec3,
+    terms: Image,
 }
 
 /// The written frame ([`Snapshot::blend`]), or the written frame combined with earlier
 /// frames (`denoise::history`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Blend {
-    /// The written colour, interleaved RGB, row-major (every value finite).
-    pub rgb: Vec<f32>,
+    /// The written colour ([`COLOUR`], every value finite).
+    pub image: Image,
     /// The frame's estimated relative error (infinite where a pixel has fewer than two
     /// samples).
     pub relative_error: f64,
@@ -203,43 +197,40 @@ pub struct Blend {
 }
 
 impl Blend {
-    /// The written frame of `pixels` (row-major, `width` pixels a row).
-    pub fn from_written(width: usize, pixels: &[WrittenPixel]) -> Blend {
-        let values: Vec<[Vec3; 3]> = pixels
-            .iter()
-            .map(|p| [p.written, p.error, p.smooth_error])
-            .collect();
-        let raw: Vec<Vec3> = pixels.iter().map(|p| p.raw).collect();
-        let mut blend = Blend::new(width, &values, &raw);
-        blend.denoised_share = pixels
-            .iter()
-            .map(|p| p.weight.element_sum() as f64 / 3.0)
-            .sum::<f64>()
-            / pixels.len().max(1) as f64;
+    /// The written frame of `written` (a written frame's terms, [`Snapshot::written`]).
+    pub fn from_written(written: &Image) -> Blend {
+        let mut blend = Blend::new(written);
+        blend.denoised_share = denoised_share(written);
         blend
     }
 
-    /// The frame of `values` (row-major, `width` pixels a row): each pixel's value, its
-    /// unbiased and smooth squared errors, per channel, and the raw frame `raw` to stand in
-    /// for the true value (with the value itself: the smaller of the value and the raw
-    /// frame's 3x3 mean, see the module's notes).
-    pub fn new(width: usize, values: &[[Vec3; 3]], raw: &[Vec3]) -> Blend {
-        let n = values.len();
-        let raw: Vec<DVec3> = raw.iter().map(|r| r.as_dvec3()).collect();
+    /// The frame of `terms`: each pixel's value ([`WRITTEN`]), its unbiased and smooth
+    /// squared errors ([`ERROR`], [`SMOOTH_ERROR`]), per channel, and the raw frame ([`RAW`])
+    /// to stand in for the true value (with the value itself: the smaller of the value and
+    /// the raw frame's 3x3 mean, see the module's notes).
+    pub fn new(terms: &Image) -> Blend {
+        let n = terms.pixels();
+        let width = terms.width() as usize;
+        let planes = |names| terms.rgb(names).expect("a written frame's terms");
+        let (value, error, smooth) = (planes(WRITTEN), planes(ERROR), planes(SMOOTH_ERROR));
+        let raw = planes(RAW);
+        let raw: Vec<DVec3> = (0..n).map(|i| raw.at_f64(i)).collect();
         let around = box_mean(&raw, width, 1);
-        let mut rgb = Vec::with_capacity(3 * n);
+        let mut colour = Vec::with_capacity(n);
         let mut pixel_errors = Vec::with_capacity(n);
         let mut sum = 0.0;
-        for (i, [value, error, smooth]) in values.iter().enumerate() {
-            let value = value.as_dvec3();
-            let m = value.max(DVec3::ZERO).min(around[i].max(DVec3::ZERO));
-            sum += estimated_rel_mse_term(m, error.as_dvec3());
-            pixel_errors.push(estimated_rel_mse_term(m, smooth.as_dvec3()));
-            rgb.extend_from_slice(&to_f32(value).to_array());
+        for (i, around) in around.iter().enumerate() {
+            let v = value.at_f64(i);
+            let m = v.max(DVec3::ZERO).min(around.max(DVec3::ZERO));
+            sum += estimated_rel_mse_term(m, error.at_f64(i));
+            pixel_errors.push(estimated_rel_mse_term(m, smooth.at_f64(i)));
+            colour.push(to_f32(v));
         }
+        let mut image = Image::new(terms.width(), terms.height());
+        image.set_rgb(COLOUR, colour.into_iter());
         let mean = sum / n.max(1) as f64;
         Blend {
-            rgb,
+            image,
             relative_error: if mean.is_nan() {
                 f64::INFINITY
             } else {
@@ -252,109 +243,138 @@ impl Blend {
     }
 }
 
+/// The mean weight of the denoised frame in a written frame's terms, over pixels and channels.
+pub(crate) fn denoised_share(written: &Image) -> f64 {
+    let weight = written.rgb(WEIGHT).expect("a written frame's terms");
+    let n = written.pixels();
+    (0..n)
+        .map(|i| weight.at(i).element_sum() as f64 / 3.0)
+        .sum::<f64>()
+        / n.max(1) as f64
+}
+
+/// `v` as an `f32`, black where that is not finite.
 fn to_f32(v: DVec3) -> Vec3 {
     let c = v.as_vec3();
     if c.is_finite() { c } else { Vec3::ZERO }
 }
 
 impl Snapshot {
-    /// The snapshot of a film whose pixels' replicates are `halves` and whose replicates
-    /// denoised are `da` and `db` (interleaved RGB); all row-major, `width` pixels a row.
-    pub fn new(width: usize, halves: &[Halves], da: &[f32], db: &[f32]) -> Snapshot {
-        assert_eq!(da.len(), 3 * halves.len(), "a denoised half per pixel");
-        assert_eq!(db.len(), 3 * halves.len(), "a denoised half per pixel");
-        let at = |v: &[f32], i: usize| Vec3::from_slice(&v[3 * i..3 * i + 3]).as_dvec3();
-        let pixels = halves
-            .iter()
-            .enumerate()
-            .map(|(i, h)| {
-                let t = PixelTerms::new(h, at(da, i), at(db, i));
-                SnapshotPixel {
-                    denoised: to_f32(t.denoised),
-                    // Kept infinite where nothing is known.
-                    denoised_error: t.denoised_error.as_vec3(),
-                    cross: to_f32(t.cross),
-                    taken: h.taken,
-                }
-            })
-            .collect();
-        Snapshot { width, pixels }
+    /// The snapshot of a film whose replicates are `replicates` (a film's replicates image)
+    /// and whose replicates denoised are `da` and `db` (each [`REPLICATE_A`]'s and
+    /// [`REPLICATE_B`]'s channels as the denoiser gives them back); all of one size.
+    pub fn new(replicates: &Image, da: &Image, db: &Image) -> Snapshot {
+        let h = Replicates::of(replicates);
+        let (da, db) = (
+            da.rgb(REPLICATE_A).expect("replicate a, denoised"),
+            db.rgb(REPLICATE_B).expect("replicate b, denoised"),
+        );
+        let n = replicates.pixels();
+        let mut planes: [Vec<Vec3>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
+        for i in 0..n {
+            let t = PixelTerms::new(&h.at(i), da.at_f64(i), db.at_f64(i));
+            planes[0].push(to_f32(t.denoised));
+            // Kept infinite where nothing is known.
+            planes[1].push(t.denoised_error.as_vec3());
+            planes[2].push(to_f32(t.cross));
+        }
+        let mut terms = Image::new(replicates.width(), replicates.height());
+        for (names, plane) in [DENOISED, DENOISED_ERROR, CROSS].into_iter().zip(planes) {
+            terms.set_rgb(names, plane.into_iter());
+        }
+        terms.set(SAMPLES, Precision::Float, Values::Count(h.taken().to_vec()));
+        Snapshot { terms }
     }
 
-    /// The frame written from this denoise and the film's replicates now, `halves`
-    /// (row-major, the same pixels with at least the samples denoised): see the module's
-    /// notes.
-    pub fn blend(&self, halves: &[Halves]) -> Blend {
-        let pixels = self.written(halves);
-        Blend::from_written(self.width, &pixels)
+    /// The frame written from this denoise and the film's replicates now, `replicates` (the
+    /// same pixels with at least the samples denoised): see the module's notes.
+    pub fn blend(&self, replicates: &Image) -> Blend {
+        Blend::from_written(&self.written(replicates))
     }
 
-    /// [`blend`](Self::blend)'s pixels, with what combining them with earlier frames needs.
-    pub fn written(&self, halves: &[Halves]) -> Vec<WrittenPixel> {
-        assert_eq!(halves.len(), self.pixels.len(), "the film denoised");
+    /// [`blend`](Self::blend)'s terms, with what combining them with earlier frames needs:
+    /// an image of [`WRITTEN`], [`RAW`], [`WEIGHT`], [`ERROR`], [`SMOOTH_ERROR`],
+    /// [`RAW_VARIANCE`] and [`CROSS`] (now), `f32`.
+    pub fn written(&self, replicates: &Image) -> Image {
+        let h = Replicates::of(replicates);
+        let taken_then = self.terms.counts(SAMPLES).expect("a snapshot's samples");
+        let planes = |names| self.terms.rgb(names).expect("a snapshot's terms");
+        let (denoised, denoised_error, cross) =
+            (planes(DENOISED), planes(DENOISED_ERROR), planes(CROSS));
+        let n = replicates.pixels();
+        assert_eq!(n, taken_then.len(), "the film denoised");
         // The pixel's terms now: the covariance falls with the samples added since.
-        let terms: Vec<[DVec3; 3]> = self
-            .pixels
-            .iter()
-            .zip(halves)
-            .map(|(p, h)| {
+        let terms: Vec<[DVec3; 3]> = (0..n)
+            .map(|i| {
+                let h = h.at(i);
                 let fall = if h.taken > 0 {
-                    p.taken as f64 / h.taken as f64
+                    taken_then[i] as f64 / h.taken as f64
                 } else {
                     1.0
                 };
                 [
-                    p.denoised_error.as_dvec3(),
-                    h.variance_of_mean(),
-                    p.cross.as_dvec3() * fall,
+                    denoised_error.at_f64(i),
+                    h.variance_of_mean,
+                    cross.at_f64(i) * fall,
                 ]
             })
             .collect();
         let finite = |v: DVec3| if v.is_finite() { v } else { DVec3::ZERO };
+        let width = replicates.width() as usize;
         let smoothed: Vec<Vec<DVec3>> = (0..3)
             .map(|k| {
                 let map: Vec<DVec3> = terms.iter().map(|t| finite(t[k])).collect();
-                box_mean_of_others(&map, self.width, WEIGHT_RADIUS)
+                box_mean_of_others(&map, width, WEIGHT_RADIUS)
             })
             .collect();
-        terms
-            .iter()
-            .zip(halves)
-            .enumerate()
-            .map(|(i, ([e_d, v, c], h))| {
-                let (se, sv, sc) = (
-                    smoothed[0][i].max(DVec3::ZERO),
-                    smoothed[1][i],
-                    smoothed[2][i],
-                );
-                let w = if v.is_finite() {
-                    weight(se, sv, sc)
-                } else {
-                    DVec3::ONE
-                };
-                let raw = h.full();
-                WrittenPixel {
-                    written: to_f32(
-                        self.pixels[i].denoised.as_dvec3() * w + raw * (DVec3::ONE - w),
-                    ),
-                    raw: to_f32(raw),
-                    weight: w.as_vec3(),
-                    error: blended_error(w, *e_d, *v, *c).as_vec3(),
-                    smooth_error: to_f32(blended_error(w, se, sv, sc).max(DVec3::ZERO)),
-                    raw_variance: v.as_vec3(),
-                    cross: to_f32(*c),
-                }
-            })
-            .collect()
+        let mut out: [Vec<Vec3>; 7] = std::array::from_fn(|_| Vec::with_capacity(n));
+        for (i, [e_d, v, c]) in terms.iter().enumerate() {
+            let (se, sv, sc) = (
+                smoothed[0][i].max(DVec3::ZERO),
+                smoothed[1][i],
+                smoothed[2][i],
+            );
+            let w = if v.is_finite() {
+                weight(se, sv, sc)
+            } else {
+                DVec3::ONE
+            };
+            let raw = h.at(i).full();
+            let pixel = [
+                to_f32(denoised.at_f64(i) * w + raw * (DVec3::ONE - w)),
+                to_f32(raw),
+                w.as_vec3(),
+                blended_error(w, *e_d, *v, *c).as_vec3(),
+                to_f32(blended_error(w, se, sv, sc).max(DVec3::ZERO)),
+                v.as_vec3(),
+                to_f32(*c),
+            ];
+            for (plane, value) in out.iter_mut().zip(pixel) {
+                plane.push(value);
+            }
+        }
+        let mut written = Image::new(replicates.width(), replicates.height());
+        let names = [
+            WRITTEN,
+            RAW,
+            WEIGHT,
+            ERROR,
+            SMOOTH_ERROR,
+            RAW_VARIANCE,
+            CROSS,
+        ];
+        for (names, plane) in names.into_iter().zip(out) {
+            written.set_rgb(names, plane.into_iter());
+        }
+        written
     }
 
     /// The denoised frame `D̄`, interleaved RGB, row-major.
     #[cfg(test)]
     pub(crate) fn denoised_rgb(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .flat_map(|p| p.denoised.to_array())
-            .collect()
+        self.terms
+            .interleaved(DENOISED)
+            .expect("a snapshot's terms")
     }
 }
 
@@ -431,8 +451,33 @@ where
 mod tests {
     use super::*;
 
-    fn halves(a: f64, b: f64, taken: u32, v: f64) -> Halves {
-        Halves::new(DVec3::splat(a), DVec3::splat(b), taken, DVec3::splat(v))
+    fn halves(a: f64, b: f64, taken: u32, v: f64) -> Replicate {
+        // As a film's replicates image keeps them: in f32.
+        let f = |x: f64| DVec3::splat(x).as_vec3().as_dvec3();
+        Replicate {
+            a: f(a),
+            b: f(b),
+            variance_of_mean: f(v),
+            taken,
+        }
+    }
+
+    /// A one-pixel replicates image of `h`, and the denoised replicates `da`, `db`.
+    fn one_pixel(h: &Replicate, da: f32, db: f32) -> (Image, Image, Image) {
+        let mut r = Image::new(1, 1);
+        r.set_rgb(REPLICATE_A, [h.a.as_vec3()].into_iter());
+        r.set_rgb(REPLICATE_B, [h.b.as_vec3()].into_iter());
+        r.set_rgb(
+            raytrace_core::pass::VARIANCE,
+            [h.variance_of_mean.as_vec3()].into_iter(),
+        );
+        r.set(SAMPLES, Precision::Float, Values::Count(vec![h.taken]));
+        let denoised = |names, v: f32| {
+            let mut d = Image::new(1, 1);
+            d.set_rgb(names, [Vec3::splat(v)].into_iter());
+            d
+        };
+        (r, denoised(REPLICATE_A, da), denoised(REPLICATE_B, db))
     }
 
     #[test]
@@ -517,19 +562,21 @@ mod tests {
     fn after_more_samples_the_covariance_falls_with_them() {
         // One pixel wide: its neighbourhood is itself.
         let h = halves(1.0, 1.2, 4, 0.01);
-        let s = Snapshot::new(1, &[h], &[0.9; 3], &[1.1; 3]);
-        let now = s.blend(&[h]);
+        let (replicates, da, db) = one_pixel(&h, 0.9, 1.1);
+        let s = Snapshot::new(&replicates, &da, &db);
+        let now = s.blend(&replicates);
         // Four times the samples: a quarter of the covariance, a new variance.
         let later = halves(1.05, 1.1, 16, 0.002);
-        let then = s.blend(&[later]);
+        let then = s.blend(&one_pixel(&later, 0.0, 0.0).0);
         let t = PixelTerms::new(&h, DVec3::splat(0.9), DVec3::splat(1.1));
         let w = weight(t.denoised_error, DVec3::splat(0.002), t.cross / 4.0);
         let e = blended_error(w, t.denoised_error, DVec3::splat(0.002), t.cross / 4.0);
         let written = t.denoised * w + later.full() * (DVec3::ONE - w);
-        assert!((then.rgb[0] as f64 - written.x).abs() < 1e-6);
+        let then_rgb = then.image.interleaved(COLOUR).unwrap();
+        assert!((then_rgb[0] as f64 - written.x).abs() < 1e-6);
         let m = written.min(later.full()).max(DVec3::ZERO);
         assert!((then.relative_error.powi(2) - estimated_rel_mse_term(m, e)).abs() < 1e-9);
-        assert_ne!(now.rgb, then.rgb);
+        assert_ne!(now.image, then.image);
     }
 
     #[test]

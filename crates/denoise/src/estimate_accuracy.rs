@@ -5,8 +5,10 @@
 
 use super::denoiser::Denoiser;
 use super::estimate::{Blend, Snapshot};
-use super::synthetic::{self, Frame, from_f32, to_f32};
+use super::synthetic::{self, Frame};
+use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics::rel_mse;
+use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B};
 use raytrace_core::scene::DenoiseQuality;
 
 /// The frame written from `frame` (its halves denoised at the default quality) and its true
@@ -16,18 +18,18 @@ fn written(frame: &Frame) -> (Blend, f64) {
     let filter = denoiser
         .filter(frame.width, frame.height, DenoiseQuality::default())
         .unwrap();
-    let halves = frame.halves();
-    let da = filter.run(&to_f32(&frame.a)).unwrap();
-    let db = filter.run(&to_f32(&frame.b)).unwrap();
-    let blend = Snapshot::new(frame.width, &halves, &da, &db).blend(&halves);
-    let truth = rel_mse(&from_f32(&blend.rgb), &frame.truth).sqrt();
+    let replicates = frame.replicates();
+    let da = filter.run(&replicates, REPLICATE_A).unwrap();
+    let db = filter.run(&replicates, REPLICATE_B).unwrap();
+    let blend = Snapshot::new(&replicates, &da, &db).blend(&replicates);
+    let truth = rel_mse(&blend.image, &frame.truth()).sqrt();
     (blend, truth)
 }
 
 /// The written frame of `frame`, checked never further from the truth than the raw frame;
 /// returns it with its stated and true relative MSE.
 fn check(name: &str, frame: &Frame) -> (Blend, f64, f64) {
-    let noisy = rel_mse(&frame.full(), &frame.truth).sqrt();
+    let noisy = rel_mse(&frame.full(), &frame.truth()).sqrt();
     let (blend, truth) = written(frame);
     let stated = blend.relative_error;
     eprintln!(
@@ -99,10 +101,16 @@ fn the_statement_sees_the_bias_at_edges() {
     // edges worst.
     let frame = synthetic::frame(128, 96, synthetic::edges, 0.5, 2);
     let (blend, _, _) = check("edges", &frame);
-    let truth: Vec<f64> = from_f32(&blend.rgb)
-        .iter()
-        .zip(&frame.truth)
-        .map(|(d, t)| rel_mse(&[*d], &[*t]))
+    let written = blend.image.rgb(COLOUR).unwrap();
+    let truth: Vec<f64> = (0..blend.image.pixels())
+        .map(|i| {
+            let pixel = |v: glam::DVec3| {
+                let mut image = Image::new(1, 1);
+                image.set_rgb(COLOUR, [v.as_vec3()].into_iter());
+                image
+            };
+            rel_mse(&pixel(written.at_f64(i)), &pixel(frame.truth[i]))
+        })
         .collect();
     let (est, truth) = (tile_means(&blend.pixel_errors), tile_means(&truth));
     let mut order: Vec<usize> = (0..est.len()).collect();
@@ -142,11 +150,16 @@ fn the_mean_of_denoised_halves_is_what_is_blended() {
     let frame = synthetic::frame(32, 24, synthetic::smooth, 0.3, 7);
     let denoiser = Denoiser::new().unwrap();
     let filter = denoiser.filter(32, 24, DenoiseQuality::Fast).unwrap();
+    let replicates = frame.replicates();
     let (da, db) = (
-        filter.run(&to_f32(&frame.a)).unwrap(),
-        filter.run(&to_f32(&frame.b)).unwrap(),
+        filter.run(&replicates, REPLICATE_A).unwrap(),
+        filter.run(&replicates, REPLICATE_B).unwrap(),
     );
-    let snapshot = Snapshot::new(32, &frame.halves(), &da, &db);
+    let snapshot = Snapshot::new(&replicates, &da, &db);
+    let (da, db) = (
+        da.interleaved(REPLICATE_A).unwrap(),
+        db.interleaved(REPLICATE_B).unwrap(),
+    );
     let mean: Vec<f32> = da.iter().zip(&db).map(|(a, b)| 0.5 * a + 0.5 * b).collect();
     let got = snapshot.denoised_rgb();
     let worst = got

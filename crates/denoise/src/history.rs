@@ -30,34 +30,44 @@
 
 use glam::{DVec3, Vec3};
 
-use super::estimate::{Blend, WEIGHT_RADIUS, WrittenPixel, box_mean_of_others};
+use super::estimate::{
+    Blend, CROSS, ERROR, RAW, RAW_VARIANCE, SMOOTH_ERROR, WEIGHT, WEIGHT_RADIUS, WRITTEN,
+    box_mean_of_others, denoised_share,
+};
 use super::reproject::Reprojected;
+use raytrace_core::image::{COLOUR, Image};
 
 /// Estimates a pixel may combine: its own and [`super::reproject::HISTORY`] earlier frames'.
 const MOST: usize = 1 + super::reproject::HISTORY;
 
-/// The frame of `pixels` (row-major, `width` pixels a row) combined with `earlier`, its
-/// earlier frames' colours carried to its pixels (at most [`super::reproject::HISTORY`]):
-/// see the module's notes.
-pub fn combine(width: usize, pixels: &[WrittenPixel], earlier: &[Reprojected]) -> Blend {
+/// The frame of `written` (a written frame's terms, `estimate::Snapshot::written`) combined
+/// with `earlier`, its earlier frames' colours carried to its pixels (at most
+/// [`super::reproject::HISTORY`]): see the module's notes.
+pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
     assert!(earlier.len() < MOST, "at most {} earlier frames", MOST - 1);
-    let n = pixels.len();
+    let n = written.pixels();
+    let width = written.width() as usize;
     let k = 1 + earlier.len();
+    let planes = |names| written.rgb(names).expect("a written frame's terms");
+    let (value, raw, raw_variance) = (planes(WRITTEN), planes(RAW), planes(RAW_VARIANCE));
+    let (error, weight, cross) = (planes(ERROR), planes(WEIGHT), planes(CROSS));
+    let earlier_colours: Vec<_> = earlier
+        .iter()
+        .map(|e| e.image.rgb(COLOUR).expect("an earlier frame's colour"))
+        .collect();
     let colour = |j: usize, i: usize| -> Option<DVec3> {
         if j == 0 {
-            return Some(pixels[i].written.as_dvec3());
+            return Some(value.at_f64(i));
         }
-        let e = &earlier[j - 1];
-        e.valid[i].then(|| Vec3::from_slice(&e.colour[3 * i..3 * i + 3]).as_dvec3())
+        earlier[j - 1].found[i].then(|| earlier_colours[j - 1].at_f64(i))
     };
     // Each pixel's unbiased terms Σ_ij (upper triangle), None where an estimate is missing.
     let entry = |i: usize, a: usize, b: usize| -> Option<DVec3> {
-        let p = &pixels[i];
-        let (f, v) = (p.raw.as_dvec3(), p.raw_variance.as_dvec3());
+        let (f, v) = (raw.at_f64(i), raw_variance.at_f64(i));
         let (xa, xb) = (colour(a, i)?, colour(b, i)?);
         Some(match (a, b) {
-            (0, 0) => p.error.as_dvec3(),
-            (0, _) => (xa - f) * (xb - f) + p.weight.as_dvec3() * (p.cross.as_dvec3() - v),
+            (0, 0) => error.at_f64(i),
+            (0, _) => (xa - f) * (xb - f) + weight.at_f64(i) * (cross.at_f64(i) - v),
             _ => (xa - f) * (xb - f) - v,
         })
     };
@@ -123,13 +133,13 @@ pub fn combine(width: usize, pixels: &[WrittenPixel], earlier: &[Reprojected]) -
             smooth_error.max(DVec3::ZERO).as_vec3(),
         ]);
     }
-    let raw: Vec<Vec3> = pixels.iter().map(|p| p.raw).collect();
-    let mut blend = Blend::new(width, &values, &raw);
-    blend.denoised_share = pixels
-        .iter()
-        .map(|p| p.weight.element_sum() as f64 / 3.0)
-        .sum::<f64>()
-        / n.max(1) as f64;
+    // The combined frame's terms, with the raw frame that stands in for the true value.
+    let mut terms = written.select(&RAW.0);
+    for (k, names) in [WRITTEN, ERROR, SMOOTH_ERROR].into_iter().enumerate() {
+        terms.set_rgb(names, values.iter().map(|v: &[Vec3; 3]| v[k]));
+    }
+    let mut blend = Blend::new(&terms);
+    blend.denoised_share = denoised_share(written);
     blend.history_share = history / (3 * n.max(1)) as f64;
     blend
 }
@@ -218,30 +228,47 @@ mod tests {
     use super::*;
     use raytrace_core::rng::Pcg32;
 
-    /// A raw frame's pixel (`w` = 0, no denoised part) of value `x` and variance `v`.
-    fn raw_pixel(x: f64, v: f64) -> WrittenPixel {
-        WrittenPixel {
-            written: Vec3::splat(x as f32),
-            raw: Vec3::splat(x as f32),
-            weight: Vec3::ZERO,
-            error: Vec3::splat(v as f32),
-            smooth_error: Vec3::splat(v as f32),
-            raw_variance: Vec3::splat(v as f32),
-            cross: Vec3::ZERO,
+    /// A raw frame's written terms (`w` = 0, no denoised part), `width` pixels a row, of
+    /// values and variances `pixels`.
+    fn raw_frame(width: usize, pixels: &[(f64, f64)]) -> Image {
+        let mut image = Image::new(width as u32, (pixels.len() / width) as u32);
+        let splat =
+            |f: fn(&(f64, f64)) -> f64| pixels.iter().map(move |p| Vec3::splat(f(p) as f32));
+        image.set_rgb(WRITTEN, splat(|p| p.0));
+        image.set_rgb(RAW, splat(|p| p.0));
+        image.set_rgb(WEIGHT, splat(|_| 0.0));
+        image.set_rgb(ERROR, splat(|p| p.1));
+        image.set_rgb(SMOOTH_ERROR, splat(|p| p.1));
+        image.set_rgb(RAW_VARIANCE, splat(|p| p.1));
+        image.set_rgb(CROSS, splat(|_| 0.0));
+        image
+    }
+
+    /// An earlier frame found at every pixel, of colour `values` (grey).
+    fn earlier_frame(width: usize, values: impl Iterator<Item = f32>) -> Reprojected {
+        let values: Vec<f32> = values.collect();
+        let mut image = Image::new(width as u32, (values.len() / width) as u32);
+        image.set_rgb(COLOUR, values.iter().map(|&v| Vec3::splat(v)));
+        Reprojected {
+            found: vec![true; values.len()],
+            image,
         }
+    }
+
+    /// An image's colour, interleaved.
+    fn rgb(image: &Image) -> Vec<f32> {
+        image.interleaved(COLOUR).unwrap()
     }
 
     #[test]
     fn a_frame_whose_terms_are_all_unknown_is_written_alone() {
         // One sample a pixel: no variance, every term infinite, so no neighbour has a finite
         // term to smooth. The frame keeps its own value and states its own (unknown) error.
-        let pixels = vec![raw_pixel(0.5, f64::INFINITY); 4];
-        let earlier = Reprojected {
-            colour: vec![0.25; 12],
-            valid: vec![true; 4],
-        };
-        let blend = combine(2, &pixels, &[earlier]);
-        assert!(blend.rgb.iter().all(|&x| x == 0.5), "{:?}", blend.rgb);
+        let pixels = raw_frame(2, &[(0.5, f64::INFINITY); 4]);
+        let earlier = earlier_frame(2, [0.25; 4].into_iter());
+        let blend = combine(&pixels, &[earlier]);
+        let written = rgb(&blend.image);
+        assert!(written.iter().all(|&x| x == 0.5), "{written:?}");
         assert_eq!(blend.history_share, 0.0);
     }
 
@@ -282,33 +309,27 @@ mod tests {
         // A flat truth of 1 and three frames of independent noise of the same variance: the
         // combination takes all three nearly equally, its true error is about a third of one
         // frame's, and its statement agrees with the truth.
-        let (w, h) = (64, 48);
-        let n = w * h;
+        let (w, n) = (64, 64 * 48);
         let mut rng = Pcg32::new(5, 2);
         let sd = 0.1f64;
         let mut noisy = || 1.0 + sd * (12.0f64).sqrt() * (rng.next_f64() - 0.5);
         // The raw frame's own variance estimate, as the film's: one degree of freedom a pixel.
-        let pixels: Vec<WrittenPixel> = (0..n)
+        let pixels: Vec<(f64, f64)> = (0..n)
             .map(|_| {
                 let (a, b) = (noisy(), noisy());
-                raw_pixel(0.5 * (a + b), (a - b) * (a - b) / 4.0)
+                (0.5 * (a + b), (a - b) * (a - b) / 4.0)
             })
             .collect();
+        let pixels = raw_frame(w, &pixels);
         // Earlier frames of two samples too.
         let earlier: Vec<Reprojected> = (0..2)
-            .map(|_| Reprojected {
-                colour: (0..n)
-                    .flat_map(|_| [(0.5 * (noisy() + noisy())) as f32; 3])
-                    .collect(),
-                valid: vec![true; n],
-            })
+            .map(|_| earlier_frame(w, (0..n).map(|_| (0.5 * (noisy() + noisy())) as f32)))
             .collect();
-        let blend = combine(w, &pixels, &earlier);
+        let blend = combine(&pixels, &earlier);
         let truth = |rgb: &[f32]| -> f64 {
             rgb.iter().map(|&c| (c as f64 - 1.0).powi(2)).sum::<f64>() / rgb.len() as f64
         };
-        let one: Vec<f32> = pixels.iter().flat_map(|p| p.written.to_array()).collect();
-        let (before, after) = (truth(&one), truth(&blend.rgb));
+        let (before, after) = (truth(&rgb(&pixels)), truth(&rgb(&blend.image)));
         assert!(after < 0.45 * before, "{after} vs {before}");
         // Relative terms with m ~ 1 (1.01 with the 0.01 offset).
         let stated = blend.relative_error.powi(2) * 1.01f64.powi(2);
@@ -323,27 +344,22 @@ mod tests {
     fn an_earlier_frame_showing_something_else_gets_no_weight() {
         // The frame before shows 2 where this one shows 1 (a shadow moved off the surface):
         // its bias is far beyond the noise, and the combination keeps this frame's value.
-        let (w, h) = (32, 32);
-        let n = w * h;
+        let (w, n) = (32, 32 * 32);
         let mut rng = Pcg32::new(9, 4);
         let mut noisy = |t: f64| t + 0.01 * (12.0f64).sqrt() * (rng.next_f64() - 0.5);
-        let pixels: Vec<WrittenPixel> = (0..n)
+        let pixels: Vec<(f64, f64)> = (0..n)
             .map(|_| {
                 let (a, b) = (noisy(1.0), noisy(1.0));
-                raw_pixel(0.5 * (a + b), (a - b) * (a - b) / 4.0)
+                (0.5 * (a + b), (a - b) * (a - b) / 4.0)
             })
             .collect();
-        let moved = Reprojected {
-            colour: (0..n).flat_map(|_| [noisy(2.0) as f32; 3]).collect(),
-            valid: vec![true; n],
-        };
-        let blend = combine(w, &pixels, &[moved]);
+        let pixels = raw_frame(w, &pixels);
+        let moved = earlier_frame(w, (0..n).map(|_| noisy(2.0) as f32));
+        let blend = combine(&pixels, &[moved]);
         assert!(blend.history_share < 0.01, "{}", blend.history_share);
-        let own: Vec<f32> = pixels.iter().flat_map(|p| p.written.to_array()).collect();
-        let moved = blend
-            .rgb
+        let moved = rgb(&blend.image)
             .iter()
-            .zip(&own)
+            .zip(&rgb(&pixels))
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f32::max);
         assert!(moved < 1e-3, "{moved}");

@@ -12,6 +12,11 @@
 //! catch (a shadow or a reflection moving over a still surface, shading that changes) the
 //! combination weighs by its estimated error (`denoise::history`).
 
+use glam::Vec3;
+
+use raytrace_core::image::{COLOUR, Image};
+use raytrace_core::pass::{BACKWARD, DEPTH, NORMAL};
+
 /// The frames before a frame that its temporal denoising reads.
 pub const HISTORY: usize = 2;
 
@@ -28,37 +33,20 @@ pub(crate) const DEPTH_TOLERANCE: f32 = 0.1;
 /// hit).
 const BACKGROUND_DEPTH: f32 = 1e9;
 
-/// One frame's images that a later frame's history reads: row-major, `width` pixels a row;
-/// colours and normals interleaved RGB.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TemporalFrame {
-    pub width: usize,
-    pub height: usize,
-    /// The frame's written colour (before its own history).
-    pub colour: Vec<f32>,
-    /// The first hit's depth along the view axis (the background's: 1e10 or more).
-    pub depth: Vec<f32>,
-    /// The first hit's mean shading normal (zero for the background).
-    pub normal: Vec<f32>,
-    /// Where the pixel's surface was one frame period earlier, in pixels: `u` right, `v` up,
-    /// interleaved.
-    pub backward: Vec<f32>,
-}
-
 /// An earlier frame's colour at a frame's pixels ([`reproject`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reprojected {
-    /// Interleaved RGB, row-major; 0 where not valid.
-    pub colour: Vec<f32>,
+    /// The colour ([`COLOUR`]); 0 where not found.
+    pub image: Image,
     /// Whether the pixel's surface was found in the earlier frame.
-    pub valid: Vec<bool>,
+    pub found: Vec<bool>,
 }
 
-/// The channels `k..k + n` of the pixel at the continuous position (`x`, `y`) of an image of
-/// `width` x `height` pixels with `n` channels a pixel, read bilinearly (pixel centres at
-/// half-integers); `None` outside the image.
+/// The channels `planes` at the continuous position (`x`, `y`) of an image of `width` x
+/// `height` pixels, read bilinearly (pixel centres at half-integers); `None` outside the
+/// image.
 fn bilinear<const N: usize>(
-    image: &[f32],
+    planes: [&[f32]; N],
     width: usize,
     height: usize,
     x: f32,
@@ -73,14 +61,34 @@ fn bilinear<const N: usize>(
     let clamp = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
     let (xa, xb) = (clamp(x0, width), clamp(x0 + 1.0, width));
     let (ya, yb) = (clamp(y0, height), clamp(y0 + 1.0, height));
-    let at = |px: usize, py: usize, c: usize| image[(py * width + px) * N + c];
     let mut out = [0.0; N];
-    for (c, o) in out.iter_mut().enumerate() {
-        let top = at(xa, ya, c) * (1.0 - tx) + at(xb, ya, c) * tx;
-        let bottom = at(xa, yb, c) * (1.0 - tx) + at(xb, yb, c) * tx;
+    for (o, plane) in out.iter_mut().zip(planes) {
+        let at = |px: usize, py: usize| plane[py * width + px];
+        let top = at(xa, ya) * (1.0 - tx) + at(xb, ya) * tx;
+        let bottom = at(xa, yb) * (1.0 - tx) + at(xb, yb) * tx;
         *o = top * (1.0 - ty) + bottom * ty;
     }
     Some(out)
+}
+
+/// The planes a frame's history reads of it (see [`reproject`]).
+struct Planes<'a> {
+    colour: [&'a [f32]; 3],
+    depth: [&'a [f32]; 1],
+    normal: [&'a [f32]; 3],
+    backward: [&'a [f32]; 2],
+}
+
+impl<'a> Planes<'a> {
+    fn of(frame: &'a Image) -> Planes<'a> {
+        let plane = |name: &str| frame.floats(name).expect("a frame's history channels");
+        Planes {
+            colour: COLOUR.0.map(plane),
+            depth: [plane(DEPTH)],
+            normal: NORMAL.0.map(plane),
+            backward: BACKWARD.map(plane),
+        }
+    }
 }
 
 /// What a step compares: a surface's depth and unit normal (zero for the background).
@@ -126,36 +134,38 @@ impl Surface {
 
 /// The colours of `earlier` (the frame before `current` first, then the one before that)
 /// carried to `current`'s pixels, where each pixel's surface is found there (see the module's
-/// notes). Every frame has `current`'s size.
-pub fn reproject(current: &TemporalFrame, earlier: &[&TemporalFrame]) -> Vec<Reprojected> {
-    let (w, h) = (current.width, current.height);
+/// notes). Every frame has `current`'s size and holds what a frame's history reads: the
+/// colour written before its own history ([`COLOUR`]), the first hit's depth ([`DEPTH`]; the
+/// background's: 1e10 or more), its mean shading normal ([`NORMAL`]; zero for the
+/// background) and its backward motion ([`BACKWARD`]).
+pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
+    let (w, h) = (current.width() as usize, current.height() as usize);
     assert!(
-        earlier.iter().all(|f| f.width == w && f.height == h),
+        earlier
+            .iter()
+            .all(|f| (f.width(), f.height()) == (current.width(), current.height())),
         "frames of different sizes"
     );
     let n = w * h;
-    let mut out: Vec<Reprojected> = earlier
-        .iter()
-        .map(|_| Reprojected {
-            colour: vec![0.0; 3 * n],
-            valid: vec![false; n],
-        })
-        .collect();
+    let here_planes = Planes::of(current);
+    let planes: Vec<Planes> = earlier.iter().map(|f| Planes::of(f)).collect();
+    let mut colours: Vec<Vec<Vec3>> = earlier.iter().map(|_| vec![Vec3::ZERO; n]).collect();
+    let mut found: Vec<Vec<bool>> = earlier.iter().map(|_| vec![false; n]).collect();
     for i in 0..n {
         let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-        let rgb = |v: &[f32]| [v[3 * i], v[3 * i + 1], v[3 * i + 2]];
-        let mut here = Surface::new(current.depth[i], rgb(&current.normal));
-        let mut motion = [current.backward[2 * i], current.backward[2 * i + 1]];
+        let at = |p: [&[f32]; 3]| [p[0][i], p[1][i], p[2][i]];
+        let mut here = Surface::new(here_planes.depth[0][i], at(here_planes.normal));
+        let mut motion = [here_planes.backward[0][i], here_planes.backward[1][i]];
         let mut pos = (x, y);
-        for (frame, into) in earlier.iter().zip(&mut out) {
+        for ((frame, colour), found) in planes.iter().zip(&mut colours).zip(&mut found) {
             // u right, v up; rows grow downward.
             pos = (pos.0 + motion[0], pos.1 - motion[1]);
-            let read = |image: &[f32]| bilinear::<3>(image, w, h, pos.0, pos.1);
-            let (Some(normal), Some([depth]), Some(colour), Some(m)) = (
-                read(&frame.normal),
-                bilinear::<1>(&frame.depth, w, h, pos.0, pos.1),
-                read(&frame.colour),
-                bilinear::<2>(&frame.backward, w, h, pos.0, pos.1),
+            let read = |p: [&[f32]; 3]| bilinear(p, w, h, pos.0, pos.1);
+            let (Some(normal), Some([depth]), Some(c), Some(m)) = (
+                read(frame.normal),
+                bilinear(frame.depth, w, h, pos.0, pos.1),
+                read(frame.colour),
+                bilinear(frame.backward, w, h, pos.0, pos.1),
             ) else {
                 break;
             };
@@ -163,52 +173,59 @@ pub fn reproject(current: &TemporalFrame, earlier: &[&TemporalFrame]) -> Vec<Rep
             if !here.same_as(&there) {
                 break;
             }
-            into.colour[3 * i..3 * i + 3].copy_from_slice(&colour);
-            into.valid[i] = true;
+            colour[i] = Vec3::from_array(c);
+            found[i] = true;
             here = there;
             motion = m;
         }
     }
-    out
+    colours
+        .into_iter()
+        .zip(found)
+        .map(|(colour, found)| {
+            let mut image = Image::new(current.width(), current.height());
+            image.set_rgb(COLOUR, colour.into_iter());
+            Reprojected { image, found }
+        })
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use raytrace_core::image::{Precision, Values};
 
     /// A frame of `w` x `h` whose colour at pixel (x, y) is `colour(x, y)`, at depth 5 with
     /// normal +z everywhere, moving by `motion` (u, v) pixels a frame.
-    fn frame(
-        w: usize,
-        h: usize,
-        colour: impl Fn(usize, usize) -> f32,
-        motion: [f32; 2],
-    ) -> TemporalFrame {
+    fn frame(w: usize, h: usize, colour: impl Fn(usize, usize) -> f32, motion: [f32; 2]) -> Image {
         let n = w * h;
-        TemporalFrame {
-            width: w,
-            height: h,
-            colour: (0..n)
-                .flat_map(|i| {
-                    let v = colour(i % w, i / w);
-                    [v, v, v]
-                })
-                .collect(),
-            depth: vec![5.0; n],
-            normal: (0..n).flat_map(|_| [0.0, 0.0, 1.0]).collect(),
-            backward: (0..n).flat_map(|_| motion).collect(),
-        }
+        let mut f = Image::new(w as u32, h as u32);
+        f.set_rgb(COLOUR, (0..n).map(|i| Vec3::splat(colour(i % w, i / w))));
+        set(&mut f, DEPTH, vec![5.0; n]);
+        f.set_rgb(NORMAL, (0..n).map(|_| Vec3::Z));
+        set(&mut f, BACKWARD[0], vec![motion[0]; n]);
+        set(&mut f, BACKWARD[1], vec![motion[1]; n]);
+        f
+    }
+
+    fn set(f: &mut Image, name: &'static str, values: Vec<f32>) {
+        f.set(name, Precision::Float, Values::Float(values));
+    }
+
+    /// The first channel of a reprojected colour.
+    fn red(r: &Reprojected) -> &[f32] {
+        r.image.floats("R").unwrap()
     }
 
     #[test]
     fn bilinear_reads_pixel_centres_exactly_and_interpolates_between() {
-        let image = [0.0f32, 1.0, 2.0, 3.0]; // 2 x 2, one channel
-        assert_eq!(bilinear::<1>(&image, 2, 2, 0.5, 0.5), Some([0.0]));
-        assert_eq!(bilinear::<1>(&image, 2, 2, 1.5, 1.5), Some([3.0]));
-        assert_eq!(bilinear::<1>(&image, 2, 2, 1.0, 0.5), Some([0.5]));
-        assert_eq!(bilinear::<1>(&image, 2, 2, 1.0, 1.0), Some([1.5]));
-        assert_eq!(bilinear::<1>(&image, 2, 2, 2.5, 1.0), None);
-        assert_eq!(bilinear::<1>(&image, 2, 2, f32::NAN, 1.0), None);
+        let image: &[f32] = &[0.0, 1.0, 2.0, 3.0]; // 2 x 2, one channel
+        assert_eq!(bilinear([image], 2, 2, 0.5, 0.5), Some([0.0]));
+        assert_eq!(bilinear([image], 2, 2, 1.5, 1.5), Some([3.0]));
+        assert_eq!(bilinear([image], 2, 2, 1.0, 0.5), Some([0.5]));
+        assert_eq!(bilinear([image], 2, 2, 1.0, 1.0), Some([1.5]));
+        assert_eq!(bilinear([image], 2, 2, 2.5, 1.0), None);
+        assert_eq!(bilinear([image], 2, 2, f32::NAN, 1.0), None);
     }
 
     #[test]
@@ -217,9 +234,9 @@ mod tests {
         let one = frame(4, 3, |_, _| 6.0, [0.0, 0.0]);
         let two = frame(4, 3, |_, _| 0.5, [0.0, 0.0]);
         let r = reproject(&cur, &[&one, &two]);
-        assert!(r.iter().all(|r| r.valid.iter().all(|&v| v)));
-        assert!(r[0].colour.iter().all(|&v| v == 6.0));
-        assert!(r[1].colour.iter().all(|&v| v == 0.5));
+        assert!(r.iter().all(|r| r.found.iter().all(|&v| v)));
+        assert!(red(&r[0]).iter().all(|&v| v == 6.0));
+        assert!(red(&r[1]).iter().all(|&v| v == 0.5));
     }
 
     #[test]
@@ -234,11 +251,11 @@ mod tests {
         let r = reproject(&cur, &[&one, &two]);
         for x in 0..w {
             // Pixels 0 and 1 leave the image two and one steps back.
-            assert_eq!(r[0].valid[x], x >= 1, "pixel {x}");
-            assert_eq!(r[1].valid[x], x >= 2, "pixel {x}");
+            assert_eq!(r[0].found[x], x >= 1, "pixel {x}");
+            assert_eq!(r[1].found[x], x >= 2, "pixel {x}");
             for (k, back) in r.iter().enumerate() {
-                if back.valid[x] {
-                    assert_eq!(back.colour[3 * x], x as f32, "pixel {x}, {k} back");
+                if back.found[x] {
+                    assert_eq!(red(back)[x], x as f32, "pixel {x}, {k} back");
                 }
             }
         }
@@ -248,19 +265,20 @@ mod tests {
     fn another_surface_ends_the_walk() {
         let cur = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
         let mut nearer = frame(3, 1, |_, _| 2.0, [0.0, 0.0]);
-        nearer.depth[1] = 3.0; // something in front at pixel 1 in the frame before
+        // Something in front at pixel 1 in the frame before.
+        set(&mut nearer, DEPTH, vec![5.0, 3.0, 5.0]);
         let mut tilted = frame(3, 1, |_, _| 3.0, [0.0, 0.0]);
         // Pixel 2's normal turned 90 degrees in the frame two back.
-        tilted.normal[6..9].copy_from_slice(&[1.0, 0.0, 0.0]);
+        tilted.set_rgb(NORMAL, [Vec3::Z, Vec3::Z, Vec3::X].into_iter());
         let r = reproject(&cur, &[&nearer, &tilted]);
-        assert_eq!(r[0].valid, vec![true, false, true]);
-        assert_eq!(r[1].valid, vec![true, false, false]);
+        assert_eq!(r[0].found, vec![true, false, true]);
+        assert_eq!(r[1].found, vec![true, false, false]);
         // The background matches only the background.
         let mut sky = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
-        sky.depth = vec![1e10; 3];
-        sky.normal = vec![0.0; 9];
+        set(&mut sky, DEPTH, vec![1e10; 3]);
+        sky.set_rgb(NORMAL, [Vec3::ZERO; 3].into_iter());
         let r = reproject(&sky, &[&sky.clone(), &cur]);
-        assert_eq!(r[0].valid, vec![true; 3]);
-        assert_eq!(r[1].valid, vec![false; 3]);
+        assert_eq!(r[0].found, vec![true; 3]);
+        assert_eq!(r[1].found, vec![false; 3]);
     }
 }

@@ -2,6 +2,9 @@
 //! variance. For the denoiser's and the estimate's tests.
 
 use glam::DVec3;
+use raytrace_core::image::{COLOUR, Image, Precision, Values};
+use raytrace_core::pass::{SAMPLES, VARIANCE};
+use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B};
 use raytrace_core::rng::Pcg32;
 
 /// A synthetic frame: the truth and what a film would hold for it.
@@ -76,23 +79,38 @@ pub(crate) fn frame(
 }
 
 impl Frame {
-    /// The full frame's means: the replicates' mean (equal halves).
-    pub(crate) fn full(&self) -> Vec<DVec3> {
-        self.a
+    /// An image of this frame's size whose colour is `values`.
+    pub(crate) fn image(&self, values: &[DVec3]) -> Image {
+        let mut image = Image::new(self.width as u32, self.height as u32);
+        image.set_rgb(COLOUR, values.iter().map(|v| v.as_vec3()));
+        image
+    }
+
+    /// The truth as an image.
+    pub(crate) fn truth(&self) -> Image {
+        self.image(&self.truth)
+    }
+
+    /// The full frame's means: the replicates' mean (equal halves), as an image.
+    pub(crate) fn full(&self) -> Image {
+        let full: Vec<DVec3> = self
+            .a
             .iter()
             .zip(&self.b)
             .map(|(a, b)| (*a + *b) * 0.5)
-            .collect()
+            .collect();
+        self.image(&full)
     }
 
-    /// Each pixel's replicates as a film holds them.
-    pub(crate) fn halves(&self) -> Vec<raytrace_core::replicates::Halves> {
-        self.a
-            .iter()
-            .zip(&self.b)
-            .zip(self.variances())
-            .map(|((a, b), v)| raytrace_core::replicates::Halves::new(*a, *b, self.samples, v))
-            .collect()
+    /// The replicates image a film would give ([`raytrace_core::film::Film::replicates`]).
+    pub(crate) fn replicates(&self) -> Image {
+        let mut image = Image::new(self.width as u32, self.height as u32);
+        image.set_rgb(REPLICATE_A, self.a.iter().map(|v| v.as_vec3()));
+        image.set_rgb(REPLICATE_B, self.b.iter().map(|v| v.as_vec3()));
+        image.set_rgb(VARIANCE, self.variances().into_iter().map(|v| v.as_vec3()));
+        let samples = vec![self.samples; self.width * self.height];
+        image.set(SAMPLES, Precision::Float, Values::Count(samples));
+        image
     }
 
     /// The film's estimated variance of the full mean, as `film::Pixel` forms it from the
@@ -106,19 +124,4 @@ impl Frame {
             .map(|(a, b)| (*a - *b) * (*a - *b) / ((2.0 / half) * n))
             .collect()
     }
-}
-
-/// Interleaved `f32` RGB.
-pub(crate) fn to_f32(image: &[DVec3]) -> Vec<f32> {
-    image
-        .iter()
-        .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
-        .collect()
-}
-
-/// Back from interleaved `f32` RGB.
-pub(crate) fn from_f32(rgb: &[f32]) -> Vec<DVec3> {
-    rgb.chunks_exact(3)
-        .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-        .collect()
 }

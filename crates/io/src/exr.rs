@@ -5,8 +5,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use super::image::Image;
 use raytrace_core::error::Error;
+use raytrace_core::image::{COLOUR, Image};
 
 /// The metadata stored with a frame (in EXR headers; PNG files carry none).
 #[derive(Clone, Debug, PartialEq)]
@@ -72,27 +72,24 @@ pub(crate) mod attribute_names {
     ];
 }
 
-/// Reads the RGB channels of an EXR file as linear radiance: (width, height, pixels
-/// row-major, top row first). Errors are the decoder's message.
-pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<glam::DVec3>), String> {
+/// Reads the colour of an EXR file (its first layer's R, G and B) as an image of linear
+/// radiance ([`COLOUR`]). Errors are the decoder's message.
+pub fn read_exr_colour(path: &Path) -> Result<Image, String> {
     use exr::prelude::read_first_rgba_layer_from_file;
-    use glam::DVec3;
+    use glam::Vec3;
     let image = read_first_rgba_layer_from_file(
         path,
-        |size, _| {
-            (
-                size.width(),
-                vec![DVec3::ZERO; size.width() * size.height()],
-            )
-        },
-        |(w, pixels): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            pixels[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
+        |size, _| (size.width(), vec![Vec3::ZERO; size.width() * size.height()]),
+        |(w, pixels): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
         },
     )
     .map_err(|e| e.to_string())?;
     let size = image.layer_data.size;
     let (_, pixels) = image.layer_data.channel_data.pixels;
-    Ok((size.width(), size.height(), pixels))
+    let mut colour = Image::new(size.width() as u32, size.height() as u32);
+    colour.set_rgb(COLOUR, pixels.into_iter());
+    Ok(colour)
 }
 
 /// A frame rate as the rational of the standard `framesPerSecond` attribute.
@@ -243,17 +240,18 @@ pub(super) fn write(
         WritableImage,
     };
 
-    let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
+    let (w, height) = (image.width() as usize, image.height());
+    let rgb = image.rgb(COLOUR).expect("a frame's colour");
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    if !image.channels.is_empty() {
+    if super::frame::passes(image).next().is_some() {
         return write_with_passes(writer, path, image, attributes, encoding);
     }
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
-        let [r, g, b] = rgb(p.y() * w + p.x());
+        let [r, g, b] = rgb.at(p.y() * w + p.x()).to_array();
         (r, g, b)
     });
     encode(writer, path, attributes, |attributes, sink| {
@@ -305,21 +303,22 @@ fn write_with_passes(
     use exr::prelude::{
         AnyChannel, AnyChannels, FlatSamples, Image, Layer, SmallVec, WritableImage, f16,
     };
-    use raytrace_core::pass::Precision;
+    use raytrace_core::image::{Precision, Values};
 
-    let (w, height, rgb) = (image.width as usize, image.height, image.rgb);
+    let (w, height) = (image.width() as usize, image.height());
     let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
-    let pixels = w * height as usize;
-    for (k, name) in ["R", "G", "B"].into_iter().enumerate() {
-        let values = (0..pixels).map(|i| rgb(i)[k]).collect();
+    for name in COLOUR.0 {
+        let values = image.floats(name).expect("a frame's colour").to_vec();
         list.push(AnyChannel::new(name, FlatSamples::F32(values)));
     }
-    for c in image.channels {
+    for c in super::frame::passes(image) {
+        let floats: Vec<f32> = match &c.values {
+            Values::Float(v) => v.clone(),
+            Values::Count(v) => v.iter().map(|&n| n as f32).collect(),
+        };
         let samples = match c.precision {
-            Precision::Float => FlatSamples::F32(c.values.clone()),
-            Precision::Half => {
-                FlatSamples::F16(c.values.iter().map(|&v| f16::from_f32(v)).collect())
-            }
+            Precision::Float => FlatSamples::F32(floats),
+            Precision::Half => FlatSamples::F16(floats.into_iter().map(f16::from_f32).collect()),
         };
         list.push(AnyChannel::new(c.name, samples));
     }

@@ -5,79 +5,26 @@ use std::path::Path;
 
 use super::atomic;
 use super::exr::{self, FrameInfo};
-use super::image::Image;
 use super::png;
 use raytrace_core::error::Error;
 use raytrace_core::format::{FRAME_FORMATS, Format};
-use raytrace_core::pass::Channel;
+use raytrace_core::image::{COLOUR, Channel, Image};
 
-/// Writes one frame to `path`, in the format its extension names (`.exr` or `.png`).
-///
-/// `rgb` holds linear RGB, row-major, top row first, three floats per pixel. Parent folders
-/// are created as needed. The file appears atomically (see [`atomic`]); on any failure
-/// nothing is left behind and an existing file at `path` is untouched. Errors name `path`.
-pub fn write_frame(
-    path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[f32],
-    info: &FrameInfo,
-) -> Result<(), Error> {
-    write_frame_with_passes(path, width, height, rgb, &[], false, info)
-}
-
-/// [`write_frame`] with the passes' `channels` beside the colour: in an EXR file, each
-/// channel under its name, as `half` or `float` as it says; a PNG file takes only an `A`
-/// channel, as 8-bit straight alpha (RGBA), dividing the colour by it first when
-/// `premultiplied`. Any other channel with a PNG path, or a channel of the wrong length, is
-/// an error and nothing is written.
-pub(crate) fn write_frame_with_passes(
-    path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[f32],
-    channels: &[Channel],
-    premultiplied: bool,
-    info: &FrameInfo,
-) -> Result<(), Error> {
-    let expected = (width as usize)
-        .checked_mul(height as usize)
-        .and_then(|n| n.checked_mul(3));
-    if width > 0 && height > 0 && expected != Some(rgb.len()) {
-        return Err(Error::Output {
-            path: path.to_path_buf(),
-            message: format!(
-                "{} floats given for a {width}x{height} RGB image (expected {})",
-                rgb.len(),
-                expected.map_or("more than fit in memory".to_string(), |n| n.to_string())
-            ),
-        });
-    }
-    let format = Format::from_extension(path, FRAME_FORMATS).ok_or_else(|| Error::Output {
-        path: path.to_path_buf(),
-        message: Format::unsupported(FRAME_FORMATS, "output"),
-    })?;
-    let source = |i: usize| [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]];
-    let image = Image {
-        width,
-        height,
-        rgb: &source,
-        channels,
-        premultiplied,
-    };
-    write_frame_from(path, format, &image, info)
-}
-
-/// [`write_frame_with_passes`] in a `format` already decided (the validated output's), with
-/// the colour given by a function of the pixel's index (row-major) instead of an array: the
-/// renderer writes its film this way, without a copy.
-pub fn write_frame_from(
+/// Writes `image` to `path` as a frame in `format` (the validated output's: `.exr` or
+/// `.png`), with the attributes `info` (EXR only). An EXR file holds every channel of the
+/// image, each stored as it says; a PNG file holds the colour and, where the image has one,
+/// the `A` channel as 8-bit straight alpha (dividing the colour by it first when the image is
+/// premultiplied): any other channel with a PNG path is an error. The image must hold the
+/// colour ([`COLOUR`]). Parent folders are created as needed. The file appears atomically
+/// (see [`atomic`]); on any failure nothing is left behind and an existing file at `path` is
+/// untouched. Errors name `path`.
+pub fn write_image(
     path: &Path,
     format: Format,
     image: &Image,
     info: &FrameInfo,
 ) -> Result<(), Error> {
-    let (width, height, channels) = (image.width, image.height, image.channels);
+    let (width, height) = (image.width(), image.height());
     let output_error = |message: String| Error::Output {
         path: path.to_path_buf(),
         message,
@@ -87,19 +34,13 @@ pub fn write_frame_from(
             "cannot write an empty {width}x{height} image"
         )));
     }
-    let pixels = width as usize * height as usize;
     if !FRAME_FORMATS.contains(&format) {
         return Err(output_error(Format::unsupported(FRAME_FORMATS, "output")));
     }
-    for c in channels {
-        if c.values.len() != pixels {
-            return Err(output_error(format!(
-                "channel {} has {} values for {} pixels",
-                c.name,
-                c.values.len(),
-                pixels
-            )));
-        }
+    if image.rgb(COLOUR).is_none() {
+        return Err(output_error("the image has no colour".to_string()));
+    }
+    for c in passes(image) {
         if !format.takes_channel(c.name) {
             return Err(output_error(format!(
                 "a PNG file takes only the alpha pass, not channel {}",
@@ -116,6 +57,14 @@ pub fn write_frame_from(
         Some(attributes) => exr::write(writer, path, image, attributes),
         None => png::write(writer, path, image),
     })
+}
+
+/// The channels of `image` beside its colour: the passes'.
+pub(crate) fn passes(image: &Image) -> impl Iterator<Item = &Channel> {
+    image
+        .channels()
+        .iter()
+        .filter(|c| !COLOUR.0.contains(&c.name))
 }
 
 /// Whether the frame file at `path` is complete, cheaply (no pixel is decoded): an EXR file

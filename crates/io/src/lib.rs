@@ -8,7 +8,6 @@ pub mod clip;
 mod exr;
 mod files;
 mod frame;
-mod image;
 mod png;
 
 #[cfg(test)]
@@ -20,9 +19,8 @@ pub use atomic::{
 };
 pub(crate) use exr::fps_rational;
 
-pub use exr::{FrameInfo, read_exr_rgb};
+pub use exr::{FrameInfo, read_exr_colour};
 pub use files::file_kind;
 pub use frame::check_frame_file;
-pub use frame::{write_frame, write_frame_from};
-pub use image::Image;
+pub use frame::write_image;
 pub use png::{encode as encode_png, linear_to_srgb8};

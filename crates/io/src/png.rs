@@ -4,8 +4,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use super::image::Image;
 use raytrace_core::error::Error;
+use raytrace_core::image::{COLOUR, Image, RgbPlanes};
 
 /// Encodes a linear value as an 8-bit sRGB value with the exact piecewise sRGB curve,
 /// clamped to [0, 1] and rounded to nearest. Non-finite values give 0.
@@ -40,29 +40,28 @@ pub fn encode(writer: impl Write, image: &Image) -> Result<(), ::image::ImageErr
     use ::image::ImageEncoder;
     use ::image::codecs::png::PngEncoder;
 
-    let alpha = image.channels.iter().find(|c| c.name == "A");
-    let pixels = image.width as usize * image.height as usize;
-    let (bytes, kind) = match alpha {
+    let rgb = image.rgb(COLOUR).expect("a frame's colour");
+    let (bytes, kind) = match image.floats("A") {
         None => (
-            (0..pixels)
-                .flat_map(|i| (image.rgb)(i).map(linear_to_srgb8))
+            (0..image.pixels())
+                .flat_map(|i| rgb.at(i).to_array().map(linear_to_srgb8))
                 .collect(),
             ::image::ExtendedColorType::Rgb8,
         ),
         Some(a) => (
-            rgba_straight(image.rgb, &a.values, image.premultiplied),
+            rgba_straight(rgb, a, image.premultiplied),
             ::image::ExtendedColorType::Rgba8,
         ),
     };
-    PngEncoder::new(writer).write_image(&bytes, image.width, image.height, kind)
+    PngEncoder::new(writer).write_image(&bytes, image.width(), image.height(), kind)
 }
 
 /// 8-bit RGBA with straight alpha, as PNG requires: the colour sRGB encoded, divided by the
 /// alpha first where it is `premultiplied` (and the alpha above 0), the alpha linear.
-fn rgba_straight(rgb: super::image::RgbSource, alpha: &[f32], premultiplied: bool) -> Vec<u8> {
+fn rgba_straight(rgb: RgbPlanes, alpha: &[f32], premultiplied: bool) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(alpha.len() * 4);
     for (i, &a) in alpha.iter().enumerate() {
-        let c = rgb(i);
+        let c = rgb.at(i).to_array();
         let scale = if premultiplied && a > 0.0 {
             1.0 / a
         } else {

@@ -6,10 +6,10 @@ use std::time::Duration;
 
 use super::atomic::{Writer, host_name, parse_temp_name, split_target, temp_name, write_with};
 use super::exr::fps_rational;
-use super::frame::write_frame_with_passes;
 use super::*;
 use raytrace_core::error::Error;
 use raytrace_core::format::{FRAME_FORMATS, Format};
+use raytrace_core::image::{COLOUR, Image, Precision, Values};
 use raytrace_core::path_pattern::{FramePattern, pattern_has_frame_number};
 use std::ffi::OsStr;
 
@@ -29,6 +29,33 @@ fn info() -> FrameInfo {
             ("achievedSamples".to_string(), 211.5),
             ("error".to_string(), 0.0125),
         ],
+    }
+}
+
+/// Writes an image of `width` x `height` whose colour is `rgb` (interleaved RGB; an image
+/// without a colour where `rgb` does not hold three values a pixel) to `path`, in the format
+/// its extension names ([`write_image`]).
+fn write_frame(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[f32],
+    info: &FrameInfo,
+) -> Result<(), Error> {
+    let format = Format::from_extension(path, FRAME_FORMATS).ok_or_else(|| Error::Output {
+        path: path.to_path_buf(),
+        message: Format::unsupported(FRAME_FORMATS, "output"),
+    })?;
+    let image = colour(width, height, rgb);
+    write_image(path, format, &image, info)
+}
+
+/// An image whose colour is `rgb` (interleaved), or of no channel where `rgb` does not hold
+/// three values a pixel.
+fn colour(width: u32, height: u32, rgb: &[f32]) -> Image {
+    match rgb.len() == 3 * width as usize * height as usize {
+        true => Image::from_interleaved(width, height, COLOUR, rgb),
+        false => Image::new(width, height),
     }
 }
 
@@ -677,47 +704,44 @@ fn complete_frames_are_told_from_empty_and_truncated_ones() {
 
 #[test]
 fn passes_channels_are_written_by_name_and_type_and_checked_first() {
-    use raytrace_core::pass::{Channel, Precision};
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (3, 2);
-    let channel = |name, precision, v: f32| Channel {
-        name,
-        precision,
-        values: (0..w * h).map(|i| v + i as f32 * 0.25).collect(),
+    let channel = |v: f32| {
+        (0..w * h)
+            .map(|i| v + i as f32 * 0.25)
+            .collect::<Vec<f32>>()
     };
     let channels = [
-        channel("A", Precision::Half, 0.0),
-        channel("Z", Precision::Float, 1e10),
-        channel("forward.u", Precision::Float, -3.3),
+        ("A", Precision::Half, channel(0.0)),
+        ("Z", Precision::Float, channel(1e10)),
+        ("forward.u", Precision::Float, channel(-3.3)),
     ];
+    let mut frame = colour(w, h, &pixels(w, h));
+    for (name, precision, values) in &channels {
+        frame.set(name, *precision, Values::Float(values.clone()));
+    }
     let path = dir.path().join("p.exr");
-    write_frame_with_passes(&path, w, h, &pixels(w, h), &channels, false, &info()).unwrap();
+    write_image(&path, Format::Exr, &frame, &info()).unwrap();
     let image = ::exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
     let list = &image.layer_data[0].channel_data.list;
     let find = |name: &str| list.iter().find(|c| c.name.to_string() == name).unwrap();
-    for c in &channels {
-        let read: Vec<f32> = find(c.name).sample_data.values_as_f32().collect();
-        let half = matches!(
-            find(c.name).sample_data,
-            ::exr::prelude::FlatSamples::F16(_)
-        );
-        assert_eq!(half, c.precision == Precision::Half);
+    for (name, precision, values) in &channels {
+        let read: Vec<f32> = find(name).sample_data.values_as_f32().collect();
+        let half = matches!(find(name).sample_data, ::exr::prelude::FlatSamples::F16(_));
+        assert_eq!(half, *precision == Precision::Half);
         // Quarters are exact in half; the rest are floats, exact.
-        assert_eq!(read, c.values, "{}", c.name);
+        assert_eq!(&read, values, "{name}");
     }
     // The colour reads back as without passes; the header keeps its attributes.
-    let (_, _, rgb) = read_exr_rgb(&path).unwrap();
-    assert_eq!(rgb[5].x, pixels(w, h)[15] as f64);
+    let rgb = read_exr_colour(&path).unwrap().interleaved(COLOUR).unwrap();
+    assert_eq!(rgb[15], pixels(w, h)[15]);
     assert!(check_frame_file(&path).is_ok());
-    // A channel of the wrong length, or anything but alpha in a PNG: nothing is written.
-    let short = [Channel {
-        values: vec![0.0; 5],
-        ..channel("A", Precision::Half, 0.0)
-    }];
+    // A frame without its colour, or anything but alpha in a PNG: nothing is written.
     let bad = dir.path().join("bad.exr");
-    assert!(write_frame_with_passes(&bad, w, h, &pixels(w, h), &short, false, &info()).is_err());
+    let e = write_image(&bad, Format::Exr, &frame.select(&["A"]), &info());
+    assert!(e.unwrap_err().to_string().contains("no colour"));
     let png = dir.path().join("bad.png");
-    let e = write_frame_with_passes(&png, w, h, &pixels(w, h), &channels, false, &info());
+    let e = write_image(&png, Format::Png, &frame, &info());
     assert!(e.unwrap_err().to_string().contains("not channel Z"));
     assert_eq!(dir_names(dir.path()), ["p.exr"]);
 }

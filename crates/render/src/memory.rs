@@ -206,11 +206,13 @@ mod tests {
         let r = raytrace_core::renderer::FrameJob::new(&none, 1)
             .sample(&statics)
             .unwrap();
-        assert!(r.pass_images().is_none());
+        // The colour alone.
+        assert_eq!(r.image.channels().len(), 3);
         let statics = raytrace_core::renderer::CpuShot::new(&all);
         let r = raytrace_core::renderer::FrameJob::new(&all, 1)
             .sample(&statics)
             .unwrap();
-        assert_eq!(r.pass_images().map(|p| p.channels.len()), Some(15));
+        // The colour and the passes' 15 channels.
+        assert_eq!(r.image.channels().len(), 3 + 15);
     }
 }

@@ -1,24 +1,23 @@
 //! A rendered frame to its file: the one step every command takes from a finished
-//! [`FrameResult`] to an EXR or PNG file. The colour is encoded straight from the film's sums
-//! (no copy of the image), the passes' images are made from the film's pass sums, and the
-//! file's attributes come from the scene, the frame's own interval and its figures.
+//! [`FrameResult`] to an EXR or PNG file. The frame's image (its colour and its passes'
+//! channels) is encoded as it is; the file's attributes come from the scene, the frame's own
+//! interval and its figures.
 
 use std::path::Path;
 
 use raytrace_core::error::Error;
-use raytrace_core::film::Film;
 use raytrace_core::format::Format;
-use raytrace_core::passes::PassImages;
 use raytrace_core::renderer::{Budget, FrameResult};
 use raytrace_core::scene::Scene;
 use raytrace_core::shutter::ShutterCurve;
-use raytrace_io::{self as io, FrameInfo, Image};
+use raytrace_io::{self as io, FrameInfo};
 
 /// Writes `result`, a frame of `scene` rendered under `budget`, to `path` in `format`
 /// atomically, with its passes and attributes: the frame's interval, samples, seed, sampler,
 /// shutter; its estimated relative error when known; the budget's threshold and limit; the
 /// fewest and mean samples when pixels took different counts. Returns the number of pixels
-/// written as black because they were not finite (recorded as `nonFinitePixels`).
+/// written as black because their means were not finite as `f32` (recorded as
+/// `nonFinitePixels`).
 pub fn write_frame(
     path: &Path,
     format: Format,
@@ -59,65 +58,26 @@ pub fn write_frame(
         info.extra
             .push(("meanSamples".to_string(), st.mean_samples_per_pixel));
     }
-    let passes = result.pass_images();
-    let colour = result.denoised.as_ref().map(|d| &d.rgb[..]);
-    write_film(
-        path,
-        format,
-        &result.film,
-        colour,
-        passes.as_ref(),
-        scene.transparent,
-        info,
-    )
+    // A pixel of the film that is not finite as an `f32` (NaN, infinite, or a mean beyond
+    // `f32::MAX`) was written black in the image.
+    let non_finite = result.film.non_finite();
+    if non_finite > 0 {
+        info.extra
+            .push(("nonFinitePixels".to_string(), non_finite as f64));
+    }
+    io::write_image(path, format, &result.image, &info)?;
+    Ok(non_finite)
 }
 
 /// `result`, a frame of `scene`, as the 8-bit sRGB PNG that [`write_frame`] writes to a
-/// `.png` path (the same pixels), in memory; with its passes' images, made once, for the
-/// caller to show.
-pub fn frame_png(
-    scene: &Scene,
-    result: &FrameResult,
-) -> Result<(Vec<u8>, Option<PassImages>), Error> {
-    let passes = result.pass_images();
-    let colour = result.denoised.as_ref().map(|d| &d.rgb[..]);
+/// `.png` path (the same pixels), in memory.
+pub fn frame_png(scene: &Scene, result: &FrameResult) -> Result<Vec<u8>, Error> {
     let mut png = Vec::new();
-    film_image(
-        &result.film,
-        colour,
-        passes.as_ref(),
-        scene.transparent,
-        |image| io::encode_png(&mut png, image),
-    )
-    .map_err(|e| Error::Output {
+    io::encode_png(&mut png, &result.image).map_err(|e| Error::Output {
         path: scene.source.clone(),
         message: format!("PNG encoder: {e}"),
     })?;
-    Ok((png, passes))
-}
-
-/// Calls `f` with the image of `film` (with `passes`, the colour premultiplied by their alpha
-/// when `premultiplied`): its colour `colour` (interleaved RGB, row-major: the denoised frame)
-/// when given, else the film's means.
-fn film_image<R>(
-    film: &Film,
-    colour: Option<&[f32]>,
-    passes: Option<&PassImages>,
-    premultiplied: bool,
-    f: impl FnOnce(&Image) -> R,
-) -> R {
-    let width = film.width as usize;
-    let rgb = |i: usize| match colour {
-        Some(c) => [c[3 * i], c[3 * i + 1], c[3 * i + 2]],
-        None => film.rgb_f32((i % width) as u32, (i / width) as u32),
-    };
-    f(&Image {
-        width: film.width,
-        height: film.height,
-        rgb: &rgb,
-        channels: passes.map_or(&[][..], |p| &p.channels[..]),
-        premultiplied: passes.is_some() && premultiplied,
-    })
+    Ok(png)
 }
 
 /// How a denoised frame's file names its denoiser (the `denoiser` attribute).
@@ -141,32 +101,6 @@ fn frame_info(scene: &Scene, result: &FrameResult, samples: u32) -> FrameInfo {
     }
 }
 
-/// Writes `film` (with `passes`, the colour premultiplied by their alpha when
-/// `premultiplied`) to `path` with the attributes `info`; the colour is `colour` (interleaved
-/// RGB, row-major: the denoised frame) when given, else the film's means. A pixel of the film
-/// that is not finite as an `f32` (NaN, infinite, or a mean beyond `f32::MAX`) is written
-/// black; their number is returned and, when not 0, recorded in the file as
-/// `nonFinitePixels`.
-fn write_film(
-    path: &Path,
-    format: Format,
-    film: &Film,
-    colour: Option<&[f32]>,
-    passes: Option<&PassImages>,
-    premultiplied: bool,
-    mut info: FrameInfo,
-) -> Result<u64, Error> {
-    let non_finite = film.non_finite();
-    if non_finite > 0 {
-        info.extra
-            .push(("nonFinitePixels".to_string(), non_finite as f64));
-    }
-    film_image(film, colour, passes, premultiplied, |image| {
-        io::write_frame_from(path, format, image, &info)
-    })?;
-    Ok(non_finite)
-}
-
 #[cfg(test)]
 mod tests {
     use glam::DVec3;
@@ -183,7 +117,7 @@ mod tests {
         let path = dir.path().join("f.exr");
         let scene = Scene::parse("", Path::new("empty.toml")).unwrap();
         // Finite means in f64 that no f32 holds.
-        let film = Film::from_fn(3, 2, |x, y| match (x, y) {
+        let film = raytrace_core::film::Film::from_fn(3, 2, |x, y| match (x, y) {
             (0, 0) => DVec3::splat(0.5),
             (1, 0) => DVec3::new(1e39, 0.0, 0.0),
             (2, 1) => DVec3::new(0.0, -1e300, 1.0),
@@ -192,6 +126,7 @@ mod tests {
         let result = FrameResult {
             frame: 1,
             interval: scene.shot.interval(1),
+            image: film.colour(),
             film,
             layout: SumLayout::new(PassSet::EMPTY),
             denoised: None,
@@ -199,11 +134,11 @@ mod tests {
         };
         let written = write_frame(&path, Format::Exr, &scene, &result, &Budget::default());
         assert_eq!(written.unwrap(), 2);
-        let (w, h, pixels) = io::read_exr_rgb(&path).unwrap();
-        assert_eq!((w, h), (3, 2));
+        let read = io::read_exr_colour(&path).unwrap();
+        assert_eq!((read.width(), read.height()), (3, 2));
+        let pixels = read.interleaved(raytrace_core::image::COLOUR).unwrap();
         assert!(pixels.iter().all(|p| p.is_finite()));
-        assert_eq!(pixels[0], DVec3::splat(0.5));
-        assert_eq!(pixels[1], DVec3::ZERO);
+        assert_eq!(pixels[..6], [0.5, 0.5, 0.5, 0.0, 0.0, 0.0]);
         let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
         let count = image.layer_data[0]
             .attributes

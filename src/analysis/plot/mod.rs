@@ -20,9 +20,9 @@ use plotters::style::{FontStyle, TextStyle, register_font};
 mod ticks;
 
 use super::fit::usable;
-use ticks::{axis_range, log_ticks, tick_format, tick_label};
 use raytrace_core::format::Format;
 use raytrace_io as io;
+use ticks::{axis_range, log_ticks, tick_format, tick_label};
 
 /// The formats a plot can be written in.
 const PLOT_FORMATS: &[Format] = &[Format::Png, Format::Svg];

@@ -8,12 +8,12 @@ use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::stop::{RawStop, StopRule, relative_error};
 use super::tiles::FrameRequest;
 use super::tracers::ShotTracer;
-use glam::DVec3;
 
 use crate::error::Error;
 use crate::film::{Film, Pixel};
+use crate::image::Image;
 use crate::pass::PassSet;
-use crate::passes::{PassImages, SumLayout};
+use crate::passes::{SumLayout, add_pass_channels};
 use crate::points::FramePoints;
 use crate::prepared::PreparedFrame;
 use crate::scene::DenoiseQuality;
@@ -82,26 +82,21 @@ pub struct FrameResult {
     pub film: Film,
     /// Where the film keeps which pass sums.
     pub layout: SumLayout,
-    /// The frame as finished for writing when the scene asks for denoising: the raw and
-    /// denoised frames blended ([`Finishing`](super::Finishing)); `None` for a raw frame.
+    /// The frame as it is written: its colour ([`crate::image::COLOUR`]: the film's means as
+    /// sampled, or the written frame's once finishing has denoised it) and the channels of the
+    /// passes written; the colour premultiplied by the alpha pass where the background is
+    /// transparent.
+    pub image: Image,
+    /// What finishing did when the scene asks for denoising (`raytrace_render::finish`);
+    /// `None` for a raw frame.
     pub denoised: Option<Denoised>,
     pub stats: FrameStats,
 }
 
-impl FrameResult {
-    /// The images of the frame's passes, made from the film's sums, if it has any.
-    pub fn pass_images(&self) -> Option<PassImages> {
-        (!self.layout.passes().is_empty()).then(|| PassImages::from_film(&self.layout, &self.film))
-    }
-}
-
-/// A finished frame's written colour when the scene asks for denoising.
-#[derive(Clone, Debug, PartialEq)]
+/// What finishing tells of a frame it denoised (its colour is the frame's image's).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Denoised {
-    /// The written colour: the raw and denoised frames blended per pixel (interleaved RGB,
-    /// row-major, every value finite).
-    pub rgb: Vec<f32>,
-    /// Its estimated relative error, bias included.
+    /// The written colour's estimated relative error, bias included.
     pub relative_error: f64,
     /// The mean weight of the denoised frame in the written one, in [0, 1].
     pub denoised_share: f64,
@@ -110,16 +105,6 @@ pub struct Denoised {
     pub history_share: Option<f64>,
     /// The filter's quality.
     pub quality: DenoiseQuality,
-}
-
-impl Denoised {
-    /// The written colour as linear radiance, a pixel each (row-major).
-    pub fn image(&self) -> Vec<DVec3> {
-        self.rgb
-            .chunks_exact(3)
-            .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
-            .collect()
-    }
 }
 
 /// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
@@ -316,11 +301,15 @@ fn sample(
     stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
     stats.readback_bytes = rounds.readback_bytes();
     stats.render_seconds = render_start.elapsed().as_secs_f64();
+    let mut image = film.colour();
+    add_pass_channels(&mut image, layout.passes(), &layout, &film);
+    image.premultiplied = scene.transparent && !layout.passes().is_empty();
     Ok(FrameResult {
         frame,
         interval,
         film,
         layout,
+        image,
         denoised: None,
         stats,
     })
@@ -329,6 +318,7 @@ fn sample(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     #[test]
     fn a_degenerate_camera_counts_every_sample_as_black() {

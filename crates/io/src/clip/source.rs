@@ -1,6 +1,7 @@
 //! A clip's frames as they are read from disk: EXR or PNG frame files named by a path
 //! pattern, shown as 8-bit sRGB exactly as the PNG frame output writes them.
 
+use raytrace_core::image::COLOUR;
 use std::path::{Path, PathBuf};
 
 use raytrace_core::error::{Error, elide_path};
@@ -78,17 +79,17 @@ impl Source<'_> {
 /// them ([`crate::linear_to_srgb8`]). At 0 stops the bytes are those of a PNG frame of the same
 /// render.
 fn read_exr(path: &Path, frame: u32, exposure: f64) -> Result<FrameImage, String> {
-    let (width, height, pixels) = crate::read_exr_rgb(path)?;
+    let image = crate::read_exr_colour(path)?;
     let gain = exposure.exp2();
-    let rgb = pixels
-        .iter()
-        .flat_map(|p| p.to_array())
+    let colour = image.rgb(COLOUR).expect("a colour read");
+    let rgb = (0..image.pixels())
+        .flat_map(|i| colour.at_f64(i).to_array())
         .map(|v| crate::linear_to_srgb8((v * gain) as f32))
         .collect();
     Ok(FrameImage {
         frame,
-        width: width as u32,
-        height: height as u32,
+        width: image.width(),
+        height: image.height(),
         rgb,
     })
 }

@@ -5,11 +5,13 @@
 use std::time::Instant;
 
 use raytrace_core::error::Error;
-use raytrace_core::film::{Film, Halves};
+use raytrace_core::film::Film;
+use raytrace_core::image::Image;
 use raytrace_core::renderer::{StopRule, Weights, relative_error};
+use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicates};
 use raytrace_core::scene::DenoiseQuality;
 use raytrace_denoise::denoiser::{DenoiseError, Denoiser, Filter};
-use raytrace_denoise::estimate::{Blend, Snapshot, WrittenPixel};
+use raytrace_denoise::estimate::{Blend, Snapshot};
 
 /// Denoises a frame takes under a noise threshold, at most.
 pub(crate) const MAX_DENOISES: u32 = 2;
@@ -26,11 +28,22 @@ pub(super) struct Denoising<'d> {
     state: FrameState,
 }
 
+/// The frame written from a film: its terms (`Snapshot::written`) and their blend, with the
+/// samples the film held then, which tell whether it has changed since.
+pub(super) struct Written {
+    samples: u64,
+    pub(super) terms: Image,
+    pub(super) blend: Blend,
+}
+
 /// What one frame has of its denoising.
 #[derive(Default)]
 struct FrameState {
     /// The last denoise of the frame's film.
     snapshot: Option<Snapshot>,
+    /// The frame written after the last round judged: what finishing writes if no samples
+    /// were taken since (the blend is computed once).
+    written: Option<Written>,
     /// The written frame after the last round judged, for the next round's weights: each
     /// pixel's estimated relative variance per sample, row-major.
     weights: Option<Vec<f64>>,
@@ -66,62 +79,66 @@ impl<'d> Denoising<'d> {
         (self.state.seconds, self.state.denoises)
     }
 
-    /// Denoises `film`'s replicates (`halves`, row-major): the frame's new snapshot.
-    fn denoise(&mut self, halves: &[Halves]) -> Result<(), Error> {
+    /// Denoises `replicates` (the film's, [`Film::replicates`]), each replicate alone: the
+    /// frame's new snapshot.
+    fn denoise(&mut self, replicates: &Image) -> Result<(), Error> {
         let start = Instant::now();
-        let image = |half: fn(&Halves) -> glam::DVec3| -> Vec<f32> {
-            halves
-                .iter()
-                .flat_map(|h| {
-                    let c = half(h).as_vec3();
-                    if c.is_finite() {
-                        c.to_array()
-                    } else {
-                        [0.0; 3]
-                    }
-                })
-                .collect()
-        };
-        let da = self.filter.run(&image(Halves::a))?;
-        let db = self.filter.run(&image(Halves::b))?;
-        self.state.snapshot = Some(Snapshot::new(self.width, halves, &da, &db));
+        let da = self.filter.run(replicates, REPLICATE_A)?;
+        let db = self.filter.run(replicates, REPLICATE_B)?;
+        self.state.snapshot = Some(Snapshot::new(replicates, &da, &db));
         self.state.denoises += 1;
         self.state.seconds += start.elapsed().as_secs_f64();
         Ok(())
     }
 
-    /// The frame written from `film`: its last denoise blended with it as it is now, or,
-    /// if it has none, a denoise of it.
-    pub(super) fn written(&mut self, film: &Film) -> Result<Vec<WrittenPixel>, Error> {
-        let halves = film.halves();
-        if self.state.snapshot.is_none() {
-            self.denoise(&halves)?;
+    /// The frame written from `film`: the one the last round judged if the film has taken no
+    /// sample since, else its last denoise blended with it as it is now, or, if it has none,
+    /// a denoise of it.
+    pub(super) fn written(&mut self, film: &Film) -> Result<Written, Error> {
+        let samples = film.samples_taken();
+        if let Some(w) = self.state.written.take_if(|w| w.samples == samples) {
+            return Ok(w);
         }
-        let snapshot = self.state.snapshot.as_ref().expect("denoised");
-        Ok(snapshot.written(&halves))
+        let replicates = film.replicates();
+        if self.state.snapshot.is_none() {
+            self.denoise(&replicates)?;
+        }
+        Ok(self.blend(&replicates, samples))
     }
 
-    fn blend(&mut self, halves: &[Halves]) -> Blend {
+    /// The last denoise blended with the film's `replicates` now (of `samples` samples).
+    fn blend(&mut self, replicates: &Image, samples: u64) -> Written {
         let start = Instant::now();
         let snapshot = self.state.snapshot.as_ref().expect("denoised");
-        let blend = snapshot.blend(halves);
+        let terms = snapshot.written(replicates);
+        let blend = Blend::from_written(&terms);
         self.state.seconds += start.elapsed().as_secs_f64();
-        blend
+        Written {
+            samples,
+            terms,
+            blend,
+        }
     }
 
-    /// Keeps `blend`'s per-pixel errors as the next round's weights: per sample, as the
-    /// adaptive rounds weigh pixels.
-    fn keep_weights(&mut self, blend: &Blend, halves: &[Halves]) {
-        let w = blend
+    /// Keeps `written` as the frame the last round judged, and its per-pixel errors as the
+    /// next round's weights: per sample, as the adaptive rounds weigh pixels. Returns its
+    /// estimated relative error.
+    fn keep(&mut self, written: Written, replicates: &Image) -> f64 {
+        let taken = Replicates::of(replicates).taken();
+        let w = written
+            .blend
             .pixel_errors
             .iter()
-            .zip(halves)
-            .map(|(e, h)| {
-                let v = e.max(0.0) * h.taken as f64;
+            .zip(taken)
+            .map(|(e, &n)| {
+                let v = e.max(0.0) * n as f64;
                 if v.is_finite() { v } else { f64::MAX }
             })
             .collect();
         self.state.weights = Some(w);
+        let error = written.blend.relative_error;
+        self.state.written = Some(written);
+        error
     }
 }
 
@@ -131,20 +148,24 @@ impl StopRule for Denoising<'_> {
     }
 
     fn reached(&mut self, film: &Film, threshold: f64) -> Result<bool, Error> {
-        let halves = film.halves();
-        let samples =
-            halves.iter().map(|h| h.taken as f64).sum::<f64>() / halves.len().max(1) as f64;
+        let replicates = film.replicates();
+        let taken = Replicates::of(&replicates).taken();
+        let total = film.samples_taken();
+        let samples = total as f64 / taken.len().max(1) as f64;
         let raw = relative_error(film);
+        // The frame the last round judged is stale now: the film has more samples.
+        self.state.written = None;
         if self.state.snapshot.is_none() {
             // The frame's first denoise: its gain, measured.
-            self.denoise(&halves)?;
-            let blend = self.blend(&halves);
-            self.state.gain = Some(((blend.relative_error / raw).powi(2), samples));
-            self.keep_weights(&blend, &halves);
-            return Ok(blend.relative_error <= threshold);
+            self.denoise(&replicates)?;
+            let written = self.blend(&replicates, total);
+            let error = written.blend.relative_error;
+            self.state.gain = Some(((error / raw).powi(2), samples));
+            return Ok(self.keep(written, &replicates) <= threshold);
         }
-        let stale = self.blend(&halves);
-        if stale.relative_error <= threshold {
+        let stale = self.blend(&replicates, total);
+        if stale.blend.relative_error <= threshold {
+            self.keep(stale, &replicates);
             return Ok(true);
         }
         if self.state.denoises < MAX_DENOISES
@@ -153,13 +174,12 @@ impl StopRule for Denoising<'_> {
             let ratio = (gain * (samples / at).powf(RATIO_GROWTH)).min(1.0);
             let predicted = raw * ratio.sqrt();
             if predicted <= threshold {
-                self.denoise(&halves)?;
-                let fresh = self.blend(&halves);
-                self.keep_weights(&fresh, &halves);
-                return Ok(fresh.relative_error <= threshold);
+                self.denoise(&replicates)?;
+                let fresh = self.blend(&replicates, total);
+                return Ok(self.keep(fresh, &replicates) <= threshold);
             }
         }
-        self.keep_weights(&stale, &halves);
+        self.keep(stale, &replicates);
         Ok(false)
     }
 

@@ -38,7 +38,6 @@ use raytrace_core::pass::{Pass, PassSet};
 use raytrace_core::renderer::{Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopRule};
 use raytrace_core::scene::Scene;
 use raytrace_denoise::denoiser::Denoiser;
-use raytrace_denoise::estimate::Blend;
 use raytrace_denoise::reproject::HISTORY;
 
 /// The passes the finishing stages of `scene` read from the film, written or not: with
@@ -142,19 +141,21 @@ impl<'d> Finishing<'d> {
         };
         let frame = result.frame;
         let start = Instant::now();
-        let pixels = d.written(&result.film).map_err(|e| e.in_frame(frame))?;
-        let width = result.film.width as usize;
+        let written = d.written(&result.film).map_err(|e| e.in_frame(frame))?;
         let blend = match &mut self.history {
-            None => Blend::from_written(width, &pixels),
-            Some(h) => h.combine(&result, &pixels),
+            None => written.blend,
+            Some(h) => h.combine(&result, &written.terms),
         };
         let st = &mut result.stats;
         // The frame's time holds its finishing, as it holds the denoises its rounds took.
         st.render_seconds += start.elapsed().as_secs_f64();
         st.relative_error = blend.relative_error;
         (st.denoise_seconds, st.denoises) = d.spent();
+        // The written colour in place of the film's; the passes stay.
+        for channel in blend.image.into_channels() {
+            result.image.set_channel(channel);
+        }
         result.denoised = Some(Denoised {
-            rgb: blend.rgb,
             relative_error: blend.relative_error,
             denoised_share: blend.denoised_share,
             history_share: self.history.as_ref().map(|_| blend.history_share),
