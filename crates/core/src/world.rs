@@ -615,7 +615,7 @@ fn build_animated(prepared: &[PreparedSphere], interval: Interval) -> (Topology,
 
 /// The nearest sphere along `ray` at its time and its distance, found by testing every sphere
 /// of `scene` where its motion puts it: no hierarchy, no boxes. The reference the hierarchies
-/// are tested against (here and in tests/shutter.rs).
+/// are tested against (here and in tests/integration/shutter.rs).
 pub fn nearest_by_testing_every_sphere(scene: &Scene, ray: &Ray) -> Option<(f64, u32)> {
     let mut best: Option<(f64, u32)> = None;
     for (i, s) in scene.spheres.iter().enumerate() {

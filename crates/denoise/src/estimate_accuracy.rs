@@ -87,7 +87,7 @@ fn the_statement_is_within_a_quarter_on_edges_and_on_a_very_noisy_frame() {
     // A checkerboard of 8:1 contrast with a brighter disk on it: the relative error divides
     // by a stand-in for the true value that edges blur (estimate.rs), and the statement
     // reads low, measured 0.76 to 0.8 of the truth; real frames' edges are softer
-    // (tests/denoise_estimate.rs).
+    // (tests/integration/denoise_estimate.rs).
     check_seeds("edges", synthetic::edges, 0.5, 0.25);
     // 140 percent noise in the full frame: the denoiser blurs dark squares up beside the
     // bright disk, which the stand-in for the true value must not follow (see estimate.rs).

@@ -7,7 +7,7 @@
 //! `2^-24 X` (6e-8 of it), where the CPU's `f64` resolves `1.1e-16 X`. Scenes whose numbers
 //! `f32` cannot carry faithfully are refused here, when the scene is validated (`check` and
 //! `render` exit 2), never rendered differently; docs/gpu.md lists the limits and the
-//! stability suite (tests/stability.rs) which of its extreme cases pass on the GPU and which
+//! stability suite (tests/integration/stability.rs) which of its extreme cases pass on the GPU and which
 //! are refused.
 //!
 //! Point caches (`[[points]]`) are not traced on the GPU: their points may carry colours of

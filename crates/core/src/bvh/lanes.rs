@@ -60,7 +60,7 @@ pub(crate) fn avx_where_available() -> Option<pulp::x86::V3> {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    // By its crate path: tests/architecture.rs reads a `super::` path as leading to the
+    // By its crate path: tests/integration/architecture.rs reads a `super::` path as leading to the
     // file's parent module, which for this inline module would be `bvh`.
     use crate::bvh::lanes::{LANES, Lanes};
     use core::arch::x86_64::{__m256, _CMP_LE_OQ};

@@ -3,7 +3,7 @@
 //! seconds under a 1 GiB address-space limit, exits 2 with a message that names the file and
 //! the key or option, and writes nothing.
 
-mod common;
+use crate::common;
 
 use common::hostile::{points, refused, run, scene, setup};
 use common::text;

@@ -8,7 +8,7 @@
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::run_ok as run;
 
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");

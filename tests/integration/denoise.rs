@@ -1,7 +1,7 @@
 //! Denoised frames end to end: what is written (the denoised colour, the `noisy` layer, the
 //! attributes, PNG), determinism, bad input, and the denoiser's library missing.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

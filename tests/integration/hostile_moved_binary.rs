@@ -3,7 +3,7 @@
 //! does not denoise runs without the library; `--denoise` is exit 1 naming the library and
 //! how to provide it, and works once the libraries are copied beside the binary.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

@@ -4,7 +4,7 @@
 //! inside a value or with text after their rows, CR-only line ends, and ids beyond the range
 //! of 64-bit integers. Each run ends within 5 seconds under a 1 GiB address-space limit.
 
-mod common;
+use crate::common;
 
 use common::hostile::{points, refused, run, scene, setup};
 use common::text;

@@ -4,7 +4,7 @@
 //! test's own), variance against the spread between seeds; the colour with passes against the
 //! colour without; and the frames as files (OpenImageIO's `oiiotool`, PNG alpha, bad input).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

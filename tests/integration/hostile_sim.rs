@@ -5,7 +5,7 @@
 //! frames is read once; `check` reads each file once; the next snapshot's points are in the
 //! memory estimate; duplicate ids are refused before the next file is read.
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::path::Path;

@@ -9,7 +9,7 @@ use std::process::Command;
 use raytrace_core::image::COLOUR;
 use raytrace_io::{linear_to_srgb8, read_exr_colour};
 
-mod common;
+use crate::common;
 use common::{ok, run, text};
 
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");

@@ -1,6 +1,6 @@
 //! Rendering under a noise threshold or a time limit, end to end.
 
-mod common;
+use crate::common;
 use common::run_ok as run;
 use common::{exr_bits_and_attributes, exr_channels, exr_number, matches_plain_renders};
 

@@ -25,13 +25,13 @@ const SCENES: [(&str, &str); 7] = [
     ("every_key", EVERY_KEY),
     (
         "bouncing_spheres",
-        include_str!("../scenes/bouncing_spheres.toml"),
+        include_str!("../../scenes/bouncing_spheres.toml"),
     ),
-    ("defocus", include_str!("../scenes/defocus.toml")),
-    ("orbits", include_str!("../scenes/orbits.toml")),
-    ("quick", include_str!("../scenes/quick.toml")),
-    ("turntable", include_str!("../scenes/turntable.toml")),
-    ("propeller", include_str!("../scenes/propeller.toml")),
+    ("defocus", include_str!("../../scenes/defocus.toml")),
+    ("orbits", include_str!("../../scenes/orbits.toml")),
+    ("quick", include_str!("../../scenes/quick.toml")),
+    ("turntable", include_str!("../../scenes/turntable.toml")),
+    ("propeller", include_str!("../../scenes/propeller.toml")),
 ];
 
 const EVERY_KEY: &str = r#"

@@ -1,7 +1,7 @@
 //! `converge --flicker`: bad ranges and options refused naming `--flicker`, and a sequence of
 //! any length measured holding a frame or two, never the list of its frames.
 
-mod common;
+use crate::common;
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -4,7 +4,7 @@
 //! of the same points give the same image. Everything is rendered by the binary, and the
 //! frames' pixels and passes compared as bits.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

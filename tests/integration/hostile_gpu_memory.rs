@@ -4,7 +4,7 @@
 //! list held every pixel. On the GPU where CI runs (Mesa's lavapipe); elsewhere without a GPU
 //! the test returns, except under `CI=true`.
 
-mod common;
+use crate::common;
 
 use common::hostile::{scene, setup};
 use common::ok;

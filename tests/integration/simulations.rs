@@ -1,5 +1,5 @@
 //! Simulation formats against answers known in advance, with files written here (no program
-//! from outside; tests/lammps.rs runs LAMMPS itself):
+//! from outside; tests/integration/lammps.rs runs LAMMPS itself):
 //!
 //! - the same points as an extended XYZ file, a LAMMPS dump and a PLY file render the same
 //!   bits;
@@ -10,7 +10,7 @@
 //! - interpolation through a periodic box (nearest image, image flags, unwrapped positions)
 //!   renders as the file's velocities equal to that motion.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -2,7 +2,7 @@
 //! under a 1 GiB address-space limit, with a message naming the file (and the frame) and
 //! what is wrong, no panic, and nothing written.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{ok, run, text};
 
 fn refused(dir: &Path, args: &[&str], message: &str) {

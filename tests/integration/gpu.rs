@@ -8,7 +8,7 @@
 //! GPU draws the CPU's sampler numbers (src/gpu/tests.rs), so its camera rays and first hits
 //! are the CPU's up to `f32` rounding: the passes are compared pixel by pixel.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

@@ -13,7 +13,7 @@
 //! `lmp` comes from Debian's `lammps` package (`.ci/run` installs it); without it the tests
 //! are skipped with a note, except under CI=true, where they fail.
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! times the readout, boxes hold every sphere over the whole exposure, and a still scene or a
 //! box curve changes nothing.
 
-mod common;
+use crate::common;
 
 use common::{
     exr_attribute, exr_bits_and_attributes, exr_channels, exr_number, f, matches_plain_renders,

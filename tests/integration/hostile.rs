@@ -2,7 +2,7 @@
 //! limit (`ulimit -v`, so an allocation proportional to a shot's length fails), with the
 //! exit status stated (0, 1 or 2), no panic, and nothing partial or temporary left behind.
 
-mod common;
+use crate::common;
 
 use std::os::unix::fs::symlink;
 use std::path::{Path, PathBuf};

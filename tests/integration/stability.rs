@@ -18,7 +18,7 @@
 //! shadows) the count of samples of each value is binomial with a probability computed here
 //! independently, and is tested against exact binomial tails.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! Motion blur against answers computed independently: a frame with an open shutter is the
 //! time average of the instants inside it, and a zero shutter is exactly an instant.
 
-mod common;
+use crate::common;
 
 use common::{block_means, f, render, render_with, scene, v};
 use glam::DVec3;

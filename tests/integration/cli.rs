@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::{run, text};
 
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
