@@ -29,7 +29,7 @@ impl Aabb {
     }
 
     /// The smallest box containing both.
-    pub fn union(&self, o: &Aabb) -> Aabb {
+    pub(crate) fn union(&self, o: &Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
             max: self.max.max(o.max),

@@ -14,9 +14,9 @@
 //! A finished film gives its images: the colour as written ([`Film::colour`]) and its
 //! replicates ([`Film::replicates`]), each an [`Image`] of named channels.
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 
-use crate::image::{COLOUR, Image, Precision, Values};
+use crate::image::{COLOUR, Image, Precision, Rgb, Values};
 use crate::pass::{SAMPLES, VARIANCE};
 use crate::replicates::{REPLICATE_A, REPLICATE_B, replicate_counts};
 
@@ -130,6 +130,13 @@ impl Pixel {
     }
 }
 
+/// Sets the three float channels `names` of `image` to `planes`.
+fn set_planes(image: &mut Image, names: Rgb, planes: [Vec<f32>; 3]) {
+    for (name, plane) in names.0.into_iter().zip(planes) {
+        image.set(name, Precision::Float, Values::Float(plane));
+    }
+}
+
 /// Each pixel's estimated relative squared error, in the tile's order: its
 /// [`variance_of_mean`](Pixel::variance_of_mean) over `(m + 0.01)^2`, averaged over the
 /// channels (`metrics::estimated_rel_mse_term`), where `m` is, per channel, the smaller of the
@@ -235,6 +242,12 @@ pub(crate) struct FilmTile<'f> {
 }
 
 impl Film {
+    /// The bytes a film of `pixels` pixels that keeps `pass_stride` pass sums a pixel holds:
+    /// its [`Pixel`]s and its pass sums.
+    pub fn bytes_for(pixels: u64, pass_stride: usize) -> u64 {
+        pixels * (std::mem::size_of::<Pixel>() + pass_stride * std::mem::size_of::<f64>()) as u64
+    }
+
     /// A film with no samples and no pass sums.
     pub fn new(width: u32, height: u32) -> Film {
         Film::with_pass_sums(width, height, 0)
@@ -401,31 +414,42 @@ impl Film {
     /// what the denoiser and the written frame's estimate read of the film
     /// ([`crate::replicates::Replicates`]).
     pub fn replicates(&self) -> Image {
-        let pixels = self.pixels.len();
-        let mut planes: [Vec<Vec3>; 3] = std::array::from_fn(|_| vec![Vec3::ZERO; pixels]);
-        let mut taken = vec![0; pixels];
+        let mut planes = [REPLICATE_A, REPLICATE_B, VARIANCE].map(|names| (names, self.planes()));
+        let mut taken = vec![0; self.pixels.len()];
         self.each_row_major(|i, p| {
             let (a, b) = p.replicate_means();
-            planes[0][i] = a.as_vec3();
-            planes[1][i] = b.as_vec3();
-            planes[2][i] = p.variance_of_mean().as_vec3();
+            let values = [a, b, p.variance_of_mean()];
+            for ((_, plane), v) in planes.iter_mut().zip(values) {
+                for (c, x) in plane.iter_mut().zip(v.as_vec3().to_array()) {
+                    c[i] = x;
+                }
+            }
             taken[i] = p.taken;
         });
         let mut image = Image::new(self.width, self.height);
-        for (names, plane) in [REPLICATE_A, REPLICATE_B, VARIANCE].into_iter().zip(planes) {
-            image.set_rgb(names, plane.into_iter());
+        for (names, plane) in planes {
+            set_planes(&mut image, names, plane);
         }
         image.set(SAMPLES, Precision::Float, Values::Count(taken));
         image
     }
 
+    /// Three planes of the film's size, zero.
+    fn planes(&self) -> [Vec<f32>; 3] {
+        std::array::from_fn(|_| vec![0.0; self.pixels.len()])
+    }
+
     /// The film's colour as written ([`COLOUR`], row-major): each pixel's mean as an `f32`,
     /// black where that is not finite ([`Pixel::rgb_f32`]).
     pub fn colour(&self) -> Image {
-        let mut colour = vec![Vec3::ZERO; self.pixels.len()];
-        self.each_row_major(|i, p| colour[i] = Vec3::from_array(p.rgb_f32()));
+        let mut plane = self.planes();
+        self.each_row_major(|i, p| {
+            for (c, x) in plane.iter_mut().zip(p.rgb_f32()) {
+                c[i] = x;
+            }
+        });
         let mut image = Image::new(self.width, self.height);
-        image.set_rgb(COLOUR, colour.into_iter());
+        set_planes(&mut image, COLOUR, plane);
         image
     }
 
@@ -587,7 +611,7 @@ mod tests {
         assert_eq!(means[19 * 37 + 36], DVec3::new(36.0, 19.0, 0.0));
         let colour = film.colour();
         let rgb = colour.rgb(COLOUR).unwrap();
-        assert_eq!(rgb.at(37 + 2), Vec3::new(2.0, 1.0, 0.0));
+        assert_eq!(rgb.at(37 + 2), glam::Vec3::new(2.0, 1.0, 0.0));
         assert_eq!(film.non_finite(), 0);
     }
 

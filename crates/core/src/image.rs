@@ -92,6 +92,12 @@ impl RgbPlanes<'_> {
 }
 
 impl Image {
+    /// The bytes an image of `pixels` pixels and `channels` channels holds (4 a value: an
+    /// `f32`, or a count).
+    pub fn bytes_for(pixels: u64, channels: usize) -> u64 {
+        pixels * channels as u64 * 4
+    }
+
     /// An image of `width` x `height` pixels and no channels.
     pub fn new(width: u32, height: u32) -> Image {
         Image {
@@ -186,6 +192,31 @@ impl Image {
         }
         for (name, plane) in names.0.into_iter().zip(planes) {
             self.set(name, Precision::Float, Values::Float(plane));
+        }
+    }
+
+    /// Adds the float channels of `groups`, three a group, from `f`, which gives each pixel's
+    /// values (a `Vec3` a group), pixel by pixel: the planes are filled as they are made, with
+    /// no copy of the image beside them.
+    pub fn set_rgbs<const N: usize>(
+        &mut self,
+        groups: [Rgb; N],
+        mut f: impl FnMut(usize) -> [Vec3; N],
+    ) {
+        let n = self.pixels();
+        let mut planes: [[Vec<f32>; 3]; N] =
+            std::array::from_fn(|_| std::array::from_fn(|_| Vec::with_capacity(n)));
+        for i in 0..n {
+            for (group, v) in planes.iter_mut().zip(f(i)) {
+                for (plane, x) in group.iter_mut().zip(v.to_array()) {
+                    plane.push(x);
+                }
+            }
+        }
+        for (names, group) in groups.into_iter().zip(planes) {
+            for (name, plane) in names.0.into_iter().zip(group) {
+                self.set(name, Precision::Float, Values::Float(plane));
+            }
         }
     }
 

@@ -33,12 +33,12 @@ use crate::aabb::Aabb;
 use crate::bvh::{Boxes, Bvh, BvhView, PACKET, PacketRay, Topology, TraversalStack};
 use crate::hit::Hit;
 use crate::material::{Background, Material};
-use crate::motion::FrameMotion;
+use crate::motion::{FrameMotion, Motion};
 use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
-use crate::sphere::{PreparedSphere, intersect, surface_point};
+use crate::sphere::{PreparedSphere, SphereDesc, intersect, surface_point};
 use crate::traced_points::{PointHit, TracedPoints};
 
 /// The points of a frame without any.
@@ -68,7 +68,32 @@ const REBUILD_AREA: f64 = 2.0;
 
 /// Bytes per sphere of the tracer's copy of it, at most (as an animated sphere, with its
 /// index in the scene's list of animated ones).
-pub const PRIM_BYTES: usize = std::mem::size_of::<MovingPrim>() + 4;
+pub(crate) const PRIM_BYTES: usize = std::mem::size_of::<MovingPrim>() + 4;
+
+/// The bytes the spheres of `scene` hold while a frame of it renders, at most: per sphere,
+/// the scene's description of it, the shot's static geometry, one frame's prepared sphere
+/// with its boxes at the shutter's opening and closing, a hierarchy build's working arrays
+/// (a copy of each box with its centroid: the build takes the union, then the per-leaf boxes)
+/// and the hierarchy; keyframed paths hold their keys in the description and again in each
+/// frame's path. It errs high for scenes whose spheres are mostly still.
+pub fn bytes_for(scene: &Scene) -> u64 {
+    use std::mem::size_of;
+    let per_sphere = size_of::<SphereDesc>()
+        + size_of::<PreparedSphere>()
+        + 2 * size_of::<Aabb>()
+        + PRIM_BYTES
+        + crate::bvh::BUILD_BYTES_PER_PRIMITIVE
+        + crate::bvh::BYTES_PER_PRIMITIVE;
+    let keys: usize = scene
+        .spheres
+        .iter()
+        .map(|s| match &s.motion {
+            Motion::Keyframes(k) => k.len(),
+            _ => 0,
+        })
+        .sum();
+    (scene.spheres.len() * per_sphere + keys * 2 * size_of::<crate::motion::Key>()) as u64
+}
 
 /// A sphere that never moves, as the tracer sees it.
 #[derive(Clone, Copy, Debug)]

@@ -216,18 +216,16 @@ impl Blend {
         let raw = planes(RAW);
         let raw: Vec<DVec3> = (0..n).map(|i| raw.at_f64(i)).collect();
         let around = box_mean(&raw, width, 1);
-        let mut colour = Vec::with_capacity(n);
         let mut pixel_errors = Vec::with_capacity(n);
         let mut sum = 0.0;
-        for (i, around) in around.iter().enumerate() {
+        let mut image = Image::new(terms.width(), terms.height());
+        image.set_rgbs([COLOUR], |i| {
             let v = value.at_f64(i);
-            let m = v.max(DVec3::ZERO).min(around.max(DVec3::ZERO));
+            let m = v.max(DVec3::ZERO).min(around[i].max(DVec3::ZERO));
             sum += estimated_rel_mse_term(m, error.at_f64(i));
             pixel_errors.push(estimated_rel_mse_term(m, smooth.at_f64(i)));
-            colour.push(to_f32(v));
-        }
-        let mut image = Image::new(terms.width(), terms.height());
-        image.set_rgb(COLOUR, colour.into_iter());
+            [to_f32(v)]
+        });
         let mean = sum / n.max(1) as f64;
         Blend {
             image,
@@ -241,6 +239,28 @@ impl Blend {
             history_share: 0.0,
         }
     }
+}
+
+/// The bytes a snapshot of a frame of `pixels` pixels holds ([`Snapshot`]: its terms' nine
+/// channels and the samples).
+pub fn snapshot_bytes(pixels: u64) -> u64 {
+    Image::bytes_for(pixels, 10)
+}
+
+/// The bytes a written frame of `pixels` pixels holds once blended: its terms' 21 channels
+/// ([`Snapshot::written`]) and its blend (the colour and each pixel's error).
+pub fn written_bytes(pixels: u64) -> u64 {
+    Image::bytes_for(pixels, 21 + 3) + pixels * std::mem::size_of::<f64>() as u64
+}
+
+/// The bytes a blend ([`Snapshot::written`], then [`Blend::from_written`]) holds at its peak
+/// beyond its inputs, for a frame of `pixels` pixels: each pixel's terms now and their
+/// neighbourhood means (three `DVec3`s each) while the written frame's terms are made (21
+/// `f32`s); the blend after them holds less (the terms, and a `DVec3` a pixel for the raw
+/// frame and two for its 3x3 means).
+pub fn blending_bytes(pixels: u64) -> u64 {
+    let dvec3 = std::mem::size_of::<DVec3>() as u64;
+    pixels * (3 * dvec3 + 3 * dvec3) + Image::bytes_for(pixels, 21)
 }
 
 /// The mean weight of the denoised frame in a written frame's terms, over pixels and channels.
@@ -269,19 +289,16 @@ impl Snapshot {
             da.rgb(REPLICATE_A).expect("replicate a, denoised"),
             db.rgb(REPLICATE_B).expect("replicate b, denoised"),
         );
-        let n = replicates.pixels();
-        let mut planes: [Vec<Vec3>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
-        for i in 0..n {
-            let t = PixelTerms::new(&h.at(i), da.at_f64(i), db.at_f64(i));
-            planes[0].push(to_f32(t.denoised));
-            // Kept infinite where nothing is known.
-            planes[1].push(t.denoised_error.as_vec3());
-            planes[2].push(to_f32(t.cross));
-        }
         let mut terms = Image::new(replicates.width(), replicates.height());
-        for (names, plane) in [DENOISED, DENOISED_ERROR, CROSS].into_iter().zip(planes) {
-            terms.set_rgb(names, plane.into_iter());
-        }
+        terms.set_rgbs([DENOISED, DENOISED_ERROR, CROSS], |i| {
+            let t = PixelTerms::new(&h.at(i), da.at_f64(i), db.at_f64(i));
+            // The error kept infinite where nothing is known.
+            [
+                to_f32(t.denoised),
+                t.denoised_error.as_vec3(),
+                to_f32(t.cross),
+            ]
+        });
         terms.set(SAMPLES, Precision::Float, Values::Count(h.taken().to_vec()));
         Snapshot { terms }
     }
@@ -327,8 +344,18 @@ impl Snapshot {
                 box_mean_of_others(&map, width, WEIGHT_RADIUS)
             })
             .collect();
-        let mut out: [Vec<Vec3>; 7] = std::array::from_fn(|_| Vec::with_capacity(n));
-        for (i, [e_d, v, c]) in terms.iter().enumerate() {
+        let mut written = Image::new(replicates.width(), replicates.height());
+        let names = [
+            WRITTEN,
+            RAW,
+            WEIGHT,
+            ERROR,
+            SMOOTH_ERROR,
+            RAW_VARIANCE,
+            CROSS,
+        ];
+        written.set_rgbs(names, |i| {
+            let [e_d, v, c] = &terms[i];
             let (se, sv, sc) = (
                 smoothed[0][i].max(DVec3::ZERO),
                 smoothed[1][i],
@@ -340,7 +367,7 @@ impl Snapshot {
                 DVec3::ONE
             };
             let raw = h.at(i).full();
-            let pixel = [
+            [
                 to_f32(denoised.at_f64(i) * w + raw * (DVec3::ONE - w)),
                 to_f32(raw),
                 w.as_vec3(),
@@ -348,24 +375,8 @@ impl Snapshot {
                 to_f32(blended_error(w, se, sv, sc).max(DVec3::ZERO)),
                 v.as_vec3(),
                 to_f32(*c),
-            ];
-            for (plane, value) in out.iter_mut().zip(pixel) {
-                plane.push(value);
-            }
-        }
-        let mut written = Image::new(replicates.width(), replicates.height());
-        let names = [
-            WRITTEN,
-            RAW,
-            WEIGHT,
-            ERROR,
-            SMOOTH_ERROR,
-            RAW_VARIANCE,
-            CROSS,
-        ];
-        for (names, plane) in names.into_iter().zip(out) {
-            written.set_rgb(names, plane.into_iter());
-        }
+            ]
+        });
         written
     }
 

@@ -144,6 +144,19 @@ pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
     blend
 }
 
+/// The bytes [`combine`] holds at its peak beyond its inputs, for a frame of `pixels` pixels
+/// with a full history: each pair of estimates' smoothed entry (six pairs of three estimates,
+/// an `Option<DVec3>` each a pixel), the combined values (three `Vec3`s), the combined
+/// frame's terms (12 channels) and their blend's working memory (the raw frame and its 3x3
+/// means, three `DVec3`s, and each pixel's error); smoothing an entry holds less.
+pub fn bytes_for(pixels: u64) -> u64 {
+    use std::mem::size_of;
+    let entries = (MOST * (MOST + 1) / 2 * size_of::<Option<DVec3>>()) as u64;
+    let values = size_of::<[Vec3; 3]>() as u64;
+    let blend = (3 * size_of::<DVec3>() + size_of::<f64>()) as u64;
+    pixels * (entries + values + blend) + raytrace_core::image::Image::bytes_for(pixels, 12 + 3)
+}
+
 /// The weights `λ` (summing to 1, none negative, `λ_0` above 0) over the estimates `0..k`
 /// that minimise `λ^T Σ λ`, with `sigma(a, b)` the smoothed covariance (`None` where an
 /// estimate is missing). Every subset holding estimate 0 is tried: at most three estimates,

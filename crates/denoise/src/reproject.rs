@@ -42,6 +42,18 @@ pub struct Reprojected {
     pub found: Vec<bool>,
 }
 
+/// The bytes a frame held for a later frame's history takes, for `pixels` pixels: its colour,
+/// depth, normal and motion (the passes' 4 channels, forward and backward), 11 channels.
+pub fn frame_bytes(pixels: u64) -> u64 {
+    Image::bytes_for(pixels, 11)
+}
+
+/// The bytes [`reproject`] gives for a frame of `pixels` pixels: each earlier frame's colour
+/// carried to it, and where it was found.
+pub fn reprojected_bytes(pixels: u64) -> u64 {
+    HISTORY as u64 * (Image::bytes_for(pixels, 3) + pixels * std::mem::size_of::<bool>() as u64)
+}
+
 /// The channels `planes` at the continuous position (`x`, `y`) of an image of `width` x
 /// `height` pixels, read bilinearly (pixel centres at half-integers); `None` outside the
 /// image.

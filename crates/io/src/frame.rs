@@ -8,7 +8,8 @@ use super::exr::{self, FrameInfo};
 use super::png;
 use raytrace_core::error::Error;
 use raytrace_core::format::{FRAME_FORMATS, Format};
-use raytrace_core::image::{COLOUR, Channel, Image};
+use raytrace_core::image::{COLOUR, Channel, Image, Precision};
+use raytrace_core::pass::{Pass, PassSet};
 
 /// Writes `image` to `path` as a frame in `format` (the validated output's: `.exr` or
 /// `.png`), with the attributes `info` (EXR only). An EXR file holds every channel of the
@@ -57,6 +58,31 @@ pub fn write_image(
         Some(attributes) => exr::write(writer, path, image, attributes),
         None => png::write(writer, path, image),
     })
+}
+
+/// The bytes writing a frame of `pixels` pixels with the channels of `passes` beside its
+/// colour takes in `format`, beyond the image: an EXR file with passes copies every channel
+/// for its encoder (the colour as `f32`, each pass as it is stored), one without none (its
+/// colour is encoded straight from the image); a PNG file encodes 8-bit RGB, or RGBA with an
+/// alpha pass.
+pub fn bytes_for(format: Format, pixels: u64, passes: PassSet) -> u64 {
+    let per_pixel: usize = match format {
+        Format::Exr if passes.is_empty() => 0,
+        Format::Exr => {
+            let size = |p: Pass| match p.precision() {
+                Precision::Half => 2,
+                Precision::Float => 4,
+            };
+            3 * 4
+                + passes
+                    .iter()
+                    .map(|p| p.channels().len() * size(p))
+                    .sum::<usize>()
+        }
+        _ if passes.contains(Pass::Alpha) => 4,
+        _ => 3,
+    };
+    pixels * per_pixel as u64
 }
 
 /// The channels of `image` beside its colour: the passes'.

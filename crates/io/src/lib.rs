@@ -22,5 +22,5 @@ pub(crate) use exr::fps_rational;
 pub use exr::{FrameInfo, read_exr_colour};
 pub use files::file_kind;
 pub use frame::check_frame_file;
-pub use frame::write_image;
+pub use frame::{bytes_for, write_image};
 pub use png::{encode as encode_png, linear_to_srgb8};

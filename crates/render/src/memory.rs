@@ -1,9 +1,12 @@
 //! Memory: what a frame of a scene will hold (an estimate checked against the machine's
 //! available memory before anything renders), and the process's peak, for `--stats`.
 
+use crate::finish;
 use raytrace_core::error::Error;
-use raytrace_core::film::Pixel;
-use raytrace_core::scene::Scene;
+use raytrace_core::passes::SumLayout;
+use raytrace_core::renderer::FrameResult;
+use raytrace_core::scene::{Device, Scene};
+use raytrace_core::world;
 use raytrace_scene::point_cache::PointLoad;
 
 /// Resident bytes of the process with a scene of a few spheres and no image to speak of:
@@ -12,86 +15,39 @@ use raytrace_scene::point_cache::PointLoad;
 /// the GPU tracer too; 8.0 before).
 const FLOOR_BYTES: u64 = 9 << 20;
 
-/// Bytes per sphere while the scene file is read, beyond the [`Scene`] itself: the file's
-/// text and its parsed form are gone once the scene is validated, but they set the peak of a
-/// large scene. Calibrated on generated scenes of 10^4 to 10^6 spheres.
-const LOAD_BYTES_PER_SPHERE: u64 = 300;
-
-/// The bytes a frame of `scene` holds per pixel: the film's [`Pixel`] sums (40 bytes), which
-/// an EXR file's colour is encoded from directly, with no copy; a PNG file's 8-bit copy (3
-/// bytes, 4 with alpha); and with passes, their sums, their channels, the channels' copy as
-/// encoded and the colour's (`f32` RGB).
-pub(crate) fn bytes_per_pixel(scene: &Scene) -> u64 {
-    use std::mem::size_of;
-    let passes = scene.output.passes;
-    let pass_channels: usize = passes.iter().map(|p| p.channels().len()).sum();
-    let png = scene.output.format == raytrace_core::format::Format::Png;
-    let encoded_copy = match (png, pass_channels) {
-        (true, 0) => 3,
-        (true, _) => 4,
-        (false, 0) => 0,
-        (false, _) => 3 * size_of::<f32>() as u64,
-    };
-    size_of::<Pixel>() as u64
-        + encoded_copy
-        + (raytrace_core::passes::SumLayout::new(passes).stride * size_of::<f64>()) as u64
-        + (2 * pass_channels * size_of::<f32>()) as u64
-}
-
 /// An estimate of the most memory a render of one frame of `scene` at a time holds, in
-/// bytes: the process's floor; per pixel, [`bytes_per_pixel`]; per sphere, the scene's
-/// description, the shot's static geometry, one frame's prepared spheres with their boxes, a
-/// hierarchy build's working arrays and the hierarchy, and the scene file while it is read;
-/// per point of the frame's point caches (`load.points`), [`BYTES_PER_POINT`] (and with
-/// `interpolate` [`INTERPOLATE_BYTES_PER_POINT`]), per point of the next snapshots
-/// (`load.next`), [`NEXT_BYTES_PER_POINT`]; with point caches, what reading one of their
-/// files holds ([`raytrace_scene::ply::READ_BUFFER_BYTES`]); on the GPU, what its path adds
-/// ([`raytrace_gpu::frame_bytes`]: the driver, the scene's words, the film on the device and
-/// its read-back buffers, counted on the host, where a software device keeps them). It grows
-/// linearly in pixels, spheres and points, and errs high for scenes whose spheres are mostly
-/// still.
+/// bytes: the sum of what each room that holds memory says it holds for it (so that a buffer
+/// is counted where it is allocated):
+/// - the process's floor ([`FLOOR_BYTES`]);
+/// - the scene file while it is read ([`raytrace_scene::scene_file::bytes_for`]) and the
+///   spheres, described, prepared and in their hierarchies ([`world::bytes_for`]);
+/// - the frame's points and the reading of their files ([`PointLoad::bytes`]: `load` is the
+///   most points a frame holds, its own and the next snapshots');
+/// - the sampled frame, its film and its image ([`FrameResult::bytes_for`], with the passes
+///   its finishing reads);
+/// - its finishing ([`finish::bytes_for`]: denoising, history);
+/// - its encoding ([`raytrace_io::bytes_for`]);
+/// - on the GPU, what its path adds ([`raytrace_gpu::frame_bytes`]: the driver, the scene's
+///   words, the film on the device and its read-back buffers, counted on the host, where a
+///   software device keeps them).
+///
+/// It grows linearly in pixels, spheres and points (OIDN's scratch memory, at most 2.5
+/// GiB, aside), and errs high for scenes whose spheres are mostly still.
 pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
-    use std::mem::size_of;
     let pixels = scene.output.width as u64 * scene.output.height as u64;
-    let per_pixel = bytes_per_pixel(scene);
-    let n = scene.spheres.len() as u64;
-    // Keyframed paths hold their keys in the description and again in each frame's path.
-    let keys: u64 = scene
-        .spheres
-        .iter()
-        .map(|s| match &s.motion {
-            raytrace_core::motion::Motion::Keyframes(k) => k.len() as u64,
-            _ => 0,
-        })
-        .sum();
-    let per_sphere = size_of::<raytrace_core::sphere::SphereDesc>()
-        + size_of::<raytrace_core::sphere::PreparedSphere>()
-        // A frame's boxes at the shutter's opening and closing, and a build's copy of each
-        // with its centroid (the build takes the union, then the per-leaf boxes).
-        + 2 * size_of::<raytrace_core::aabb::Aabb>()
-        + raytrace_core::world::PRIM_BYTES
-        + raytrace_core::bvh::BUILD_BYTES_PER_PRIMITIVE
-        + raytrace_core::bvh::BYTES_PER_PRIMITIVE;
-    // A point cache's file is read through bounded buffers, one file at a time.
-    let reading = match scene.points.is_empty() {
-        true => 0,
-        false => raytrace_scene::ply::READ_BUFFER_BYTES,
-    };
+    let layout = SumLayout::keeping(scene.output.passes, finish::passes_read(scene));
     let gpu = match scene.render.device {
-        raytrace_core::scene::Device::Gpu => {
-            let read = crate::finish::passes_read(scene);
-            let kept = raytrace_core::passes::SumLayout::keeping(scene.output.passes, read);
-            raytrace_gpu::frame_bytes(scene, kept.stride)
-        }
-        raytrace_core::scene::Device::Cpu => 0,
+        Device::Gpu => raytrace_gpu::frame_bytes(scene, layout.stride),
+        Device::Cpu => 0,
     };
     FLOOR_BYTES
-        + gpu
-        + reading
-        + pixels * per_pixel
-        + n * (per_sphere as u64 + LOAD_BYTES_PER_SPHERE)
-        + keys * 2 * size_of::<raytrace_core::motion::Key>() as u64
+        + raytrace_scene::scene_file::bytes_for(scene)
+        + world::bytes_for(scene)
         + load.bytes(scene)
+        + FrameResult::bytes_for(scene, &layout)
+        + finish::bytes_for(scene)
+        + raytrace_io::bytes_for(scene.output.format, pixels, scene.output.passes)
+        + gpu
 }
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
@@ -172,8 +128,9 @@ mod tests {
         assert!(scene(65536, 65536, 1) > 160 << 30);
         let png = Scene::parse("", std::path::Path::new("m.toml")).unwrap();
         assert!(png.output.path.ends_with(".png"));
-        assert_eq!(pixels, 100 * 100 * bytes_per_pixel(&png));
-        assert_eq!(bytes_per_pixel(&png), 43);
+        // A pixel of a PNG frame: the film's sums (40), the image's colour (12) and its 8-bit
+        // encoding (3).
+        assert_eq!(pixels, 100 * 100 * (40 + 12 + 3));
     }
 
     #[test]
@@ -190,17 +147,27 @@ mod tests {
             scene("[\"alpha\", \"depth\", \"normal\", \"albedo\", \"motion\", \"variance\"]"),
         );
         let pixels = 200;
-        // The film alone, its colour encoded with no copy.
-        assert_eq!(bytes_per_pixel(&none), 40);
-        // Alpha: one sum and one channel (and its copy as written) per pixel, and the
-        // colour's copy as written beside it.
+        let layout = |s: &Scene| SumLayout::new(s.output.passes);
+        // The film and the colour, encoded with no copy.
         assert_eq!(
-            memory_estimate(&alpha, 0.into()) - memory_estimate(&none, 0.into()),
-            pixels * (8 + 2 * 4 + 12)
+            FrameResult::bytes_for(&none, &layout(&none)),
+            pixels * (40 + 12)
         );
         assert_eq!(
+            raytrace_io::bytes_for(none.output.format, pixels, none.output.passes),
+            0
+        );
+        // Alpha: one sum and one channel per pixel, and its copy as encoded (half) beside the
+        // colour's (float).
+        assert_eq!(
+            memory_estimate(&alpha, 0.into()) - memory_estimate(&none, 0.into()),
+            pixels * (8 + 4 + 2 + 12)
+        );
+        // Every pass: 12 sums, 15 channels, their copies as encoded (7 half, 8 float) and the
+        // colour's.
+        assert_eq!(
             memory_estimate(&all, 0.into()) - memory_estimate(&none, 0.into()),
-            pixels * (12 * 8 + 2 * 15 * 4 + 12)
+            pixels * (12 * 8 + 15 * 4 + 7 * 2 + 8 * 4 + 12)
         );
         let statics = raytrace_core::renderer::CpuShot::new(&none);
         let r = raytrace_core::renderer::FrameJob::new(&none, 1)
@@ -214,5 +181,26 @@ mod tests {
             .unwrap();
         // The colour and the passes' 15 channels.
         assert_eq!(r.image.channels().len(), 3 + 15);
+    }
+
+    #[test]
+    fn denoising_and_history_are_counted() {
+        use raytrace_scene::scene_file::Overrides;
+        let scene = |denoise: Option<bool>, temporal: Option<bool>| {
+            let text = "[output]\nwidth = 200\nheight = 100\n";
+            let finish = Overrides {
+                denoise,
+                temporal,
+                ..Overrides::default()
+            };
+            Scene::parse_with(text, std::path::Path::new("d.toml"), &finish).unwrap()
+        };
+        let raw = memory_estimate(&scene(None, None), 0.into());
+        let denoised = memory_estimate(&scene(Some(true), None), 0.into());
+        let temporal = memory_estimate(&scene(Some(true), Some(true)), 0.into());
+        // OIDN's scratch alone is 355 bytes a pixel at the default quality.
+        assert!(denoised - raw > 200 * 100 * 355, "{raw} {denoised}");
+        assert!(temporal > denoised);
+        assert_eq!(finish::bytes_for(&scene(None, None)), 0);
     }
 }

@@ -669,7 +669,7 @@ pub(super) fn build_indexed(
 
 /// Bytes per primitive an index build holds at its peak, about: its working item and its
 /// place in the leaf order.
-pub const BUILD_BYTES_PER_PRIMITIVE: usize = std::mem::size_of::<Indexed>() + 4;
+pub(crate) const BUILD_BYTES_PER_PRIMITIVE: usize = std::mem::size_of::<Indexed>() + 4;
 
 #[cfg(test)]
 mod tests {

@@ -19,7 +19,7 @@ pub(crate) const MOVING_NODE_BYTES: usize =
 /// 8-wide moving node's children and boxes per two and a half primitives (a leaf holds one
 /// to four and a node about four children: 0.38 nodes a primitive over 100 random spheres,
 /// 0.27 over 30,000; a test checks the bound).
-pub const BYTES_PER_PRIMITIVE: usize = 4 + MOVING_NODE_BYTES * 2 / 5;
+pub(crate) const BYTES_PER_PRIMITIVE: usize = 4 + MOVING_NODE_BYTES * 2 / 5;
 
 /// A hierarchy over primitives `0..n` given by their boxes: its topology and its boxes.
 #[derive(Clone, Debug, Default)]

@@ -60,11 +60,12 @@ mod traverse;
 mod tests;
 
 pub use boxes::Boxes;
-pub use build::BUILD_BYTES_PER_PRIMITIVE;
+pub(crate) use build::BUILD_BYTES_PER_PRIMITIVE;
 pub(crate) use build::BuildBox;
 pub use export::{Child, ChildKind};
 pub(crate) use hierarchy::MOVING_NODE_BYTES;
-pub use hierarchy::{BYTES_PER_PRIMITIVE, Bvh};
+pub(crate) use hierarchy::BYTES_PER_PRIMITIVE;
+pub use hierarchy::Bvh;
 pub(crate) use packet::PacketRay;
 pub(crate) use stack::PACKET;
 pub use stack::TraversalStack;

@@ -93,6 +93,17 @@ pub struct FrameResult {
     pub stats: FrameStats,
 }
 
+impl FrameResult {
+    /// The bytes a sampled frame of `scene` holds whose film keeps the sums `layout` says:
+    /// its film ([`Film::bytes_for`]) and its image, the colour and the channels of the passes
+    /// written ([`Image::bytes_for`]).
+    pub fn bytes_for(scene: &Scene, layout: &SumLayout) -> u64 {
+        let pixels = scene.output.width as u64 * scene.output.height as u64;
+        let channels: usize = layout.passes().iter().map(|p| p.channels().len()).sum();
+        Film::bytes_for(pixels, layout.stride) + Image::bytes_for(pixels, 3 + channels)
+    }
+}
+
 /// What finishing tells of a frame it denoised (its colour is the frame's image's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Denoised {

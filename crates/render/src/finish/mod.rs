@@ -34,11 +34,13 @@ use std::time::Instant;
 use denoising::Denoising;
 use history::History;
 use raytrace_core::error::Error;
+use raytrace_core::image::Image;
 use raytrace_core::pass::{Pass, PassSet};
 use raytrace_core::renderer::{Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopRule};
 use raytrace_core::scene::Scene;
-use raytrace_denoise::denoiser::Denoiser;
-use raytrace_denoise::reproject::HISTORY;
+use raytrace_denoise::denoiser::{Denoiser, Filter, oidn_scratch};
+use raytrace_denoise::estimate;
+use raytrace_denoise::reproject::{self, HISTORY};
 
 /// The passes the finishing stages of `scene` read from the film, written or not: with
 /// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
@@ -47,6 +49,39 @@ pub fn passes_read(scene: &Scene) -> PassSet {
         Some(d) if d.temporal => history_passes(),
         _ => PassSet::EMPTY,
     }
+}
+
+/// The bytes the stages that finish a frame of `scene` hold at their peak, beyond the sampled
+/// frame. With denoising: OIDN's scratch memory, which the shot's filter keeps
+/// ([`oidn_scratch`]); the film's replicates (10 channels), the snapshot and each pixel's
+/// weight for the adaptive rounds; and the largest of a denoise (a run's images,
+/// [`Filter::run_bytes`], the two denoised replicates and the snapshot they replace), a
+/// blend ([`estimate::blending_bytes`]) and, with history, the frame written
+/// ([`estimate::written_bytes`]) with the frames held and the frame's own
+/// ([`reproject::frame_bytes`]), their reprojection and the combination's working memory
+/// ([`raytrace_denoise::history::bytes_for`]). Nothing for a raw frame.
+pub fn bytes_for(scene: &Scene) -> u64 {
+    let Some(settings) = scene.output.denoise else {
+        return 0;
+    };
+    let pixels = scene.output.width as u64 * scene.output.height as u64;
+    let snapshot = estimate::snapshot_bytes(pixels);
+    let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
+    let blend = estimate::blending_bytes(pixels);
+    let history = match settings.temporal {
+        true => {
+            estimate::written_bytes(pixels)
+                + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
+                + reproject::reprojected_bytes(pixels)
+                + raytrace_denoise::history::bytes_for(pixels)
+        }
+        false => 0,
+    };
+    oidn_scratch(pixels, settings.quality)
+        + Image::bytes_for(pixels, 10)
+        + snapshot
+        + pixels * 8
+        + denoise.max(blend).max(history)
 }
 
 /// The passes history reads.

@@ -37,5 +37,5 @@ mod tests;
 pub use header::{Encoding, Scalar};
 pub(crate) use header::{Kind, PlyError};
 pub(crate) use read::PlyFile;
-pub use read::READ_BUFFER_BYTES;
+pub(crate) use read::READ_BUFFER_BYTES;
 pub use write::{Column, write_vertices};

@@ -30,7 +30,7 @@ const SKIP_BYTES: usize = 1 << 16;
 /// time ([`raytrace_render::memory`]). The parsed header comes on top: a few hundred bytes for a
 /// cache's usual dozen properties, at most about 6 MiB for the largest header, 1 MiB of
 /// one-byte properties (measured: docs/robustness.md).
-pub const READ_BUFFER_BYTES: u64 = (READER_BYTES + CHUNK_BYTES) as u64;
+pub(crate) const READ_BUFFER_BYTES: u64 = (READER_BYTES + CHUNK_BYTES) as u64;
 
 /// An open PLY file, positioned after its header.
 pub(crate) struct PlyFile {

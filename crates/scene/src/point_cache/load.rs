@@ -1,5 +1,6 @@
 //! What a frame's points hold in memory, for the estimate checked before anything renders.
 
+use crate::ply::READ_BUFFER_BYTES;
 use raytrace_core::points::PointMotion;
 use raytrace_core::scene::Scene;
 
@@ -36,9 +37,14 @@ pub struct PointLoad {
 
 impl PointLoad {
     /// The bytes these points hold in a frame of `scene` at the peak: [`BYTES_PER_POINT`]
-    /// each (and [`INTERPOLATE_BYTES_PER_POINT`] where a cache interpolates), and
-    /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots'.
+    /// each (and [`INTERPOLATE_BYTES_PER_POINT`] where a cache interpolates),
+    /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots', and with point caches what
+    /// reading one of their files holds (a file is read through bounded buffers, one file at a
+    /// time: [`READ_BUFFER_BYTES`]).
     pub fn bytes(&self, scene: &Scene) -> u64 {
+        if scene.points.is_empty() {
+            return 0;
+        }
         let interpolates = scene
             .points
             .iter()
@@ -49,7 +55,7 @@ impl PointLoad {
             } else {
                 0
             };
-        self.points * per_point + self.next * NEXT_BYTES_PER_POINT
+        READ_BUFFER_BYTES + self.points * per_point + self.next * NEXT_BYTES_PER_POINT
     }
 }
 

@@ -32,5 +32,5 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
-pub use load::{SceneFile, SceneSource};
+pub use load::{SceneFile, SceneSource, bytes_for};
 pub use overrides::Overrides;
