@@ -8,6 +8,14 @@
 use super::read_error::ReadError;
 use super::vtk_data::{Array, Encoding, POINTS, Place, Structure, Ty, line_of};
 
+/// The rows the attributes being read describe, and their number: the points'
+/// (`POINT_DATA`) or the cells' (`CELL_DATA`).
+#[derive(Clone, Copy)]
+enum Rows {
+    Points(u64),
+    Cells(u64),
+}
+
 /// A cursor over a legacy file's words and its binary blocks.
 struct Words<'a> {
     b: &'a [u8],
@@ -213,14 +221,9 @@ impl<'a> Words<'a> {
         Ok(())
     }
 
-    /// The rows of the attributes after POINT_DATA or CELL_DATA (`key`, at `at`): their
-    /// number, and whether they are the points' (POINT_DATA's number the file's `count`).
-    fn data_rows(
-        &mut self,
-        key: &str,
-        at: usize,
-        count: Option<u64>,
-    ) -> Result<(u64, bool), ReadError> {
+    /// The rows of the attributes after POINT_DATA or CELL_DATA (`key`, at `at`); the
+    /// points' number must be the file's `count`.
+    fn data_rows(&mut self, key: &str, at: usize, count: Option<u64>) -> Result<Rows, ReadError> {
         let n = self.number(key)?;
         let points = key == "POINT_DATA";
         if points && count.is_some_and(|c| c != n) {
@@ -232,17 +235,17 @@ impl<'a> Words<'a> {
                 ),
             );
         }
-        Ok((n, points))
+        Ok(if points {
+            Rows::Points(n)
+        } else {
+            Rows::Cells(n)
+        })
     }
 
     /// An attribute (`key`: `SCALARS`... `COLOR_SCALARS`, at `at`) of `rows`: its array when
     /// the rows are the points', `None` when they are the cells'.
-    fn attribute(
-        &mut self,
-        key: &str,
-        at: usize,
-        (n, points): (u64, bool),
-    ) -> Result<Option<Array>, ReadError> {
+    fn attribute(&mut self, key: &str, at: usize, rows: Rows) -> Result<Option<Array>, ReadError> {
+        let (Rows::Points(n) | Rows::Cells(n)) = rows;
         let (name, _) = self.word("the attribute's name")?;
         let name = name.to_string();
         let (components, ty) = self.attribute_shape(key)?;
@@ -254,7 +257,7 @@ impl<'a> Words<'a> {
             ty,
             &format!("{key} {name}"),
         )?;
-        Ok(points.then(|| Array {
+        Ok(matches!(rows, Rows::Points(_)).then(|| Array {
             name,
             components,
             ty,
@@ -304,12 +307,12 @@ impl<'a> Words<'a> {
         Ok(())
     }
 
-    /// Reads a FIELD (at `at`) past, adding to `arrays` those of its arrays that are the
-    /// points' (`rows` the points').
+    /// Reads a FIELD (at `at`) past, adding its arrays to `arrays` where `rows` are the
+    /// points'.
     fn field(
         &mut self,
         at: usize,
-        rows: Option<(u64, bool)>,
+        rows: Option<Rows>,
         arrays: &mut Vec<Array>,
     ) -> Result<(), ReadError> {
         self.word("the field's name")?;
@@ -329,11 +332,7 @@ impl<'a> Words<'a> {
 
     /// One array of a FIELD (at `at`): its array when `rows` are the points' (whose number
     /// its tuples must be), `None` otherwise.
-    fn field_array(
-        &mut self,
-        at: usize,
-        rows: Option<(u64, bool)>,
-    ) -> Result<Option<Array>, ReadError> {
+    fn field_array(&mut self, at: usize, rows: Option<Rows>) -> Result<Option<Array>, ReadError> {
         let (name, _) = self.word("a field array's name")?;
         let name = name.to_string();
         let comps = self.number("a field array's components")?;
@@ -348,13 +347,13 @@ impl<'a> Words<'a> {
             &format!("field array {name}"),
         )?;
         match rows {
-            Some((n, true)) if tuples == n => Ok(Some(Array {
+            Some(Rows::Points(n)) if tuples == n => Ok(Some(Array {
                 name,
                 components: comps as u8,
                 ty,
                 pieces: vec![place],
             })),
-            Some((n, true)) => self.bad(
+            Some(Rows::Points(n)) => self.bad(
                 at,
                 format_args!("field array {name} has {tuples} tuples, and POINT_DATA {n}"),
             ),
@@ -402,8 +401,8 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
     };
     let mut count: Option<u64> = None;
     let mut arrays: Vec<Array> = Vec::new();
-    // Rows of the attributes read: the points' (POINT_DATA) or the cells' (CELL_DATA).
-    let mut rows: Option<(u64, bool)> = None;
+    // The rows of the attributes read, once POINT_DATA or CELL_DATA has said.
+    let mut rows: Option<Rows> = None;
     while let Some((key, at)) = w.next() {
         let key = key.to_ascii_uppercase();
         match key.as_str() {
