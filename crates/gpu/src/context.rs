@@ -174,59 +174,21 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
-        let fault = Arc::new(Mutex::new(None));
-        let lost = fault.clone();
-        device.set_device_lost_callback(move |_, message| {
-            record(&lost, GpuError::Lost(message));
-        });
-        let uncaptured = fault.clone();
-        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-            record(&uncaptured, classify(&e));
-        }));
+        let fault = watch_faults(&device);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("tracer"),
             source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_prelude(counting)).into()),
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tracer"),
-            entries: &[
-                storage(0, true),
-                storage(1, true),
-                storage(2, false),
-                storage(3, false),
-                storage(5, true),
-                storage(6, true),
-                slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
-                slot(
-                    7,
-                    wgpu::BufferBindingType::Storage { read_only: false },
-                    COUNTER_WORDS,
-                ),
-            ],
-        });
+        let layout = bind_group_layout(&device);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("tracer"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("tracer"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("trace"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline = entry_pipeline(&device, &pipeline_layout, &module, "tracer", "trace");
         #[cfg(test)]
-        let numbers = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("numbers"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("numbers"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let numbers = entry_pipeline(&device, &pipeline_layout, &module, "numbers", "numbers");
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
         }
@@ -284,6 +246,62 @@ impl Gpu {
             self.device.destroy();
         }
     }
+}
+
+/// Where the first fault `device` reports on its own (lost, an error outside any scope) is
+/// kept: its callbacks set to keep it there.
+fn watch_faults(device: &wgpu::Device) -> Arc<Mutex<Option<GpuError>>> {
+    let fault = Arc::new(Mutex::new(None));
+    let lost = fault.clone();
+    device.set_device_lost_callback(move |_, message| {
+        record(&lost, GpuError::Lost(message));
+    });
+    let uncaptured = fault.clone();
+    device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+        record(&uncaptured, classify(&e));
+    }));
+    fault
+}
+
+/// The tracer's bindings, as `shaders/words.wgsl` declares them: the shot's and the frame's
+/// words (0, 1, and as quads 5, 6), the work and the film (2, 3), and at a dispatch's offset
+/// the parameters (4) and the counters (7).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("tracer"),
+        entries: &[
+            storage(0, true),
+            storage(1, true),
+            storage(2, false),
+            storage(3, false),
+            storage(5, true),
+            storage(6, true),
+            slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
+            slot(
+                7,
+                wgpu::BufferBindingType::Storage { read_only: false },
+                COUNTER_WORDS,
+            ),
+        ],
+    })
+}
+
+/// The compute pipeline `label` of `module`'s function `entry`.
+fn entry_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    label: &str,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
 }
 
 /// Keeps the first fault.

@@ -91,6 +91,16 @@ impl ShotWords {
             hierarchy,
         })
     }
+
+    /// Writes to a frame's header where the shot's words hold its still spheres, their
+    /// hierarchy, the materials and the Sobol tables.
+    fn locate(&self, w: &mut Words) {
+        w.set(H_STILL_SPHERES, self.spheres);
+        w.set(H_STILL_ENTRIES, self.hierarchy.entries);
+        w.set(H_STILL_ENTRY_N, self.hierarchy.count);
+        w.set(H_MATERIALS, self.materials);
+        w.set(H_TABLES, self.tables);
+    }
 }
 
 /// Appends the record of sphere `s` (at a multiple of four words when the last record ends
@@ -160,56 +170,16 @@ impl FrameWords {
         layout: &SumLayout,
     ) -> FrameWords {
         let scene = prepared.scene;
-        let (width, height) = (scene.output.width, scene.output.height);
-        let times = &prepared.times;
         let interval = prepared.interval();
-        let open = interval.open;
         let period = 1.0 / scene.shot.fps;
         // The camera and the motion pass look one frame period beyond the exposure.
         let widened = Interval {
-            open: open - period,
+            open: interval.open - period,
             close: interval.close + period,
         };
         let mut w = Words::default();
         w.pad_to(0, HEADER_WORDS);
-        w.set(H_WIDTH, width);
-        w.set(H_HEIGHT, height);
-        w.set(H_MAX_DEPTH, scene.render.max_depth);
-        // The GPU's samplers start their hashes from the CPU samplers' key hashed once more
-        // (the CPU's `hash_words(&[key, pixel, index])` begins by mixing it).
-        let key = hash_words(&[prepared.key]);
-        w.set(H_KEY, key as u32);
-        w.set(H_KEY + 1, (key >> 32) as u32);
-        w.set_f(H_DURATION, interval.duration());
-        w.set_f(H_SHUTTER, times.shutter());
-        let mut flags = 0;
-        if prepared.sampler == SamplerKind::Sobol {
-            flags |= F_SOBOL;
-        }
-        if let Some((readout, direction)) = times.rolling() {
-            flags |= F_ROLLING;
-            if direction == ReadoutDirection::BottomToTop {
-                flags |= F_BOTTOM_TO_TOP;
-            }
-            w.set_f(H_READOUT, readout);
-        }
-        if let Some(table) = times.curve() {
-            let knots: Vec<(f64, f64, f64)> = table.knots().collect();
-            w.set(H_CURVE, w.at());
-            w.set(H_CURVE_N, knots.len() as u32);
-            knots.iter().for_each(|k| w.f(k.0));
-            knots.iter().for_each(|k| w.f(k.1));
-            knots.iter().for_each(|k| w.f(k.2));
-        }
-        if let Background::Uniform(c) = prepared.world.background {
-            flags |= F_UNIFORM;
-            for (i, x) in c.to_array().into_iter().enumerate() {
-                w.set_f(H_BACKGROUND + i as u32, x);
-            }
-        }
-        if scene.transparent {
-            flags |= F_TRANSPARENT;
-        }
+        let mut flags = frame_settings(&mut w, prepared);
         w.set_f(H_PERIOD, period);
         w.set(H_STRIDE, layout.stride as u32);
         let s = layout.slots();
@@ -219,89 +189,157 @@ impl FrameWords {
         {
             w.set(H_SLOTS + i as u32, slot.map_or(NONE, |x| x as u32));
         }
-        // The camera: its view at the opening, which every sample takes when it does not move
-        // during the frame (as the CPU tracer), else its motion, to make a view per sample.
-        let cam = &scene.camera;
-        let (vectors, lens_radius) = prepared.fixed_view.vectors();
-        for (i, v) in vectors.iter().enumerate() {
-            for a in 0..3 {
-                w.set_f(H_VIEW + 3 * i as u32 + a, v[a as usize]);
-            }
-        }
-        w.set_f(H_VIEW + 18, lens_radius);
-        if prepared.camera_moves {
-            flags |= F_CAMERA_MOVES;
-        }
-        if prepared.has_lens {
-            flags |= F_LENS;
-        }
-        if prepared.sample_time {
-            flags |= F_TIME;
-        }
-        if cam.look_from.is_animated() || cam.look_at.is_animated() {
-            flags |= F_CAMERA_ANIMATED;
-        }
-        let from = motion(&mut w, &cam.look_from.prepare(widened), widened.open, open);
-        let at = motion(&mut w, &cam.look_at.prepare(widened), widened.open, open);
-        w.set(H_CAM_FROM, from);
-        w.set(H_CAM_AT, at);
-        for a in 0..3 {
-            w.set_f(H_CAM_UP + a, cam.up[a as usize]);
-        }
-        w.set_f(H_CAM_TAN, (cam.vfov.to_radians() / 2.0).tan());
-        w.set_f(H_CAM_LENS, cam.aperture / 2.0);
-        if let Some(f) = cam.focus_distance {
-            flags |= F_FOCUS;
-            w.set_f(H_CAM_FOCUS, f);
-        }
-        // The shot's buffer.
-        w.set(H_STILL_SPHERES, shot.spheres);
-        w.set(H_STILL_ENTRIES, shot.hierarchy.entries);
-        w.set(H_STILL_ENTRY_N, shot.hierarchy.count);
-        w.set(H_MATERIALS, shot.materials);
-        w.set(H_TABLES, shot.tables);
-        // The world's animated spheres, prepared for the frame's interval, and their
-        // hierarchy; each curved path's record follows them.
-        let (animated, hierarchy) = prepared.world.animated_spheres();
-        let mut curved = Vec::new();
-        w.align();
-        let spheres = w.at();
-        for s in animated {
-            if let Some(path) = s.path {
-                // Its record comes after the spheres: its place is set then.
-                curved.push((w.at() + S_MOTION, path));
-            }
-            sphere(&mut w, &s, NONE);
-        }
-        let eye = cam.look_from.at(open).as_vec3().to_array();
-        let hierarchy = flatten(hierarchy, eye, &mut w);
-        for (slot, path) in curved {
-            let record = motion(&mut w, path, open, open);
-            w.set(slot, record);
-        }
-        w.set(H_MOVING_SPHERES, spheres);
-        w.set(H_MOVING_ENTRIES, hierarchy.entries);
-        w.set(H_MOVING_ENTRY_N, hierarchy.count);
-        // The motion pass: every animated sphere's path over the widened interval, by its
-        // index in the scene.
+        flags |= camera(&mut w, prepared, widened);
+        shot.locate(&mut w);
+        animated_spheres(&mut w, prepared);
         w.set(H_PASS_MOTIONS, NONE);
         if s.motion.is_some() {
-            let index = w.at();
-            w.set(H_PASS_MOTIONS, index);
-            w.pad_to(index, scene.spheres.len() as u32);
-            for i in index..w.at() {
-                w.set(i, NONE);
-            }
-            for (id, sphere) in scene.spheres.iter().enumerate() {
-                let path: &Motion = &sphere.motion;
-                if !path.is_animated() {
-                    continue;
-                }
-                let record = motion(&mut w, &path.prepare(widened), widened.open, open);
-                w.set(index + id as u32, record);
-            }
+            motion_pass(&mut w, prepared, widened);
         }
         w.set(H_FLAGS, flags);
         FrameWords { words: w }
+    }
+}
+
+/// Writes the frame `prepared`'s size, depth, sampler, shutter and background to the header
+/// (a shutter curve's knots appended); returns their flags.
+fn frame_settings(w: &mut Words, prepared: &PreparedFrame) -> u32 {
+    let scene = prepared.scene;
+    let times = &prepared.times;
+    w.set(H_WIDTH, scene.output.width);
+    w.set(H_HEIGHT, scene.output.height);
+    w.set(H_MAX_DEPTH, scene.render.max_depth);
+    // The GPU's samplers start their hashes from the CPU samplers' key hashed once more
+    // (the CPU's `hash_words(&[key, pixel, index])` begins by mixing it).
+    let key = hash_words(&[prepared.key]);
+    w.set(H_KEY, key as u32);
+    w.set(H_KEY + 1, (key >> 32) as u32);
+    w.set_f(H_DURATION, prepared.interval().duration());
+    w.set_f(H_SHUTTER, times.shutter());
+    let mut flags = 0;
+    if prepared.sampler == SamplerKind::Sobol {
+        flags |= F_SOBOL;
+    }
+    if let Some((readout, direction)) = times.rolling() {
+        flags |= F_ROLLING;
+        if direction == ReadoutDirection::BottomToTop {
+            flags |= F_BOTTOM_TO_TOP;
+        }
+        w.set_f(H_READOUT, readout);
+    }
+    if let Some(table) = times.curve() {
+        let knots: Vec<(f64, f64, f64)> = table.knots().collect();
+        w.set(H_CURVE, w.at());
+        w.set(H_CURVE_N, knots.len() as u32);
+        knots.iter().for_each(|k| w.f(k.0));
+        knots.iter().for_each(|k| w.f(k.1));
+        knots.iter().for_each(|k| w.f(k.2));
+    }
+    if let Background::Uniform(c) = prepared.world.background {
+        flags |= F_UNIFORM;
+        for (i, x) in c.to_array().into_iter().enumerate() {
+            w.set_f(H_BACKGROUND + i as u32, x);
+        }
+    }
+    if scene.transparent {
+        flags |= F_TRANSPARENT;
+    }
+    flags
+}
+
+/// Writes the camera of the frame `prepared` to the header: its view at the opening, which
+/// every sample takes when it does not move during the frame (as the CPU tracer), else its
+/// motion over `widened` (the records appended), to make a view per sample, and its lens;
+/// returns its flags.
+fn camera(w: &mut Words, prepared: &PreparedFrame, widened: Interval) -> u32 {
+    let cam = &prepared.scene.camera;
+    let open = prepared.interval().open;
+    let (vectors, lens_radius) = prepared.fixed_view.vectors();
+    for (i, v) in vectors.iter().enumerate() {
+        for a in 0..3 {
+            w.set_f(H_VIEW + 3 * i as u32 + a, v[a as usize]);
+        }
+    }
+    w.set_f(H_VIEW + 18, lens_radius);
+    let mut flags = 0;
+    if prepared.camera_moves {
+        flags |= F_CAMERA_MOVES;
+    }
+    if prepared.has_lens {
+        flags |= F_LENS;
+    }
+    if prepared.sample_time {
+        flags |= F_TIME;
+    }
+    if cam.look_from.is_animated() || cam.look_at.is_animated() {
+        flags |= F_CAMERA_ANIMATED;
+    }
+    let from = motion(w, &cam.look_from.prepare(widened), widened.open, open);
+    let at = motion(w, &cam.look_at.prepare(widened), widened.open, open);
+    w.set(H_CAM_FROM, from);
+    w.set(H_CAM_AT, at);
+    for a in 0..3 {
+        w.set_f(H_CAM_UP + a, cam.up[a as usize]);
+    }
+    w.set_f(H_CAM_TAN, (cam.vfov.to_radians() / 2.0).tan());
+    w.set_f(H_CAM_LENS, cam.aperture / 2.0);
+    if let Some(f) = cam.focus_distance {
+        flags |= F_FOCUS;
+        w.set_f(H_CAM_FOCUS, f);
+    }
+    flags
+}
+
+/// Appends the world's animated spheres, prepared for the frame `prepared`'s interval, and
+/// their hierarchy, each curved path's record after them, and writes where they are to the
+/// header.
+fn animated_spheres(w: &mut Words, prepared: &PreparedFrame) {
+    let open = prepared.interval().open;
+    let (animated, hierarchy) = prepared.world.animated_spheres();
+    let mut curved = Vec::new();
+    w.align();
+    let spheres = w.at();
+    for s in animated {
+        if let Some(path) = s.path {
+            // Its record comes after the spheres: its place is set then.
+            curved.push((w.at() + S_MOTION, path));
+        }
+        sphere(w, &s, NONE);
+    }
+    let eye = prepared
+        .scene
+        .camera
+        .look_from
+        .at(open)
+        .as_vec3()
+        .to_array();
+    let hierarchy = flatten(hierarchy, eye, w);
+    for (slot, path) in curved {
+        let record = motion(w, path, open, open);
+        w.set(slot, record);
+    }
+    w.set(H_MOVING_SPHERES, spheres);
+    w.set(H_MOVING_ENTRIES, hierarchy.entries);
+    w.set(H_MOVING_ENTRY_N, hierarchy.count);
+}
+
+/// Appends the motion pass's paths: every animated sphere's over `widened`, by its index in
+/// the scene (others [`NONE`]), and writes where they are to the header.
+fn motion_pass(w: &mut Words, prepared: &PreparedFrame, widened: Interval) {
+    let scene = prepared.scene;
+    let open = prepared.interval().open;
+    let index = w.at();
+    w.set(H_PASS_MOTIONS, index);
+    w.pad_to(index, scene.spheres.len() as u32);
+    for i in index..w.at() {
+        w.set(i, NONE);
+    }
+    for (id, sphere) in scene.spheres.iter().enumerate() {
+        let path: &Motion = &sphere.motion;
+        if !path.is_animated() {
+            continue;
+        }
+        let record = motion(w, &path.prepare(widened), widened.open, open);
+        w.set(index + id as u32, record);
     }
 }

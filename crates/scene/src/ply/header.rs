@@ -248,47 +248,11 @@ pub(super) struct HeaderEnd {
 pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, HeaderEnd), PlyError> {
     let mut used = 0usize;
     let mut line = Vec::new();
-    let mut encoding = None;
-    let mut elements: Vec<Element> = Vec::new();
-    // The names declared so far: every element's, and the last element's properties'.
-    let mut element_names = Seen::default();
-    let mut property_names = Seen::default();
+    let mut declared = Declared::default();
     let mut number = 0usize;
     loop {
-        line.clear();
-        let n = (&mut *r)
-            .take((MAX_HEADER - used) as u64 + 1)
-            .read_until(b'\n', &mut line)?;
-        used += n;
         number += 1;
-        // A carriage return before a line's end: lines that end in CR alone (old Mac
-        // files), which would otherwise read as one long line.
-        let body = line.strip_suffix(b"\n").unwrap_or(&line);
-        let body = body.strip_suffix(b"\r").unwrap_or(body);
-        if body.contains(&b'\r') {
-            return bad(format!(
-                "header line {number} holds a carriage return (CR) inside it: PLY header lines \
-                 end in LF or CR LF, and these seem to end in CR alone"
-            ));
-        }
-        if used > MAX_HEADER {
-            return bad(format!(
-                "no end_header in the first {MAX_HEADER} bytes: not a PLY header"
-            ));
-        }
-        if n == 0 && number == 1 {
-            return bad("empty: not a PLY file");
-        }
-        if line.last() != Some(&b'\n') {
-            return bad(if number == 1 {
-                "the file ends inside its first line: not a PLY file".to_string()
-            } else {
-                "truncated: the file ends inside its header (no end_header line)".to_string()
-            });
-        }
-        let Ok(text) = std::str::from_utf8(&line) else {
-            return bad(format!("header line {number} is not ASCII text"));
-        };
+        let text = header_line(r, &mut line, &mut used, number)?;
         let words: Vec<&str> = text.split_ascii_whitespace().collect();
         if number == 1 {
             if words != ["ply"] {
@@ -298,94 +262,175 @@ pub(super) fn read_header(r: &mut impl BufRead) -> Result<(Header, HeaderEnd), P
         }
         let at = |msg: String| PlyError::Bad(format!("header line {number}: {msg}"));
         match words.as_slice() {
-            [] | ["comment" | "obj_info", ..] => {}
-            ["format", enc, version] => {
-                if encoding.is_some() {
-                    return Err(at("a second format line".into()));
-                }
-                encoding = Some(match *enc {
-                    "ascii" => Encoding::Ascii,
-                    "binary_little_endian" => Encoding::BinaryLittleEndian,
-                    "binary_big_endian" => Encoding::BinaryBigEndian,
-                    other => {
-                        return Err(at(format!(
-                            "format \"{other}\": expected ascii, binary_little_endian or binary_big_endian"
-                        )));
-                    }
-                });
-                if *version != "1.0" {
-                    return Err(at(format!("format version {version}: expected 1.0")));
-                }
-            }
-            ["element", name, count] => {
-                let Ok(count) = count.parse::<u64>() else {
-                    return Err(at(format!(
-                        "element {name}: count \"{count}\" is not a whole number"
-                    )));
-                };
-                if !element_names.insert(name, |n| elements.iter().any(|e| e.name == n)) {
-                    return Err(at(format!("element {name} is declared twice")));
-                }
-                property_names = Seen::default();
-                elements.push(Element {
-                    name: name.to_string(),
-                    count,
-                    properties: Vec::new(),
-                });
-            }
-            ["property", rest @ ..] => {
-                let Some(e) = elements.last_mut() else {
-                    return Err(at("a property before any element".into()));
-                };
-                let ty = |w: &str| {
-                    Scalar::parse(w).ok_or_else(|| at(format!("unknown property type \"{w}\"")))
-                };
-                let (kind, name) = match rest {
-                    ["list", count, item, name] => {
-                        let count = ty(count)?;
-                        if !count.is_integer() {
-                            return Err(at(format!(
-                                "list {name}: its count must be of an integer type, not {}",
-                                count.name()
-                            )));
-                        }
-                        (
-                            Kind::List {
-                                count,
-                                item: ty(item)?,
-                            },
-                            name,
-                        )
-                    }
-                    [t, name] => (Kind::Scalar(ty(t)?), name),
-                    _ => return Err(at(format!("cannot read \"{}\"", text.trim_end()))),
-                };
-                if !property_names.insert(name, |n| e.property(n).is_some()) {
-                    return Err(at(format!(
-                        "property {name} of element {} is declared twice",
-                        e.name
-                    )));
-                }
-                e.properties.push(Property {
-                    name: name.to_string(),
-                    kind,
-                });
-            }
             ["end_header"] => break,
-            _ => {
-                return Err(at(format!(
-                    "cannot read \"{}\"",
-                    text.trim_end().chars().take(80).collect::<String>()
-                )));
-            }
+            words => declared.line(words, text).map_err(at)?,
         }
     }
-    let Some(encoding) = encoding else {
+    let Some(encoding) = declared.encoding else {
         return bad("the header has no format line");
     };
     let end = HeaderEnd {
         bytes: used,
         lines: number as u64,
     };
+    let elements = declared.elements;
     Ok((Header { encoding, elements }, end))
+}
+
+/// Reads header line `number` into `line`, adding its bytes to `used` (the header's so far):
+/// its text; an error where it cannot be a line of a header.
+fn header_line<'a>(
+    r: &mut impl BufRead,
+    line: &'a mut Vec<u8>,
+    used: &mut usize,
+    number: usize,
+) -> Result<&'a str, PlyError> {
+    line.clear();
+    let n = (&mut *r)
+        .take((MAX_HEADER - *used) as u64 + 1)
+        .read_until(b'\n', line)?;
+    *used += n;
+    let line: &'a Vec<u8> = line;
+    // A carriage return before a line's end: lines that end in CR alone (old Mac
+    // files), which would otherwise read as one long line.
+    let body = line.strip_suffix(b"\n").unwrap_or(line);
+    let body = body.strip_suffix(b"\r").unwrap_or(body);
+    if body.contains(&b'\r') {
+        return bad(format!(
+            "header line {number} holds a carriage return (CR) inside it: PLY header lines \
+             end in LF or CR LF, and these seem to end in CR alone"
+        ));
+    }
+    if *used > MAX_HEADER {
+        return bad(format!(
+            "no end_header in the first {MAX_HEADER} bytes: not a PLY header"
+        ));
+    }
+    if n == 0 && number == 1 {
+        return bad("empty: not a PLY file");
+    }
+    if line.last() != Some(&b'\n') {
+        return bad(if number == 1 {
+            "the file ends inside its first line: not a PLY file".to_string()
+        } else {
+            "truncated: the file ends inside its header (no end_header line)".to_string()
+        });
+    }
+    match std::str::from_utf8(line) {
+        Ok(text) => Ok(text),
+        Err(_) => bad(format!("header line {number} is not ASCII text")),
+    }
+}
+
+/// What a header's lines have declared so far.
+#[derive(Default)]
+struct Declared {
+    encoding: Option<Encoding>,
+    elements: Vec<Element>,
+    /// The names declared so far: every element's, and the last element's properties'.
+    element_names: Seen,
+    property_names: Seen,
+}
+
+impl Declared {
+    /// Takes a header line after the first, other than `end_header` (its `words`, and its
+    /// `text`); an error says what is wrong with it.
+    fn line(&mut self, words: &[&str], text: &str) -> Result<(), String> {
+        match words {
+            [] | ["comment" | "obj_info", ..] => Ok(()),
+            ["format", enc, version] => self.format(enc, version),
+            ["element", name, count] => self.element(name, count),
+            ["property", rest @ ..] => self.property(rest, text),
+            _ => Err(format!(
+                "cannot read \"{}\"",
+                text.trim_end().chars().take(80).collect::<String>()
+            )),
+        }
+    }
+
+    /// Takes a `format` line: the encoding, and version 1.0.
+    fn format(&mut self, enc: &str, version: &str) -> Result<(), String> {
+        if self.encoding.is_some() {
+            return Err("a second format line".into());
+        }
+        self.encoding = Some(match enc {
+            "ascii" => Encoding::Ascii,
+            "binary_little_endian" => Encoding::BinaryLittleEndian,
+            "binary_big_endian" => Encoding::BinaryBigEndian,
+            other => {
+                return Err(format!(
+                    "format \"{other}\": expected ascii, binary_little_endian or binary_big_endian"
+                ));
+            }
+        });
+        if version != "1.0" {
+            return Err(format!("format version {version}: expected 1.0"));
+        }
+        Ok(())
+    }
+
+    /// Takes an `element` line: an element of a new name and a whole count of rows.
+    fn element(&mut self, name: &str, count: &str) -> Result<(), String> {
+        let Ok(count) = count.parse::<u64>() else {
+            return Err(format!(
+                "element {name}: count \"{count}\" is not a whole number"
+            ));
+        };
+        if !self
+            .element_names
+            .insert(name, |n| self.elements.iter().any(|e| e.name == n))
+        {
+            return Err(format!("element {name} is declared twice"));
+        }
+        self.property_names = Seen::default();
+        self.elements.push(Element {
+            name: name.to_string(),
+            count,
+            properties: Vec::new(),
+        });
+        Ok(())
+    }
+
+    /// Takes a `property` line (`rest`: its words after `property`; `text`: the line): a
+    /// property of a new name in the last element.
+    fn property(&mut self, rest: &[&str], text: &str) -> Result<(), String> {
+        let Some(e) = self.elements.last_mut() else {
+            return Err("a property before any element".into());
+        };
+        let (kind, name) = property_kind(rest, text)?;
+        if !self
+            .property_names
+            .insert(name, |n| e.property(n).is_some())
+        {
+            return Err(format!(
+                "property {name} of element {} is declared twice",
+                e.name
+            ));
+        }
+        e.properties.push(Property {
+            name: name.to_string(),
+            kind,
+        });
+        Ok(())
+    }
+}
+
+/// A property line's type and name (`rest`: its words after `property`; `text`: the line).
+fn property_kind<'w>(rest: &[&'w str], text: &str) -> Result<(Kind, &'w str), String> {
+    let ty = |w: &str| Scalar::parse(w).ok_or_else(|| format!("unknown property type \"{w}\""));
+    match rest {
+        ["list", count, item, name] => {
+            let count = ty(count)?;
+            if !count.is_integer() {
+                return Err(format!(
+                    "list {name}: its count must be of an integer type, not {}",
+                    count.name()
+                ));
+            }
+            let item = ty(item)?;
+            Ok((Kind::List { count, item }, name))
+        }
+        [t, name] => Ok((Kind::Scalar(ty(t)?), name)),
+        _ => Err(format!("cannot read \"{}\"", text.trim_end())),
+    }
 }

@@ -106,67 +106,119 @@ impl PlyFile {
     /// shift rows, a file cut inside a value and text after the rows are found, with their
     /// line.
     pub(crate) fn read_rows(
-        mut self,
+        self,
         element: usize,
         wanted: &[usize],
         mut row: impl FnMut(u64, &[f64]) -> Result<(), String>,
     ) -> Result<(), PlyError> {
-        let e = &self.header.elements[element];
-        let mut types = Vec::with_capacity(wanted.len());
-        for &w in wanted {
-            match e.properties[w].kind {
-                Kind::Scalar(s) => types.push(s),
-                Kind::List { .. } => {
-                    return bad(format!(
-                        "property {} of element {} is a list; a single number was expected",
-                        e.properties[w].name, e.name
-                    ));
-                }
-            }
-        }
-        let encoding = self.header.encoding;
-        if encoding == Encoding::Ascii {
-            let mut lines = Lines {
-                reader: &mut self.reader,
+        let PlyFile {
+            header,
+            header_lines,
+            mut reader,
+        } = self;
+        let e = &header.elements[element];
+        let types = scalar_types(e, wanted)?;
+        if header.encoding == Encoding::Ascii {
+            let lines = Lines {
+                reader: &mut reader,
                 token: Vec::new(),
-                line: self.header_lines + 1,
+                line: header_lines + 1,
             };
-            let mut values = vec![0.0; wanted.len()];
-            for (k, each) in self.header.elements.iter().enumerate() {
-                let (wanted, values) = match k == element {
-                    true => (wanted, &mut values[..]),
-                    false => (&[][..], &mut [][..]),
-                };
-                for i in 0..each.count {
-                    ascii_row(&mut lines, each, i, wanted, values, &mut row)?;
-                }
-            }
-            return lines.end(self.header.elements.last());
+            return read_ascii(lines, &header.elements, element, wanted, row);
         }
-        let big = encoding == Encoding::BinaryBigEndian;
-        for skipped in &self.header.elements[..element] {
-            match skipped.fixed_row_bytes() {
-                Some(n) => {
-                    // The size check at opening guarantees the bytes are there.
-                    let bytes = skipped.count * n as u64;
-                    self.reader.seek(SeekFrom::Current(bytes as i64))?;
-                }
-                None => {
-                    for i in 0..skipped.count {
-                        binary_row(&mut self.reader, skipped, i, big, &[], &mut [])?;
-                    }
-                }
-            }
-        }
-        let mut values = vec![0.0; wanted.len()];
+        let big = header.encoding == Encoding::BinaryBigEndian;
+        skip_binary(&mut reader, &header.elements[..element], big)?;
         let Some(stride) = e.fixed_row_bytes() else {
+            let mut values = vec![0.0; wanted.len()];
             for i in 0..e.count {
-                binary_row(&mut self.reader, e, i, big, wanted, &mut values)?;
+                binary_row(&mut reader, e, i, big, wanted, &mut values)?;
                 row(i, &values).map_err(PlyError::Bad)?;
             }
             return Ok(());
         };
-        // Rows of fixed size: read in chunks, each value at its offset in the row.
+        // Rows of fixed size: each value at its offset in the row.
+        let fields = Fields::of(e, wanted, types, big);
+        let (lo, hi) = fields.span();
+        if stride - (hi - lo) >= SKIP_BYTES {
+            return read_wide(reader, e, stride, &fields, row);
+        }
+        read_chunks(&mut reader, e, stride, &fields, row)
+    }
+}
+
+/// The types of `e`'s properties `wanted`; an error for a list.
+fn scalar_types(e: &Element, wanted: &[usize]) -> Result<Vec<Scalar>, PlyError> {
+    let mut types = Vec::with_capacity(wanted.len());
+    for &w in wanted {
+        match e.properties[w].kind {
+            Kind::Scalar(s) => types.push(s),
+            Kind::List { .. } => {
+                return bad(format!(
+                    "property {} of element {} is a list; a single number was expected",
+                    e.properties[w].name, e.name
+                ));
+            }
+        }
+    }
+    Ok(types)
+}
+
+/// Reads an ASCII body from `lines`: the rows of every element of `elements`, those of
+/// `element` handed to `row` with their properties `wanted`, then only blanks to the end.
+fn read_ascii<R: BufRead>(
+    mut lines: Lines<R>,
+    elements: &[Element],
+    element: usize,
+    wanted: &[usize],
+    mut row: impl FnMut(u64, &[f64]) -> Result<(), String>,
+) -> Result<(), PlyError> {
+    let mut values = vec![0.0; wanted.len()];
+    for (k, each) in elements.iter().enumerate() {
+        let (wanted, values) = match k == element {
+            true => (wanted, &mut values[..]),
+            false => (&[][..], &mut [][..]),
+        };
+        for i in 0..each.count {
+            ascii_row(&mut lines, each, i, wanted, values, &mut row)?;
+        }
+    }
+    lines.end(elements.last())
+}
+
+/// Moves a binary body past the rows of `elements`: a seek where rows have a fixed size,
+/// else each row read.
+fn skip_binary(
+    reader: &mut BufReader<File>,
+    elements: &[Element],
+    big: bool,
+) -> Result<(), PlyError> {
+    for skipped in elements {
+        match skipped.fixed_row_bytes() {
+            Some(n) => {
+                // The size check at opening guarantees the bytes are there.
+                let bytes = skipped.count * n as u64;
+                reader.seek(SeekFrom::Current(bytes as i64))?;
+            }
+            None => {
+                for i in 0..skipped.count {
+                    binary_row(reader, skipped, i, big, &[], &mut [])?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Where the wanted values of a binary row of fixed size are, and how to decode them.
+struct Fields {
+    /// Each value's offset in the row, and its type.
+    at: Vec<(usize, Scalar)>,
+    big: bool,
+}
+
+impl Fields {
+    /// The fields of `e`'s properties `wanted` (of types `types`), big-endian or not.
+    fn of(e: &Element, wanted: &[usize], types: Vec<Scalar>, big: bool) -> Fields {
         let mut offsets = Vec::with_capacity(wanted.len());
         for &w in wanted {
             offsets.push(
@@ -179,51 +231,79 @@ impl PlyFile {
                     .sum::<usize>(),
             );
         }
-        let fields: Vec<(usize, Scalar)> = offsets.into_iter().zip(types).collect();
-        // The values of a row from its bytes `r`, which start at byte `start` of the row.
-        let decode = |values: &mut [f64], r: &[u8], start: usize| {
-            for (v, &(off, ty)) in values.iter_mut().zip(&fields) {
-                *v = ty.decode(&r[off - start..], big);
-            }
-        };
-        // The bytes of a row that hold wanted values.
-        let lo = fields.iter().map(|f| f.0).min().unwrap_or(0);
-        let hi = fields.iter().map(|f| f.0 + f.1.size()).max().unwrap_or(0);
-        if stride - (hi - lo) >= SKIP_BYTES {
-            // Wide rows: each row's used bytes alone, the rest seeked over.
-            let mut at = self.reader.stream_position()?;
-            let mut file = self.reader.into_inner();
-            let mut used = vec![0u8; hi - lo];
-            for i in 0..e.count {
-                file.seek(SeekFrom::Start(at + lo as u64))?;
-                if read_full(&mut file, &mut used)? < used.len() {
-                    return bad(truncated(e, i));
-                }
-                decode(&mut values, &used, lo);
-                row(i, &values).map_err(PlyError::Bad)?;
-                at += stride as u64;
-            }
-            return Ok(());
-        }
-        // Bounded in bytes, not rows: a row of many unused properties is large.
-        let chunk_rows = (CHUNK_BYTES / stride.max(1)).max(1);
-        let mut buf = vec![0u8; stride.max(1) * chunk_rows.min(e.count as usize)];
-        let mut i = 0u64;
-        while i < e.count {
-            let rows = (e.count - i).min(chunk_rows as u64) as usize;
-            let chunk = &mut buf[..rows * stride];
-            let got = read_full(&mut self.reader, chunk)?;
-            if got < chunk.len() {
-                return bad(truncated(e, i + (got / stride.max(1)) as u64));
-            }
-            for r in chunk.chunks_exact(stride) {
-                decode(&mut values, r, 0);
-                row(i, &values).map_err(PlyError::Bad)?;
-                i += 1;
-            }
-        }
-        Ok(())
+        let at = offsets.into_iter().zip(types).collect();
+        Fields { at, big }
     }
+
+    /// The bytes of a row that hold wanted values: from the first's start to the last's end.
+    fn span(&self) -> (usize, usize) {
+        let lo = self.at.iter().map(|f| f.0).min().unwrap_or(0);
+        let hi = self.at.iter().map(|f| f.0 + f.1.size()).max().unwrap_or(0);
+        (lo, hi)
+    }
+
+    /// The values of a row from its bytes `r`, which start at byte `start` of the row.
+    #[inline(always)]
+    fn decode(&self, values: &mut [f64], r: &[u8], start: usize) {
+        for (v, &(off, ty)) in values.iter_mut().zip(&self.at) {
+            *v = ty.decode(&r[off - start..], self.big);
+        }
+    }
+}
+
+/// Reads the rows of `e` (`stride` bytes each) where they are wide: each row's bytes that
+/// hold `fields` alone, the rest seeked over.
+fn read_wide(
+    mut reader: BufReader<File>,
+    e: &Element,
+    stride: usize,
+    fields: &Fields,
+    mut row: impl FnMut(u64, &[f64]) -> Result<(), String>,
+) -> Result<(), PlyError> {
+    let (lo, hi) = fields.span();
+    let mut values = vec![0.0; fields.at.len()];
+    let mut at = reader.stream_position()?;
+    let mut file = reader.into_inner();
+    let mut used = vec![0u8; hi - lo];
+    for i in 0..e.count {
+        file.seek(SeekFrom::Start(at + lo as u64))?;
+        if read_full(&mut file, &mut used)? < used.len() {
+            return bad(truncated(e, i));
+        }
+        fields.decode(&mut values, &used, lo);
+        row(i, &values).map_err(PlyError::Bad)?;
+        at += stride as u64;
+    }
+    Ok(())
+}
+
+/// Reads the rows of `e` (`stride` bytes each) in chunks of whole rows, bounded in bytes,
+/// not rows: a row of many unused properties is large.
+fn read_chunks(
+    reader: &mut BufReader<File>,
+    e: &Element,
+    stride: usize,
+    fields: &Fields,
+    mut row: impl FnMut(u64, &[f64]) -> Result<(), String>,
+) -> Result<(), PlyError> {
+    let mut values = vec![0.0; fields.at.len()];
+    let chunk_rows = (CHUNK_BYTES / stride.max(1)).max(1);
+    let mut buf = vec![0u8; stride.max(1) * chunk_rows.min(e.count as usize)];
+    let mut i = 0u64;
+    while i < e.count {
+        let rows = (e.count - i).min(chunk_rows as u64) as usize;
+        let chunk = &mut buf[..rows * stride];
+        let got = read_full(reader, chunk)?;
+        if got < chunk.len() {
+            return bad(truncated(e, i + (got / stride.max(1)) as u64));
+        }
+        for r in chunk.chunks_exact(stride) {
+            fields.decode(&mut values, r, 0);
+            row(i, &values).map_err(PlyError::Bad)?;
+            i += 1;
+        }
+    }
+    Ok(())
 }
 
 /// `truncated: the file ends in vertex 12 of 1000`.
@@ -407,28 +487,74 @@ fn ascii_row<R: BufRead>(
     values: &mut [f64],
     row: &mut impl FnMut(u64, &[f64]) -> Result<(), String>,
 ) -> Result<(), PlyError> {
-    let mut read = 0usize;
-    let mut value = |lines: &mut Lines<R>, s: Scalar, name: &str| -> Result<f64, PlyError> {
+    let mut this = AsciiRow { e, i, read: 0 };
+    for (k, p) in e.properties.iter().enumerate() {
+        match p.kind {
+            Kind::Scalar(s) => {
+                let v = this.value(lines, s, &p.name)?;
+                if let Some(j) = wanted.iter().position(|&w| w == k) {
+                    values[j] = v;
+                }
+            }
+            Kind::List { count, item } => {
+                let n = this.value(lines, count, &p.name)?;
+                if n < 0.0 {
+                    return bad(format!(
+                        "line {}: {} {i}: list {} has a negative count ({n})",
+                        lines.line, e.name, p.name
+                    ));
+                }
+                for _ in 0..n as u64 {
+                    this.value(lines, item, &p.name)?;
+                }
+            }
+        }
+    }
+    this.line_end(lines)?;
+    if !wanted.is_empty() {
+        row(i, values).map_err(PlyError::Bad)?;
+    }
+    Ok(())
+}
+
+/// An ASCII row being read: row `i` of element `e`, and how many values of it are read.
+struct AsciiRow<'e> {
+    e: &'e Element,
+    i: u64,
+    read: usize,
+}
+
+impl AsciiRow<'_> {
+    /// The row's next value, of type `s` (of property `name`), on the row's line (blank
+    /// lines before its first value skipped).
+    fn value<R: BufRead>(
+        &mut self,
+        lines: &mut Lines<R>,
+        s: Scalar,
+        name: &str,
+    ) -> Result<f64, PlyError> {
+        let (e, i) = (self.e, self.i);
         loop {
             match lines.next()? {
                 Item::Value => break,
-                Item::LineEnd if read == 0 => {}
+                Item::LineEnd if self.read == 0 => {}
                 Item::End => return bad(format!("line {}: {}", lines.line, truncated(e, i))),
                 Item::LineEnd if lines.at_end()? => {
                     return bad(format!("line {}: {}", lines.line - 1, truncated(e, i)));
                 }
                 Item::LineEnd => {
                     return bad(format!(
-                        "line {}: {} {i} ends after {read} values, short of its {} properties \
+                        "line {}: {} {i} ends after {} values, short of its {} properties \
                          (each row is one line)",
                         lines.line - 1,
                         e.name,
+                        self.read,
                         e.properties.len()
                     ));
                 }
             }
         }
-        read += 1;
+        self.read += 1;
         let t = lines.value()?;
         match s.parse_value(t) {
             Some(v) => Ok(v),
@@ -439,53 +565,29 @@ fn ascii_row<R: BufRead>(
                 s.name()
             )),
         }
-    };
-    for (k, p) in e.properties.iter().enumerate() {
-        match p.kind {
-            Kind::Scalar(s) => {
-                let v = value(lines, s, &p.name)?;
-                if let Some(j) = wanted.iter().position(|&w| w == k) {
-                    values[j] = v;
-                }
-            }
-            Kind::List { count, item } => {
-                let n = value(lines, count, &p.name)?;
-                if n < 0.0 {
-                    return bad(format!(
-                        "line {}: {} {i}: list {} has a negative count ({n})",
-                        lines.line, e.name, p.name
-                    ));
-                }
-                for _ in 0..n as u64 {
-                    value(lines, item, &p.name)?;
-                }
-            }
-        }
     }
-    // The row's line ends here.
-    match lines.next()? {
-        Item::LineEnd => {}
-        Item::Value => {
-            let last = e.properties.last().map_or("", |p| p.name.as_str());
-            return bad(format!(
-                "line {}: {} {i} has more values than its {} properties: \"{}\" after {last} \
-                 (each row is one line)",
-                lines.line,
-                e.name,
-                e.properties.len(),
-                lines.value()?
-            ));
-        }
-        Item::End => {
-            return bad(format!(
+
+    /// Reads the end of the row's line, which must follow its last value.
+    fn line_end<R: BufRead>(&self, lines: &mut Lines<R>) -> Result<(), PlyError> {
+        let (e, i) = (self.e, self.i);
+        match lines.next()? {
+            Item::LineEnd => Ok(()),
+            Item::Value => {
+                let last = e.properties.last().map_or("", |p| p.name.as_str());
+                bad(format!(
+                    "line {}: {} {i} has more values than its {} properties: \"{}\" after {last} \
+                     (each row is one line)",
+                    lines.line,
+                    e.name,
+                    e.properties.len(),
+                    lines.value()?
+                ))
+            }
+            Item::End => bad(format!(
                 "line {}: the file ends inside {} {i}, with no line end after its last value: \
                  truncated (that value may be cut short)",
                 lines.line, e.name
-            ));
+            )),
         }
     }
-    if !wanted.is_empty() {
-        row(i, values).map_err(PlyError::Bad)?;
-    }
-    Ok(())
 }

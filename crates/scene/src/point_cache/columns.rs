@@ -137,65 +137,14 @@ fn quantity(columns: &[Column], format: CacheFormat, name: &str) -> Vec<usize> {
 /// The attributes of a snapshot with `columns` that cache `desc` needs.
 pub(super) fn map_columns(columns: &[Column], desc: &PointCacheDesc) -> Result<ColumnMap, String> {
     let f = desc.format;
-    let positions: &[&[&str]] = match f {
-        CacheFormat::Ply => &[&["x", "y", "z"]],
-        CacheFormat::Lammps => &[
-            &["x", "y", "z"],
-            &["xs", "ys", "zs"],
-            &["xu", "yu", "zu"],
-            &["xsu", "ysu", "zsu"],
-        ],
-        CacheFormat::Xyz => &[&["pos"]],
-        CacheFormat::Vtk => &[&[crate::sim::vtk::POINTS]],
-    };
-    let Some((position, p)) = group(columns, f, positions)? else {
-        let names: Vec<String> = positions.iter().map(|g| g.join(" ")).collect();
-        return Err(format!(
-            "no position columns: {} (the points' positions)",
-            names.join(", or ")
-        ));
-    };
-    let placement = [
-        Placement::Plain,
-        Placement::Scaled,
-        Placement::Unwrapped,
-        Placement::ScaledUnwrapped,
-    ][p];
+    let (position, placement) = position_columns(columns, f)?;
     let images = match f {
         CacheFormat::Lammps => group(columns, f, &[&["ix", "iy", "iz"]])?.map(|g| g.0),
         _ => None,
     };
-    let velocities: &[&[&str]] = match f {
-        CacheFormat::Ply => &[
-            &["vx", "vy", "vz"],
-            &["velocity_x", "velocity_y", "velocity_z"],
-        ],
-        CacheFormat::Lammps => &[&["vx", "vy", "vz"]],
-        CacheFormat::Xyz => &[&["velo"], &["vel"]],
-        CacheFormat::Vtk => &[&["velocity"], &["velocities"], &["vel"], &["velo"], &["v"]],
-    };
+    let velocities = velocity_names(f);
     let velocity = group(columns, f, velocities)?.map(|g| g.0);
-    let radius = match &desc.radius_by {
-        Some(name) => {
-            let Some(k) = find(columns, f, name, 0).filter(|&k| columns[k].components == 1) else {
-                return Err(format!(
-                    "radius_by names the column {name}, which the file does not have (as one number a point)"
-                ));
-            };
-            Some((k, if name == "diameter" { 0.5 } else { 1.0 }))
-        }
-        None => {
-            let names: &[&str] = match f {
-                CacheFormat::Ply => &["radius", "pscale"],
-                CacheFormat::Xyz => &["radius"],
-                CacheFormat::Lammps | CacheFormat::Vtk => &["radius", "diameter"],
-            };
-            single(columns, f, names).map(|(k, _)| {
-                let diameter = columns[k].name.eq_ignore_ascii_case("diameter");
-                (k, if diameter { 0.5 } else { 1.0 })
-            })
-        }
-    };
+    let radius = radius_column(columns, desc)?;
     let every_type_sized = !desc.types.is_empty() && desc.types.iter().all(|t| t.radius.is_some());
     if radius.is_none() && desc.radius.is_none() && !every_type_sized {
         return Err(
@@ -209,24 +158,7 @@ pub(super) fn map_columns(columns: &[Column], desc: &PointCacheDesc) -> Result<C
         _ => None,
     };
     let id = single(columns, f, &["id"]).map(|g| g.0);
-    let kind = match desc.types.is_empty() {
-        true => None,
-        false => {
-            let name = if f == CacheFormat::Xyz {
-                "species"
-            } else {
-                "type"
-            };
-            match single(columns, f, &[name]) {
-                Some((k, _)) => Some(k),
-                None => {
-                    return Err(format!(
-                        "types gives looks per {name}, and the file has no {name} column"
-                    ));
-                }
-            }
-        }
-    };
+    let kind = kind_column(columns, desc)?;
     let color_by = match &desc.color_by {
         None => Vec::new(),
         Some(c) => {
@@ -265,22 +197,106 @@ pub(super) fn map_columns(columns: &[Column], desc: &PointCacheDesc) -> Result<C
         kind,
         color_by,
     };
-    for k in layout.used() {
-        let c = &columns[k];
-        let text_type = Some(k) == layout.kind && c.kind == ColumnKind::Text;
-        if c.kind == ColumnKind::List || (c.kind == ColumnKind::Text && !text_type) {
-            return Err(format!(
-                "property {} is {}; a single number was expected",
-                c.label(),
-                if c.kind == ColumnKind::List {
-                    "a list"
-                } else {
-                    "text"
-                }
-            ));
-        }
-    }
+    layout.check_numbers(columns)?;
     Ok(layout)
+}
+
+/// The position columns of `format` and how they place the points; an error when there are
+/// none.
+fn position_columns(
+    columns: &[Column],
+    format: CacheFormat,
+) -> Result<([usize; 3], Placement), String> {
+    let positions: &[&[&str]] = match format {
+        CacheFormat::Ply => &[&["x", "y", "z"]],
+        CacheFormat::Lammps => &[
+            &["x", "y", "z"],
+            &["xs", "ys", "zs"],
+            &["xu", "yu", "zu"],
+            &["xsu", "ysu", "zsu"],
+        ],
+        CacheFormat::Xyz => &[&["pos"]],
+        CacheFormat::Vtk => &[&[crate::sim::vtk::POINTS]],
+    };
+    let Some((position, p)) = group(columns, format, positions)? else {
+        let names: Vec<String> = positions.iter().map(|g| g.join(" ")).collect();
+        return Err(format!(
+            "no position columns: {} (the points' positions)",
+            names.join(", or ")
+        ));
+    };
+    // In the order of the groups of names above.
+    let placement = [
+        Placement::Plain,
+        Placement::Scaled,
+        Placement::Unwrapped,
+        Placement::ScaledUnwrapped,
+    ][p];
+    Ok((position, placement))
+}
+
+/// The groups of names `format` writes velocities under, in the order they are looked for.
+fn velocity_names(format: CacheFormat) -> &'static [&'static [&'static str]] {
+    match format {
+        CacheFormat::Ply => &[
+            &["vx", "vy", "vz"],
+            &["velocity_x", "velocity_y", "velocity_z"],
+        ],
+        CacheFormat::Lammps => &[&["vx", "vy", "vz"]],
+        CacheFormat::Xyz => &[&["velo"], &["vel"]],
+        CacheFormat::Vtk => &[&["velocity"], &["velocities"], &["vel"], &["velo"], &["v"]],
+    }
+}
+
+/// The radius column of cache `desc` and the factor its values are multiplied by (0.5 for
+/// a diameter): `radius_by`'s (an error when the file lacks it), else the first of the
+/// format's names present.
+fn radius_column(
+    columns: &[Column],
+    desc: &PointCacheDesc,
+) -> Result<Option<(usize, f64)>, String> {
+    let f = desc.format;
+    Ok(match &desc.radius_by {
+        Some(name) => {
+            let Some(k) = find(columns, f, name, 0).filter(|&k| columns[k].components == 1) else {
+                return Err(format!(
+                    "radius_by names the column {name}, which the file does not have (as one number a point)"
+                ));
+            };
+            Some((k, if name == "diameter" { 0.5 } else { 1.0 }))
+        }
+        None => {
+            let names: &[&str] = match f {
+                CacheFormat::Ply => &["radius", "pscale"],
+                CacheFormat::Xyz => &["radius"],
+                CacheFormat::Lammps | CacheFormat::Vtk => &["radius", "diameter"],
+            };
+            single(columns, f, names).map(|(k, _)| {
+                let diameter = columns[k].name.eq_ignore_ascii_case("diameter");
+                (k, if diameter { 0.5 } else { 1.0 })
+            })
+        }
+    })
+}
+
+/// The `type` (XYZ: `species`) column, where cache `desc` gives looks per type (an error
+/// when the file has none).
+fn kind_column(columns: &[Column], desc: &PointCacheDesc) -> Result<Option<usize>, String> {
+    if desc.types.is_empty() {
+        return Ok(None);
+    }
+    let f = desc.format;
+    let name = if f == CacheFormat::Xyz {
+        "species"
+    } else {
+        "type"
+    };
+    match single(columns, f, &[name]) {
+        Some((k, _)) => Ok(Some(k)),
+        None => Err(format!(
+            "types gives looks per {name}, and the file has no {name} column"
+        )),
+    }
 }
 
 impl ColumnMap {
@@ -295,6 +311,26 @@ impl ColumnMap {
         v.extend(self.kind);
         v.extend(&self.color_by);
         v
+    }
+
+    /// Checks that every column the layout reads is a single number, or text for the type.
+    fn check_numbers(&self, columns: &[Column]) -> Result<(), String> {
+        for k in self.used() {
+            let c = &columns[k];
+            let text_type = Some(k) == self.kind && c.kind == ColumnKind::Text;
+            if c.kind == ColumnKind::List || (c.kind == ColumnKind::Text && !text_type) {
+                return Err(format!(
+                    "property {} is {}; a single number was expected",
+                    c.label(),
+                    if c.kind == ColumnKind::List {
+                        "a list"
+                    } else {
+                        "text"
+                    }
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// A cache's motion with this layout: its own, or velocity where the file has

@@ -22,6 +22,7 @@ use crate::sim::{ReadError, Snapshot};
 use raytrace_core::error::Error;
 use raytrace_core::points::{FramePoints, PointCacheDesc, PointMotion, PointSet};
 use raytrace_core::scene::Scene;
+use raytrace_core::shutter::Interval;
 
 /// A snapshot's values, with the layout and box they were read with.
 struct Values {
@@ -124,17 +125,7 @@ fn read_cache(
     let own_path = cache.files.path(desc, placed.key);
     let own_frame = Files::frame_of(placed.key, frame);
     let own_error = |m: String| Error::Scene(about(scene, index, own_frame, &own_path, &m));
-    let motion = desc.motion;
-    let interpolated = motion == Some(PointMotion::Interpolate);
-    let want = Wanted {
-        positions: true,
-        velocities: motion != Some(PointMotion::Still),
-        looks: true,
-        ids: interpolated,
-        images: interpolated,
-        values: desc.color_by.is_some(),
-    };
-    let mut own = read_key(scene, index, cache, placed.key, frame, 0, want)?;
+    let mut own = read_key(scene, index, cache, placed.key, frame, 0, own_wanted(desc))?;
     let motion = own.layout.motion(desc);
     // The file's velocities, unless the next snapshot gives them (below).
     let mut velocities = match motion {
@@ -157,17 +148,9 @@ fn read_cache(
         let next_frame = Files::frame_of(next_key, frame);
         let next_ids = sorted_ids(&next.read.ids)
             .map_err(|m| Error::Scene(about(scene, index, next_frame, &next_path, &m)))?;
-        let continuous = own.layout.placement.unwrapped() && next.layout.placement.unwrapped();
-        let flags = !own.read.images.is_empty() && !next.read.images.is_empty();
-        let crossing = match own.cell.as_ref().filter(|c| c.any_periodic()) {
-            _ if continuous => Crossing::Direct,
-            Some(c) if flags => Crossing::Images(c),
-            Some(c) => Crossing::Nearest(c),
-            None => Crossing::Direct,
-        };
         let dt = next_time - placed.time;
-        velocities =
-            interpolate(&own.read, &next.read, &next_ids, dt, crossing).map_err(own_error)?;
+        velocities = interpolate(&own.read, &next.read, &next_ids, dt, crossing(&own, &next))
+            .map_err(own_error)?;
     }
     if velocities.iter().all(|v| *v == DVec3::ZERO) {
         velocities = Vec::new();
@@ -177,34 +160,61 @@ fn read_cache(
     let materials = materials(desc, &read);
     let mut points = Columns {
         radii,
-        colors: match (&desc.color_by, cache.range) {
-            (Some(c), Some(range)) => read
-                .values
-                .iter()
-                .map(|&v| c.map.color_of(v, range))
-                .collect(),
-            _ => read.colors,
-        },
+        colors: colors(desc, cache.range, &read.values, read.colors),
         materials,
         centers: read.centers,
         velocities,
     };
     if let Some(cell) = cell.filter(Cell::any_periodic) {
         let interval = scene.shot.interval(frame);
-        let (moved, copies) = images(
-            &points.centers,
-            &points.velocities,
-            placed.time,
-            interval,
-            &cell,
-        )
-        .map_err(own_error)?;
-        points.add_copies(&copies);
-        for (i, shift) in moved {
-            points.centers[i] += shift;
-        }
+        points
+            .wrap(&cell, placed.time, interval)
+            .map_err(own_error)?;
     }
     Ok(points.into_sets(desc, placed.time))
+}
+
+/// What a frame reads of cache `desc`'s own snapshot: positions and looks, velocities unless
+/// it is still, ids and image flags to interpolate, the `color_by` values.
+fn own_wanted(desc: &PointCacheDesc) -> Wanted {
+    let motion = desc.motion;
+    let interpolated = motion == Some(PointMotion::Interpolate);
+    Wanted {
+        positions: true,
+        velocities: motion != Some(PointMotion::Still),
+        looks: true,
+        ids: interpolated,
+        images: interpolated,
+        values: desc.color_by.is_some(),
+    }
+}
+
+/// How the paths from `own`'s points to their places in `next` cross `own`'s periodic box:
+/// as written where both snapshots' positions are unwrapped (or there is no such box), by
+/// the image flags where both have them, else to the nearest image.
+fn crossing<'a>(own: &'a Values, next: &Values) -> Crossing<'a> {
+    let continuous = own.layout.placement.unwrapped() && next.layout.placement.unwrapped();
+    let flags = !own.read.images.is_empty() && !next.read.images.is_empty();
+    match own.cell.as_ref().filter(|c| c.any_periodic()) {
+        _ if continuous => Crossing::Direct,
+        Some(c) if flags => Crossing::Images(c),
+        Some(c) => Crossing::Nearest(c),
+        None => Crossing::Direct,
+    }
+}
+
+/// Each point's colour: its `color_by` value (`values`) through the cache's colour map over
+/// `range` where it has both, else the file's (`colors`).
+fn colors(
+    desc: &PointCacheDesc,
+    range: Option<[f64; 2]>,
+    values: &[f64],
+    colors: Vec<[f32; 3]>,
+) -> Vec<[f32; 3]> {
+    match (&desc.color_by, range) {
+        (Some(c), Some(range)) => values.iter().map(|&v| c.map.color_of(v, range)).collect(),
+        _ => colors,
+    }
 }
 
 /// A cache's points in one frame as columns, before they are split by material.
@@ -235,6 +245,17 @@ impl Columns {
                 self.materials.push(self.materials[i]);
             }
         }
+    }
+
+    /// Draws the points in the periodic box `cell` during `interval` (the points at `time`):
+    /// each path moved to start inside the box, and a copy added for each face it crosses.
+    fn wrap(&mut self, cell: &Cell, time: f64, interval: Interval) -> Result<(), String> {
+        let (moved, copies) = images(&self.centers, &self.velocities, time, interval, cell)?;
+        self.add_copies(&copies);
+        for (i, shift) in moved {
+            self.centers[i] += shift;
+        }
+        Ok(())
     }
 
     /// The sets, one per material (the table's first, then the types' in their order), each

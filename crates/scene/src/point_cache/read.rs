@@ -93,163 +93,303 @@ pub(super) fn read_values(
     want: Wanted,
 ) -> Result<Read, ReadError> {
     let n = usize::try_from(count).map_err(|_| ReadError::Bad(format!("{count} points")))?;
-    let mut columns: Vec<usize> = Vec::new();
-    let mut add = |on: bool, ks: &[usize]| -> Option<usize> {
-        on.then(|| {
-            columns.extend(ks);
-            columns.len() - ks.len()
-        })
-    };
-    let position = add(want.positions, &layout.position);
-    let images = layout.images.and_then(|k| add(want.images, &k));
-    let velocity = layout.velocity.and_then(|k| add(want.velocities, &k));
-    let radius = layout
-        .radius
-        .and_then(|(k, f)| add(want.looks, &[k]).map(|s| (s, f)));
-    let color = layout
-        .color
-        .and_then(|(k, int)| add(want.looks, &k).map(|s| (s, int)));
-    let id = layout.id.and_then(|k| add(want.ids, &[k]));
-    let kind = layout.kind.and_then(|k| add(want.looks, &[k]));
-    let values = (!layout.color_by.is_empty())
-        .then(|| add(want.values, &layout.color_by))
-        .flatten();
-    let value_count = layout.color_by.len();
+    let (slots, columns) = Slots::of(layout, want);
     let scaled = layout.placement.scaled();
-    if scaled && position.is_some() && cell.is_none() {
+    if scaled && slots.position.is_some() && cell.is_none() {
         return Err(ReadError::Bad(
             "positions are fractions of the box (xs ys zs), and the snapshot gives no box".into(),
         ));
     }
     let believed = rows.believed(count);
-    let with = |on: Option<usize>| if on.is_some() { believed } else { 0 };
-    let mut out = Read {
-        centers: Vec::with_capacity(with(position)),
-        images: Vec::with_capacity(with(images)),
-        velocities: Vec::with_capacity(with(velocity)),
-        radii: Vec::with_capacity(with(radius.map(|r| r.0))),
-        colors: Vec::with_capacity(with(color.map(|c| c.0))),
-        ids: Vec::with_capacity(with(id)),
-        kinds: Vec::with_capacity(with(kind)),
-        kind_names: Vec::new(),
-        values: Vec::with_capacity(with(values)),
+    let mut out = Read::with_room(&slots, believed);
+    let points = Points {
+        slots,
+        names,
+        columns: &columns,
+        fractions_of: cell.filter(|_| scaled),
+        velocity_scale: desc.velocity_scale,
+        value_count: layout.color_by.len(),
     };
-    let name = |k: usize| names[columns[k]].as_str();
-    let scale = desc.velocity_scale;
     let mut kind_values: Vec<f64> = Vec::new();
     let labels = rows.read(&columns, |i, v| {
-        if let Some(k) = position {
-            let p = DVec3::new(
-                finite(i, name(k), v[k])?,
-                finite(i, name(k + 1), v[k + 1])?,
-                finite(i, name(k + 2), v[k + 2])?,
-            );
-            let p = match cell {
-                Some(c) if scaled => c.cartesian(p),
-                _ => p,
-            };
-            out.centers.push(p);
-        }
-        if let Some(k) = images {
-            let mut flags = [0i32; 3];
-            for (j, f) in flags.iter_mut().enumerate() {
-                let x = v[k + j];
-                if x.fract() != 0.0 || !(i32::MIN as f64..=i32::MAX as f64).contains(&x) {
-                    return Err(format!(
-                        "point {i}: {} is {x}, not a whole number of boxes",
-                        name(k + j)
-                    ));
-                }
-                *f = x as i32;
-            }
-            out.images.push(flags);
-        }
-        if let Some(k) = velocity {
-            let mut u = [0.0; 3];
-            for (j, x) in u.iter_mut().enumerate() {
-                *x = finite(i, name(k + j), finite(i, name(k + j), v[k + j])? * scale)?;
-            }
-            out.velocities.push(DVec3::from_array(u));
-        }
-        if let Some((k, factor)) = radius {
-            let r = finite(i, name(k), v[k])? * factor;
-            if r < 0.0 {
-                return Err(format!(
-                    "point {i}: {} is {}; a radius must be >= 0",
-                    name(k),
-                    v[k]
-                ));
-            }
-            out.radii.push(r);
-        }
-        if let Some((k, integer)) = color {
-            let mut c = [0f32; 3];
-            for j in 0..3 {
-                let x = v[k + j];
-                let (scaled, range) = if integer {
-                    (x / 255.0, "0 to 255")
-                } else {
-                    (x, "0 to 1")
-                };
-                if !(0.0..=1.0).contains(&scaled) {
-                    return Err(format!(
-                        "point {i}: {} is {x}, outside {range}",
-                        name(k + j)
-                    ));
-                }
-                c[j] = scaled as f32;
-            }
-            out.colors.push(c);
-        }
-        if let Some(k) = id {
-            let x = v[k];
-            if x.fract() != 0.0 || !x.is_finite() {
-                return Err(format!("point {i}: id is {x}, not a whole number"));
-            }
-            if x.abs() > MAX_ID {
-                return Err(format!(
-                    "point {i}: id is {x:e}, beyond the 2^53 that ids are told apart to"
-                ));
-            }
-            out.ids.push(x as i64);
-        }
-        if let Some(k) = kind {
-            kind_values.push(v[k]);
-        }
-        if let Some(k) = values {
-            let x = if value_count == 1 {
-                v[k]
-            } else {
-                v[k..k + value_count]
-                    .iter()
-                    .map(|x| x * x)
-                    .sum::<f64>()
-                    .sqrt()
-            };
-            if !x.is_finite() {
-                return Err(format!(
-                    "point {i}: {} is {x}, not a finite number (it is coloured by)",
-                    name(k)
-                ));
-            }
-            out.values.push(x);
-        }
-        Ok(())
+        points.push(i, v, &mut out, &mut kind_values)
     })?;
-    if kind.is_some() {
+    if slots.kind.is_some() {
         (out.kinds, out.kind_names) = kinds_of(&kind_values, &labels);
     }
     if believed < n {
-        // Columns grown as lines were read hold no more than their points.
-        out.centers.shrink_to_fit();
-        out.images.shrink_to_fit();
-        out.velocities.shrink_to_fit();
-        out.radii.shrink_to_fit();
-        out.colors.shrink_to_fit();
-        out.ids.shrink_to_fit();
-        out.values.shrink_to_fit();
+        out.shrink_to_fit();
     }
     Ok(out)
+}
+
+/// The range a colour column's values are written in.
+#[derive(Clone, Copy, Debug)]
+enum ColorRange {
+    /// Fractions, 0 to 1.
+    Unit,
+    /// Whole numbers 0 to 255 (an integer column).
+    Bytes,
+}
+
+impl ColorRange {
+    /// `x` as a fraction of the range, and the range in words.
+    fn fraction(self, x: f64) -> (f64, &'static str) {
+        match self {
+            ColorRange::Bytes => (x / 255.0, "0 to 255"),
+            ColorRange::Unit => (x, "0 to 1"),
+        }
+    }
+}
+
+/// Where each quantity read is among the values a row gives (`None`: not read).
+#[derive(Clone, Copy, Debug)]
+struct Slots {
+    position: Option<usize>,
+    images: Option<usize>,
+    velocity: Option<usize>,
+    /// With the factor radii are multiplied by.
+    radius: Option<(usize, f64)>,
+    color: Option<(usize, ColorRange)>,
+    id: Option<usize>,
+    kind: Option<usize>,
+    /// The `color_by` column's first component.
+    values: Option<usize>,
+}
+
+impl Slots {
+    /// The slots of what `want` asks for that `layout` has, and the columns to read (in the
+    /// slots' order).
+    fn of(layout: &ColumnMap, want: Wanted) -> (Slots, Vec<usize>) {
+        let mut columns: Vec<usize> = Vec::new();
+        let mut add = |on: bool, ks: &[usize]| -> Option<usize> {
+            on.then(|| {
+                columns.extend(ks);
+                columns.len() - ks.len()
+            })
+        };
+        let position = add(want.positions, &layout.position);
+        let images = layout.images.and_then(|k| add(want.images, &k));
+        let velocity = layout.velocity.and_then(|k| add(want.velocities, &k));
+        let radius = layout
+            .radius
+            .and_then(|(k, f)| add(want.looks, &[k]).map(|s| (s, f)));
+        let color = layout.color.and_then(|(k, int)| {
+            let range = if int {
+                ColorRange::Bytes
+            } else {
+                ColorRange::Unit
+            };
+            add(want.looks, &k).map(|s| (s, range))
+        });
+        let id = layout.id.and_then(|k| add(want.ids, &[k]));
+        let kind = layout.kind.and_then(|k| add(want.looks, &[k]));
+        let values = (!layout.color_by.is_empty())
+            .then(|| add(want.values, &layout.color_by))
+            .flatten();
+        let slots = Slots {
+            position,
+            images,
+            velocity,
+            radius,
+            color,
+            id,
+            kind,
+            values,
+        };
+        (slots, columns)
+    }
+}
+
+impl Read {
+    /// Empty columns, with room for `believed` points in each that `slots` reads.
+    fn with_room(slots: &Slots, believed: usize) -> Read {
+        let with = |on: Option<usize>| if on.is_some() { believed } else { 0 };
+        Read {
+            centers: Vec::with_capacity(with(slots.position)),
+            images: Vec::with_capacity(with(slots.images)),
+            velocities: Vec::with_capacity(with(slots.velocity)),
+            radii: Vec::with_capacity(with(slots.radius.map(|r| r.0))),
+            colors: Vec::with_capacity(with(slots.color.map(|c| c.0))),
+            ids: Vec::with_capacity(with(slots.id)),
+            kinds: Vec::with_capacity(with(slots.kind)),
+            kind_names: Vec::new(),
+            values: Vec::with_capacity(with(slots.values)),
+        }
+    }
+
+    /// Gives back the room of columns grown as lines were read: they hold no more than
+    /// their points.
+    fn shrink_to_fit(&mut self) {
+        self.centers.shrink_to_fit();
+        self.images.shrink_to_fit();
+        self.velocities.shrink_to_fit();
+        self.radii.shrink_to_fit();
+        self.colors.shrink_to_fit();
+        self.ids.shrink_to_fit();
+        self.values.shrink_to_fit();
+    }
+}
+
+/// A snapshot's rows made points: each quantity read from its slots, checked.
+struct Points<'a> {
+    slots: Slots,
+    /// The file's columns' names, in messages.
+    names: &'a [String],
+    /// The file's column of each value a row gives.
+    columns: &'a [usize],
+    /// The box when positions are fractions of it.
+    fractions_of: Option<&'a Cell>,
+    velocity_scale: f64,
+    /// The `color_by` column's number of components.
+    value_count: usize,
+}
+
+impl Points<'_> {
+    /// The name of the column of a row's value `k`.
+    fn name(&self, k: usize) -> &str {
+        self.names[self.columns[k]].as_str()
+    }
+
+    /// Adds point `i` (its row's values `v`) to `out`, its type's value to `kind_values`.
+    fn push(
+        &self,
+        i: u64,
+        v: &[f64],
+        out: &mut Read,
+        kind_values: &mut Vec<f64>,
+    ) -> Result<(), String> {
+        let s = self.slots;
+        if let Some(k) = s.position {
+            out.centers.push(self.center(i, v, k)?);
+        }
+        if let Some(k) = s.images {
+            out.images.push(self.image_flags(i, v, k)?);
+        }
+        if let Some(k) = s.velocity {
+            out.velocities.push(self.velocity(i, v, k)?);
+        }
+        if let Some((k, factor)) = s.radius {
+            out.radii.push(self.radius(i, v, k, factor)?);
+        }
+        if let Some((k, range)) = s.color {
+            out.colors.push(self.color(i, v, k, range)?);
+        }
+        if let Some(k) = s.id {
+            out.ids.push(whole_id(i, v[k])?);
+        }
+        if let Some(k) = s.kind {
+            kind_values.push(v[k]);
+        }
+        if let Some(k) = s.values {
+            out.values.push(self.value(i, v, k)?);
+        }
+        Ok(())
+    }
+
+    /// Point `i`'s position (values `k..k + 3`), made cartesian where it is fractions of
+    /// the box.
+    fn center(&self, i: u64, v: &[f64], k: usize) -> Result<DVec3, String> {
+        let p = DVec3::new(
+            finite(i, self.name(k), v[k])?,
+            finite(i, self.name(k + 1), v[k + 1])?,
+            finite(i, self.name(k + 2), v[k + 2])?,
+        );
+        Ok(match self.fractions_of {
+            Some(c) => c.cartesian(p),
+            None => p,
+        })
+    }
+
+    /// Point `i`'s image flags (values `k..k + 3`): whole numbers of boxes.
+    fn image_flags(&self, i: u64, v: &[f64], k: usize) -> Result<[i32; 3], String> {
+        let mut flags = [0i32; 3];
+        for (j, f) in flags.iter_mut().enumerate() {
+            let x = v[k + j];
+            if x.fract() != 0.0 || !(i32::MIN as f64..=i32::MAX as f64).contains(&x) {
+                return Err(format!(
+                    "point {i}: {} is {x}, not a whole number of boxes",
+                    self.name(k + j)
+                ));
+            }
+            *f = x as i32;
+        }
+        Ok(flags)
+    }
+
+    /// Point `i`'s velocity (values `k..k + 3`) times the cache's `velocity_scale`.
+    fn velocity(&self, i: u64, v: &[f64], k: usize) -> Result<DVec3, String> {
+        let mut u = [0.0; 3];
+        for (j, x) in u.iter_mut().enumerate() {
+            let name = self.name(k + j);
+            *x = finite(i, name, finite(i, name, v[k + j])? * self.velocity_scale)?;
+        }
+        Ok(DVec3::from_array(u))
+    }
+
+    /// Point `i`'s radius: value `k` times `factor`, at least 0.
+    fn radius(&self, i: u64, v: &[f64], k: usize, factor: f64) -> Result<f64, String> {
+        let r = finite(i, self.name(k), v[k])? * factor;
+        if r < 0.0 {
+            return Err(format!(
+                "point {i}: {} is {}; a radius must be >= 0",
+                self.name(k),
+                v[k]
+            ));
+        }
+        Ok(r)
+    }
+
+    /// Point `i`'s colour (values `k..k + 3`, written in `range`) as fractions 0 to 1.
+    fn color(&self, i: u64, v: &[f64], k: usize, range: ColorRange) -> Result<[f32; 3], String> {
+        let mut c = [0f32; 3];
+        for j in 0..3 {
+            let x = v[k + j];
+            let (scaled, words) = range.fraction(x);
+            if !(0.0..=1.0).contains(&scaled) {
+                return Err(format!(
+                    "point {i}: {} is {x}, outside {words}",
+                    self.name(k + j)
+                ));
+            }
+            c[j] = scaled as f32;
+        }
+        Ok(c)
+    }
+
+    /// Point `i`'s `color_by` value (from value `k`): the column's, or the length of its
+    /// components; finite.
+    fn value(&self, i: u64, v: &[f64], k: usize) -> Result<f64, String> {
+        let x = if self.value_count == 1 {
+            v[k]
+        } else {
+            v[k..k + self.value_count]
+                .iter()
+                .map(|x| x * x)
+                .sum::<f64>()
+                .sqrt()
+        };
+        if !x.is_finite() {
+            return Err(format!(
+                "point {i}: {} is {x}, not a finite number (it is coloured by)",
+                self.name(k)
+            ));
+        }
+        Ok(x)
+    }
+}
+
+/// Point `i`'s id `x` as a whole number, told apart from others (within 2^53).
+fn whole_id(i: u64, x: f64) -> Result<i64, String> {
+    if x.fract() != 0.0 || !x.is_finite() {
+        return Err(format!("point {i}: id is {x}, not a whole number"));
+    }
+    if x.abs() > MAX_ID {
+        return Err(format!(
+            "point {i}: id is {x:e}, beyond the 2^53 that ids are told apart to"
+        ));
+    }
+    Ok(x as i64)
 }
 
 /// Each point's type as an index into the distinct types' names: text types (an XYZ

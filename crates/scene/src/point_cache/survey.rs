@@ -519,23 +519,7 @@ fn survey_snapshots(
     }
     if let (SnapshotTime::Timestep { .. }, true) = (desc.snapshots, desc.is_series()) {
         // Timesteps in order across the series' files too.
-        if let Some(w) = snaps
-            .windows(2)
-            .find(|w| w[1].snap.timestep <= w[0].snap.timestep)
-        {
-            let m = format!(
-                "timestep {} follows timestep {}: the series' snapshots must be in the order of their timesteps",
-                w[1].snap.timestep.unwrap_or(0),
-                w[0].snap.timestep.unwrap_or(0)
-            );
-            return Err(Error::Scene(about(
-                scene,
-                index,
-                span.0,
-                &paths[w[1].file],
-                &m,
-            )));
-        }
+        timesteps_in_order(scene, index, span.0, &paths, &snaps)?;
     }
     let mut cache = CacheShot {
         reads: paths.len(),
@@ -557,6 +541,36 @@ fn survey_snapshots(
         cache.range = range_over(snaps, scene, index)?;
     }
     Ok(cache)
+}
+
+/// Checks that the snapshots `snaps` of cache `index`'s series (its files `paths`) are in
+/// the order of their timesteps; an error names the file of the first out of order, and
+/// `frame`.
+fn timesteps_in_order(
+    scene: &Scene,
+    index: usize,
+    frame: u32,
+    paths: &[PathBuf],
+    snaps: &[Located],
+) -> Result<(), Error> {
+    if let Some(w) = snaps
+        .windows(2)
+        .find(|w| w[1].snap.timestep <= w[0].snap.timestep)
+    {
+        let m = format!(
+            "timestep {} follows timestep {}: the series' snapshots must be in the order of their timesteps",
+            w[1].snap.timestep.unwrap_or(0),
+            w[0].snap.timestep.unwrap_or(0)
+        );
+        return Err(Error::Scene(about(
+            scene,
+            index,
+            frame,
+            &paths[w[1].file],
+            &m,
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,9 +2,11 @@
 //! with the TOML lexer) into runs of spheres parsed and validated in parallel, and the rest
 //! (settings, materials) parsed as one document. Messages are those of a whole parse.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::Deserialize;
+use toml_parser::lexer::Lexer;
 
 use super::overrides::Overrides;
 use super::report::{self, Located};
@@ -64,38 +66,7 @@ fn sections(text: &str) -> Option<Vec<(usize, Section)>> {
             }
             K::LeftSquareBracket if depth == 0 && line_start && !in_value => {
                 let start = tok.span().start();
-                let mut next = || lexer.next();
-                let mut t = next()?;
-                let array = t.kind() == K::LeftSquareBracket && t.span().start() == start + 1;
-                if array {
-                    t = next()?;
-                }
-                while t.kind() == K::Whitespace {
-                    t = next()?;
-                }
-                if t.kind() != K::Atom {
-                    return None;
-                }
-                let first = &text[t.span().start()..t.span().end()];
-                let mut single_key = true;
-                loop {
-                    t = next()?;
-                    match t.kind() {
-                        K::RightSquareBracket => break,
-                        K::Whitespace => {}
-                        K::Dot | K::Atom => single_key = false,
-                        _ => return None,
-                    }
-                }
-                if array && next()?.kind() != K::RightSquareBracket {
-                    return None;
-                }
-                let kind = match (first, array && single_key) {
-                    ("sphere", true) => Section::Sphere,
-                    ("sphere", false) => Section::SphereSub,
-                    _ => Section::Other,
-                };
-                out.push((start, kind));
+                out.push((start, header(&mut lexer, text, start)?));
                 line_start = false;
                 root = false;
             }
@@ -118,6 +89,44 @@ fn sections(text: &str) -> Option<Vec<(usize, Section)>> {
         }
     }
     (depth == 0).then_some(out)
+}
+
+/// What the table header whose first `[` is at `start` opens, read from `lexer` up to the
+/// header's last `]`; `None` for a header left to a whole parse (a quoted key, or what is
+/// not a plain header).
+fn header(lexer: &mut Lexer<'_>, text: &str, start: usize) -> Option<Section> {
+    use toml_parser::lexer::TokenKind as K;
+    let mut next = || lexer.next();
+    let mut t = next()?;
+    let array = t.kind() == K::LeftSquareBracket && t.span().start() == start + 1;
+    if array {
+        t = next()?;
+    }
+    while t.kind() == K::Whitespace {
+        t = next()?;
+    }
+    if t.kind() != K::Atom {
+        return None;
+    }
+    let first = &text[t.span().start()..t.span().end()];
+    let mut single_key = true;
+    loop {
+        t = next()?;
+        match t.kind() {
+            K::RightSquareBracket => break,
+            K::Whitespace => {}
+            K::Dot | K::Atom => single_key = false,
+            _ => return None,
+        }
+    }
+    if array && next()?.kind() != K::RightSquareBracket {
+        return None;
+    }
+    Some(match (first, array && single_key) {
+        ("sphere", true) => Section::Sphere,
+        ("sphere", false) => Section::SphereSub,
+        _ => Section::Other,
+    })
 }
 
 /// The spheres of one piece.
@@ -153,67 +162,14 @@ pub(super) fn parse_in_pieces(
 ) -> Option<Result<Scene, Error>> {
     use rayon::prelude::*;
     let sections = sections(text)?;
-    // Pieces: (start, end, index of the first sphere); the rest: (start, end) ranges.
-    let mut pieces: Vec<(usize, usize, usize)> = Vec::new();
-    let mut rest: Vec<(usize, usize)> = Vec::new();
-    let mut spheres = 0usize;
-    let mut in_piece = 0usize; // spheres in the last piece, if it is open
-    let mut open = false;
-    for (i, &(start, kind)) in sections.iter().enumerate() {
-        let end = sections.get(i + 1).map_or(text.len(), |s| s.0);
-        match kind {
-            Section::Other => {
-                open = false;
-                rest.push((start, end));
-            }
-            Section::Sphere => {
-                if open && in_piece < per_piece {
-                    pieces.last_mut()?.1 = end;
-                    in_piece += 1;
-                } else {
-                    pieces.push((start, end, spheres));
-                    in_piece = 1;
-                    open = true;
-                }
-                spheres += 1;
-            }
-            // A sub-table right after its sphere; anywhere else the whole parse decides.
-            Section::SphereSub if open => pieces.last_mut()?.1 = end,
-            Section::SphereSub => return None,
-        }
-    }
+    let cut = Cut::of(&sections, text.len(), per_piece)?;
     let file = raytrace_core::error::elide_path(source);
     let check = Check::new(&file, overrides);
-    // The rest as one document, with a map from its offsets back to the text's.
-    let mut rest_text = String::new();
-    let mut rest_map: Vec<(usize, usize)> = Vec::new();
-    for &(a, b) in &rest {
-        rest_map.push((rest_text.len(), a));
-        rest_text.push_str(&text[a..b]);
-    }
-    let to_text = |off: usize| {
-        let i = rest_map.partition_point(|m| m.0 <= off).max(1) - 1;
-        rest_map.get(i).map_or(off, |&(r, t)| t + (off - r))
-    };
-    let rest_to_text = |e: Located| {
-        let start = to_text(e.span.start);
-        Located {
-            span: start..start + e.span.len(),
-            message: e.message,
-        }
-    };
-    let head: Result<RawScene, PieceError> = match scan::scan(&rest_text, 0) {
-        Err(e) => Err(PieceError::Limit(rest_to_text(e))),
-        Ok(()) => toml::from_str(&rest_text)
-            .map(|mut raw| {
-                check.apply(&mut raw);
-                raw
-            })
-            .map_err(|e| PieceError::Syntax(rest_to_text(report::toml_error(&rest_text, &e, 0)))),
-    };
+    let rest = Rest::of(text, &cut.rest);
+    let head = rest.parse(&check);
     if let Ok(raw) = &head
         && !raw.sphere.is_empty()
-        && !pieces.is_empty()
+        && !cut.pieces.is_empty()
     {
         return None;
     }
@@ -222,50 +178,24 @@ pub(super) fn parse_in_pieces(
         Some(Ok((_, names))) => Some(names),
         _ => None,
     };
-    let results: Vec<Result<Validated, PieceError>> = pieces
+    let results: Vec<Result<Validated, PieceError>> = cut
+        .pieces
         .par_iter()
-        .map(|&(a, b, first)| {
-            let doc = &text[a..b];
-            let to_text = |e: Located| Located {
-                span: a + e.span.start..a + e.span.end,
-                message: e.message,
-            };
-            scan::scan(doc, first).map_err(|e| PieceError::Limit(to_text(e)))?;
-            let raw: RawSpheres = toml::from_str(doc)
-                .map_err(|e| PieceError::Syntax(to_text(report::toml_error(doc, &e, first))))?;
-            match names {
-                Some(names) => check
-                    .spheres(&raw.sphere, first, names)
-                    .map_err(PieceError::Value),
-                None => Ok((Vec::new(), Vec::new())),
-            }
-        })
+        .map(|&piece| parse_piece(text, piece, &check, names))
         .collect();
     let fail = |msg: String| Some(Err(Error::Scene(msg)));
-    // The first limit passed in the text (a whole parse scans the text before parsing it),
-    // else the first syntax error.
-    let errors = || {
-        results
-            .iter()
-            .filter_map(|r| r.as_ref().err())
-            .chain(head.as_ref().err())
-    };
-    let first = |limit: bool| {
-        errors()
-            .filter_map(|e| match (e, limit) {
-                (PieceError::Limit(l), true) | (PieceError::Syntax(l), false) => Some(l),
-                _ => None,
-            })
-            .min_by_key(|l| l.span.start)
-    };
-    if let Some(e) = first(true).or_else(|| first(false)) {
+    let errors = results
+        .iter()
+        .filter_map(|r| r.as_ref().err())
+        .chain(head.as_ref().err());
+    if let Some(e) = first_error(errors) {
         return fail(report::render(&file, text, e.span.clone(), &e.message));
     }
     let mut scene = match checked_head? {
         Ok((scene, _)) => scene,
         Err(msg) => return fail(msg),
     };
-    scene.spheres.reserve_exact(spheres);
+    scene.spheres.reserve_exact(cut.spheres);
     for r in results {
         match r {
             Ok((s, inline)) => add_spheres(&mut scene, s, inline),
@@ -277,4 +207,146 @@ pub(super) fn parse_in_pieces(
         }
     }
     Some(Ok(scene))
+}
+
+/// A file cut at its sections' headers.
+struct Cut {
+    /// Runs of spheres: (start, end, index of the first sphere).
+    pieces: Vec<(usize, usize, usize)>,
+    /// The rest: (start, end) ranges.
+    rest: Vec<(usize, usize)>,
+    /// The number of spheres.
+    spheres: usize,
+}
+
+impl Cut {
+    /// The cut of a text of `len` bytes with `sections`, into pieces of at most `per_piece`
+    /// spheres; `None` where a sphere's sub-table does not follow its sphere.
+    fn of(sections: &[(usize, Section)], len: usize, per_piece: usize) -> Option<Cut> {
+        let mut pieces: Vec<(usize, usize, usize)> = Vec::new();
+        let mut rest: Vec<(usize, usize)> = Vec::new();
+        let mut spheres = 0usize;
+        let mut in_piece = 0usize; // spheres in the last piece, if it is open
+        let mut open = false;
+        for (i, &(start, kind)) in sections.iter().enumerate() {
+            let end = sections.get(i + 1).map_or(len, |s| s.0);
+            match kind {
+                Section::Other => {
+                    open = false;
+                    rest.push((start, end));
+                }
+                Section::Sphere => {
+                    if open && in_piece < per_piece {
+                        pieces.last_mut()?.1 = end;
+                        in_piece += 1;
+                    } else {
+                        pieces.push((start, end, spheres));
+                        in_piece = 1;
+                        open = true;
+                    }
+                    spheres += 1;
+                }
+                // A sub-table right after its sphere; anywhere else the whole parse decides.
+                Section::SphereSub if open => pieces.last_mut()?.1 = end,
+                Section::SphereSub => return None,
+            }
+        }
+        Some(Cut {
+            pieces,
+            rest,
+            spheres,
+        })
+    }
+}
+
+/// The rest of a file (settings, materials) as one document, with a map from its offsets
+/// back to the file's.
+struct Rest {
+    text: String,
+    /// Where each range starts in `text`, and in the file's text.
+    map: Vec<(usize, usize)>,
+}
+
+impl Rest {
+    /// The ranges `ranges` of `text`, one after another.
+    fn of(text: &str, ranges: &[(usize, usize)]) -> Rest {
+        let mut rest = Rest {
+            text: String::new(),
+            map: Vec::new(),
+        };
+        for &(a, b) in ranges {
+            rest.map.push((rest.text.len(), a));
+            rest.text.push_str(&text[a..b]);
+        }
+        rest
+    }
+
+    /// An error at offsets of the rest, placed at the file's.
+    fn locate(&self, e: Located) -> Located {
+        let to_text = |off: usize| {
+            let i = self.map.partition_point(|m| m.0 <= off).max(1) - 1;
+            self.map.get(i).map_or(off, |&(r, t)| t + (off - r))
+        };
+        let start = to_text(e.span.start);
+        Located {
+            span: start..start + e.span.len(),
+            message: e.message,
+        }
+    }
+
+    /// The rest scanned and parsed, with `check`'s overrides applied.
+    fn parse(&self, check: &Check) -> Result<RawScene, PieceError> {
+        match scan::scan(&self.text, 0) {
+            Err(e) => Err(PieceError::Limit(self.locate(e))),
+            Ok(()) => toml::from_str(&self.text)
+                .map(|mut raw| {
+                    check.apply(&mut raw);
+                    raw
+                })
+                .map_err(|e| {
+                    PieceError::Syntax(self.locate(report::toml_error(&self.text, &e, 0)))
+                }),
+        }
+    }
+}
+
+/// The spheres of piece `(a, b, first)` of `text` scanned, parsed and, where the rest gave
+/// the material `names`, validated.
+fn parse_piece(
+    text: &str,
+    (a, b, first): (usize, usize, usize),
+    check: &Check,
+    names: Option<&BTreeMap<&str, u32>>,
+) -> Result<Validated, PieceError> {
+    let doc = &text[a..b];
+    let to_text = |e: Located| Located {
+        span: a + e.span.start..a + e.span.end,
+        message: e.message,
+    };
+    scan::scan(doc, first).map_err(|e| PieceError::Limit(to_text(e)))?;
+    let raw: RawSpheres = toml::from_str(doc)
+        .map_err(|e| PieceError::Syntax(to_text(report::toml_error(doc, &e, first))))?;
+    match names {
+        Some(names) => check
+            .spheres(&raw.sphere, first, names)
+            .map_err(PieceError::Value),
+        None => Ok((Vec::new(), Vec::new())),
+    }
+}
+
+/// The error a whole parse would report first of `errors`: the first limit passed in the
+/// text (a whole parse scans the text before parsing it), else the first syntax error.
+fn first_error<'e>(errors: impl Iterator<Item = &'e PieceError> + Clone) -> Option<&'e Located> {
+    let limits = errors.clone().filter_map(|e| match e {
+        PieceError::Limit(l) => Some(l),
+        _ => None,
+    });
+    let syntax = errors.filter_map(|e| match e {
+        PieceError::Syntax(l) => Some(l),
+        _ => None,
+    });
+    let first = |located: &&Located| located.span.start;
+    limits
+        .min_by_key(first)
+        .or_else(|| syntax.min_by_key(first))
 }

@@ -95,91 +95,90 @@ struct Node {
 /// The innermost key or value whose span contains `span.start`, preferring one whose span is
 /// exactly `span` (a value the schema refused, or a key), then the shortest, then the deepest.
 fn node_at(root: &DeTable<'_>, span: &Range<usize>) -> Option<Node> {
-    struct Best {
-        exact: bool,
-        len: usize,
-        depth: usize,
-        path: Vec<Step>,
-        found: Option<String>,
+    let mut search = Search {
+        span,
+        path: Vec::new(),
+        best: None,
+    };
+    search.table(root);
+    search.best.map(|b| Node {
+        path: b.path,
+        found: b.found,
+    })
+}
+
+/// The best node a [`Search`] has found so far, and what made it the best.
+struct Best {
+    exact: bool,
+    len: usize,
+    depth: usize,
+    path: Vec<Step>,
+    found: Option<String>,
+}
+
+/// A walk through a document for the node at `span`: the path walked to, and the best node.
+struct Search<'s> {
+    span: &'s Range<usize>,
+    path: Vec<Step>,
+    best: Option<Best>,
+}
+
+impl Search<'_> {
+    /// Considers each key of table `t` (at the end of the path), then its value.
+    fn table(&mut self, t: &DeTable<'_>) {
+        for (k, v) in t.iter() {
+            self.path.push(Step::Key(k.get_ref().to_string()));
+            // A key's errors (unknown, duplicate) are reported at the table that holds it.
+            self.consider(k.span(), self.path.len() - 1, None);
+            self.value(v);
+            self.path.pop();
+        }
     }
-    /// A key's errors (unknown, duplicate) are reported at the table that holds it.
-    fn consider(
-        best: &mut Option<Best>,
-        s: Range<usize>,
-        span: &Range<usize>,
-        path: &[Step],
-        found: Option<String>,
-        is_key: bool,
-    ) {
+
+    /// Considers a value at the end of the path, then everything inside it.
+    fn value(&mut self, v: &toml::Spanned<DeValue<'_>>) {
+        self.consider(v.span(), self.path.len(), Some(describe(v.get_ref())));
+        match v.get_ref() {
+            DeValue::Table(t) => self.table(t),
+            DeValue::Array(a) => {
+                for (i, v) in a.iter().enumerate() {
+                    self.path.push(Step::Index(i));
+                    self.value(v);
+                    self.path.pop();
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Takes a node at `s`, whose path is the first `steps` of the path walked and which
+    /// holds `found`, where it contains the span and is better than the best so far.
+    fn consider(&mut self, s: Range<usize>, steps: usize, found: Option<String>) {
+        let span = self.span;
         let contains = s.start <= span.start && span.start < s.end.max(s.start + 1);
         if !contains {
             return;
         }
         let exact = s == *span;
         let len = s.end - s.start;
-        let better = match best {
+        let depth = self.path.len();
+        let better = match &self.best {
             None => true,
             Some(b) => {
-                (exact, std::cmp::Reverse(len), path.len())
+                (exact, std::cmp::Reverse(len), depth)
                     > (b.exact, std::cmp::Reverse(b.len), b.depth)
             }
         };
         if better {
-            *best = Some(Best {
+            self.best = Some(Best {
                 exact,
                 len,
-                depth: path.len(),
-                path: path[..path.len() - usize::from(is_key)].to_vec(),
+                depth,
+                path: self.path[..steps].to_vec(),
                 found,
             });
         }
     }
-    /// Considers a value at the end of `path`, then everything inside it.
-    fn value(
-        v: &toml::Spanned<DeValue<'_>>,
-        span: &Range<usize>,
-        path: &mut Vec<Step>,
-        best: &mut Option<Best>,
-    ) {
-        consider(
-            best,
-            v.span(),
-            span,
-            path,
-            Some(describe(v.get_ref())),
-            false,
-        );
-        match v.get_ref() {
-            DeValue::Table(t) => {
-                for (k, v) in t.iter() {
-                    path.push(Step::Key(k.get_ref().to_string()));
-                    consider(best, k.span(), span, path, None, true);
-                    value(v, span, path, best);
-                    path.pop();
-                }
-            }
-            DeValue::Array(a) => {
-                for (i, v) in a.iter().enumerate() {
-                    path.push(Step::Index(i));
-                    value(v, span, path, best);
-                    path.pop();
-                }
-            }
-            _ => {}
-        }
-    }
-    let mut best = None;
-    let mut path = Vec::new();
-    for (k, v) in root.iter() {
-        path.push(Step::Key(k.get_ref().to_string()));
-        consider(&mut best, k.span(), span, &path, None, true);
-        value(v, span, &mut path, &mut best);
-        path.pop();
-    }
-    best.map(|b| Node {
-        path: b.path,
-        found: b.found,
-    })
 }
 
 /// What a value is, for "found ...": its kind and, for a scalar, how it is written.

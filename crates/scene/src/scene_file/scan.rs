@@ -15,7 +15,9 @@
 //!
 //! Anything else, well-formed or not, is left to the parser.
 
-use toml_parser::lexer::TokenKind as K;
+use std::ops::Range;
+
+use toml_parser::lexer::{Lexer, TokenKind as K};
 
 use super::report::{self, Located};
 
@@ -41,126 +43,173 @@ struct Frame {
 /// `[[sphere]]`, for the path in messages.
 pub(super) fn scan(doc: &str, first_sphere: usize) -> Result<(), Located> {
     let mut lexer = toml_parser::Source::new(doc).lex();
-    let mut stack: Vec<Frame> = Vec::new();
-    let mut expect_value = false;
-    let mut line_start = true;
-    let mut in_key = true;
-    let mut key_parts = 1usize;
-    let mut values = 0usize;
+    let mut scanner = Scanner {
+        doc,
+        first_sphere,
+        stack: Vec::new(),
+        expect_value: false,
+        line_start: true,
+        in_key: true,
+        key_parts: 1,
+        values: 0,
+    };
     while let Some(tok) = lexer.next() {
         let kind = tok.kind();
         let at = tok.span().start()..tok.span().end();
         match kind {
-            K::Whitespace | K::Comment => continue,
-            K::Newline => {
-                if stack.is_empty() {
-                    line_start = true;
-                    in_key = true;
-                    key_parts = 1;
-                    expect_value = false;
-                }
-                continue;
-            }
+            K::Whitespace | K::Comment => {}
+            K::Newline => scanner.line_end(),
             K::Eof => break,
+            _ if scanner.expect_value => scanner.value(kind, at, &mut lexer)?,
+            _ => scanner.token(kind, at)?,
+        }
+    }
+    Ok(())
+}
+
+/// Where a scan is in a document: the arrays and inline tables open, and what is counted.
+struct Scanner<'d> {
+    doc: &'d str,
+    /// The file's index of the document's first `[[sphere]]`.
+    first_sphere: usize,
+    stack: Vec<Frame>,
+    /// Whether the next token starts a value.
+    expect_value: bool,
+    /// Whether the next token is the first of its line (outside arrays and inline tables).
+    line_start: bool,
+    /// Whether the tokens are a key's (whose dotted parts are counted).
+    in_key: bool,
+    key_parts: usize,
+    values: usize,
+}
+
+impl Scanner<'_> {
+    /// Takes a line end: outside arrays and inline tables, a key may follow.
+    fn line_end(&mut self) {
+        if self.stack.is_empty() {
+            self.line_start = true;
+            self.in_key = true;
+            self.key_parts = 1;
+            self.expect_value = false;
+        }
+    }
+
+    /// Takes the token where a value is expected (`kind`, at `at`; `lexer` after it): the
+    /// value is counted, and an array or inline table it opens is pushed.
+    fn value(&mut self, kind: K, at: Range<usize>, lexer: &mut Lexer<'_>) -> Result<(), Located> {
+        self.expect_value = false;
+        if kind == K::RightSquareBracket && self.stack.last().is_some_and(|f| f.array) {
+            // An empty array, or a trailing comma.
+            self.stack.pop();
+            return Ok(());
+        }
+        let start = at.start;
+        self.count_value(kind, at, lexer)?;
+        match kind {
+            K::LeftSquareBracket => {
+                self.stack.push(Frame {
+                    array: true,
+                    count: 0,
+                    tables_only: true,
+                    start,
+                });
+                self.expect_value = true;
+            }
+            K::LeftCurlyBracket => {
+                self.stack.push(Frame {
+                    array: false,
+                    count: 0,
+                    tables_only: false,
+                    start,
+                });
+                self.in_key = true;
+                self.key_parts = 1;
+            }
             _ => {}
         }
-        if expect_value {
-            expect_value = false;
-            if kind == K::RightSquareBracket && stack.last().is_some_and(|f| f.array) {
-                // An empty array, or a trailing comma.
-                stack.pop();
-                continue;
-            }
-            values += 1;
-            if values > MAX_VALUES {
-                return Err(Located {
-                    span: at,
-                    message: format!(
-                        "more than {MAX_VALUES} values in one document, the most read at once (about 800 MB); a larger scene gives its spheres as [[sphere]] tables, which are read in pieces"
-                    ),
-                });
-            }
-            if let Some(f) = stack.last_mut().filter(|f| f.array) {
-                f.count += 1;
-                f.tables_only &= kind == K::LeftCurlyBracket;
-                if f.count > MAX_ARRAY && !f.tables_only {
-                    let (start, depth) = (f.start, stack.len());
-                    let opened = matches!(kind, K::LeftSquareBracket | K::LeftCurlyBracket);
-                    let nesting = depth + usize::from(opened);
-                    return Err(long_array(
-                        doc,
-                        start,
-                        &mut lexer,
-                        depth,
-                        nesting,
-                        first_sphere,
-                    ));
-                }
-            }
-            match kind {
-                K::LeftSquareBracket => {
-                    stack.push(Frame {
-                        array: true,
-                        count: 0,
-                        tables_only: true,
-                        start: at.start,
-                    });
-                    expect_value = true;
-                }
-                K::LeftCurlyBracket => {
-                    stack.push(Frame {
-                        array: false,
-                        count: 0,
-                        tables_only: false,
-                        start: at.start,
-                    });
-                    in_key = true;
-                    key_parts = 1;
-                }
-                _ => {}
-            }
-            line_start = false;
-            continue;
+        self.line_start = false;
+        Ok(())
+    }
+
+    /// Counts a value (`kind`, at `at`) in the document and in the array it is in: an error
+    /// past [`MAX_VALUES`], or past [`MAX_ARRAY`] in an array not of tables alone.
+    fn count_value(
+        &mut self,
+        kind: K,
+        at: Range<usize>,
+        lexer: &mut Lexer<'_>,
+    ) -> Result<(), Located> {
+        self.values += 1;
+        if self.values > MAX_VALUES {
+            return Err(Located {
+                span: at,
+                message: format!(
+                    "more than {MAX_VALUES} values in one document, the most read at once (about 800 MB); a larger scene gives its spheres as [[sphere]] tables, which are read in pieces"
+                ),
+            });
         }
+        let depth = self.stack.len();
+        if let Some(f) = self.stack.last_mut().filter(|f| f.array) {
+            f.count += 1;
+            f.tables_only &= kind == K::LeftCurlyBracket;
+            if f.count > MAX_ARRAY && !f.tables_only {
+                let opened = matches!(kind, K::LeftSquareBracket | K::LeftCurlyBracket);
+                let nesting = depth + usize::from(opened);
+                return Err(long_array(
+                    self.doc,
+                    f.start,
+                    lexer,
+                    depth,
+                    nesting,
+                    self.first_sphere,
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes a token outside a value's start (`kind`, at `at`): a table header, a key's
+    /// parts, `=`, a comma or a closing bracket.
+    fn token(&mut self, kind: K, at: Range<usize>) -> Result<(), Located> {
         match kind {
-            K::LeftSquareBracket if stack.is_empty() && line_start => {
+            K::LeftSquareBracket if self.stack.is_empty() && self.line_start => {
                 // A table header: a value of its own; its key's parts are counted below.
-                values += 1;
-                in_key = true;
-                key_parts = 1;
+                self.values += 1;
+                self.in_key = true;
+                self.key_parts = 1;
             }
             K::Equals => {
-                expect_value = true;
-                in_key = false;
+                self.expect_value = true;
+                self.in_key = false;
             }
-            K::Dot if in_key => {
-                key_parts += 1;
-                if key_parts > MAX_KEY_PARTS {
+            K::Dot if self.in_key => {
+                self.key_parts += 1;
+                if self.key_parts > MAX_KEY_PARTS {
                     return Err(Located {
                         span: at,
                         message: format!("a key of more than {MAX_KEY_PARTS} dotted parts"),
                     });
                 }
             }
-            K::Comma => match stack.last() {
-                Some(f) if f.array => expect_value = true,
+            K::Comma => match self.stack.last() {
+                Some(f) if f.array => self.expect_value = true,
                 Some(_) => {
-                    in_key = true;
-                    key_parts = 1;
+                    self.in_key = true;
+                    self.key_parts = 1;
                 }
                 None => {}
             },
-            K::RightSquareBracket if stack.last().is_some_and(|f| f.array) => {
-                stack.pop();
+            K::RightSquareBracket if self.stack.last().is_some_and(|f| f.array) => {
+                self.stack.pop();
             }
-            K::RightCurlyBracket if stack.last().is_some_and(|f| !f.array) => {
-                stack.pop();
+            K::RightCurlyBracket if self.stack.last().is_some_and(|f| !f.array) => {
+                self.stack.pop();
             }
             _ => {}
         }
-        line_start = false;
+        self.line_start = false;
+        Ok(())
     }
-    Ok(())
 }
 
 /// The error for an array starting at `start` that has just passed [`MAX_ARRAY`] elements:
@@ -168,7 +217,7 @@ pub(super) fn scan(doc: &str, first_sphere: usize) -> Result<(), Located> {
 fn long_array(
     doc: &str,
     start: usize,
-    lexer: &mut toml_parser::lexer::Lexer<'_>,
+    lexer: &mut Lexer<'_>,
     depth: usize,
     mut nesting: usize,
     first_sphere: usize,

@@ -66,13 +66,8 @@ pub(crate) fn next_snapshot(
     last: Option<&Arc<[Column]>>,
 ) -> Result<Option<Snapshot>, ReadError> {
     // Blank lines between snapshots are allowed.
-    let (start, first) = loop {
-        let at = lines.position().line;
-        match lines.next_line()? {
-            None => return Ok(None),
-            Some(l) if l.trim().is_empty() => continue,
-            Some(l) => break (at, l.trim().to_string()),
-        }
+    let Some((start, first)) = lines.next_filled_line()? else {
+        return Ok(None);
     };
     if first != "ITEM: TIMESTEP" {
         return bad(
@@ -107,29 +102,7 @@ pub(crate) fn next_snapshot(
             let Some(count) = count else {
                 return bad(line, "ITEM: ATOMS before ITEM: NUMBER OF ATOMS");
             };
-            let names: Vec<&str> = names.split_whitespace().collect();
-            if names.is_empty() {
-                return bad(line, "ITEM: ATOMS names no columns");
-            }
-            let columns: Arc<[Column]> = match last {
-                Some(c)
-                    if c.len() == names.len()
-                        && c.iter().zip(&names).all(|(c, n)| c.name == *n) =>
-                {
-                    c.clone()
-                }
-                _ => names.iter().map(|n| Column::scalar(n)).collect(),
-            };
-            if let Some(dup) = names
-                .iter()
-                .enumerate()
-                .find(|(i, n)| names[..*i].contains(n))
-            {
-                return bad(
-                    line,
-                    format_args!("ITEM: ATOMS names column {} twice", dup.1),
-                );
-            }
+            let columns = atom_columns(names, line, last)?;
             return Ok(Some(Snapshot {
                 line: start,
                 rows: lines.position(),
@@ -150,6 +123,36 @@ pub(crate) fn next_snapshot(
             skip_item(lines)?;
         }
     }
+}
+
+/// The columns an `ITEM: ATOMS` line (line `line`, its text after the word `names`) names:
+/// `last`, the previous snapshot's, when they are the same.
+fn atom_columns(
+    names: &str,
+    line: u64,
+    last: Option<&Arc<[Column]>>,
+) -> Result<Arc<[Column]>, ReadError> {
+    let names: Vec<&str> = names.split_whitespace().collect();
+    if names.is_empty() {
+        return bad(line, "ITEM: ATOMS names no columns");
+    }
+    let columns: Arc<[Column]> = match last {
+        Some(c) if c.len() == names.len() && c.iter().zip(&names).all(|(c, n)| c.name == *n) => {
+            c.clone()
+        }
+        _ => names.iter().map(|n| Column::scalar(n)).collect(),
+    };
+    if let Some(dup) = names
+        .iter()
+        .enumerate()
+        .find(|(i, n)| names[..*i].contains(n))
+    {
+        return bad(
+            line,
+            format_args!("ITEM: ATOMS names column {} twice", dup.1),
+        );
+    }
+    Ok(columns)
 }
 
 /// Skips the lines of an item this reader does not know, up to the next `ITEM:` line.

@@ -166,6 +166,19 @@ impl Lines {
         }
     }
 
+    /// The next line that is not blank, trimmed, and its number; `None` at the end of the
+    /// file.
+    pub(crate) fn next_filled_line(&mut self) -> Result<Option<(u64, String)>, ReadError> {
+        loop {
+            let at = self.next.line;
+            match self.next_line()? {
+                None => return Ok(None),
+                Some(l) if l.trim().is_empty() => continue,
+                Some(l) => return Ok(Some((at, l.trim().to_string()))),
+            }
+        }
+    }
+
     /// Skips `n` lines without keeping them; returns how many there were (fewer at the end of
     /// the file).
     pub(crate) fn skip_lines(&mut self, n: u64) -> Result<u64, ReadError> {

@@ -277,19 +277,7 @@ pub(super) fn room(
     let what = format!("array {}", array.name);
     let need = values.saturating_mul(array.ty.size());
     let (start, end, base64) = match *place {
-        Place::Text { start, end } => {
-            if values > (end - start) / 2 + 1 {
-                return bad(
-                    b,
-                    start,
-                    format_args!(
-                        "{what}: {} bytes cannot hold its {values} values (a wrong length)",
-                        end - start
-                    ),
-                );
-            }
-            return Ok(());
-        }
+        Place::Text { start, end } => return text_room(b, start, end, values, &what),
         Place::Raw { .. } => return Ok(()),
         Place::Base64 { start, end } => (start, end, true),
         Place::Appended { offset } => {
@@ -305,15 +293,7 @@ pub(super) fn room(
         pending: Vec::new(),
     };
     if enc.zlib {
-        let blocks = stream.word(enc, &what)? as usize;
-        let block = stream.word(enc, &what)? as usize;
-        let last = stream.word(enc, &what)? as usize;
-        let total = match blocks {
-            0 => 0,
-            n => (n - 1)
-                .saturating_mul(block)
-                .saturating_add(if last == 0 { block } else { last }),
-        };
+        let total = BlockTable::read(&mut stream, enc, &what)?.total();
         if total != need {
             return bad(
                 b,
@@ -352,6 +332,71 @@ pub(super) fn room(
     Ok(())
 }
 
+/// Checks that text in `start..end` can hold `values` numbers: a value takes at least two
+/// bytes (a digit and a separator), but the last.
+fn text_room(
+    b: &[u8],
+    start: usize,
+    end: usize,
+    values: usize,
+    what: &str,
+) -> Result<(), ReadError> {
+    if values > (end - start) / 2 + 1 {
+        return bad(
+            b,
+            start,
+            format_args!(
+                "{what}: {} bytes cannot hold its {values} values (a wrong length)",
+                end - start
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The head of a zlib-compressed array's block table (VTK's file formats document, "XML
+/// File Formats", compressed data): the number of blocks, the uncompressed size of a block,
+/// and that of the last (0: a whole block).
+struct BlockTable {
+    blocks: usize,
+    block: usize,
+    last: usize,
+}
+
+impl BlockTable {
+    /// Reads the table's first three words.
+    fn read(stream: &mut Stream<'_>, enc: Encoding, what: &str) -> Result<BlockTable, ReadError> {
+        Ok(BlockTable {
+            blocks: stream.word(enc, what)? as usize,
+            block: stream.word(enc, what)? as usize,
+            last: stream.word(enc, what)? as usize,
+        })
+    }
+
+    /// The uncompressed bytes of all the blocks.
+    fn total(&self) -> usize {
+        match self.blocks {
+            0 => 0,
+            n => (n - 1)
+                .saturating_mul(self.block)
+                .saturating_add(if self.last == 0 {
+                    self.block
+                } else {
+                    self.last
+                }),
+        }
+    }
+
+    /// The uncompressed bytes of block `k`.
+    fn size_of(&self, k: usize) -> usize {
+        if k + 1 == self.blocks && self.last != 0 {
+            self.last
+        } else {
+            self.block
+        }
+    }
+}
+
 /// Decodes `values` numbers of `array`'s piece at `place`.
 pub(super) fn decode(
     b: &[u8],
@@ -369,19 +414,7 @@ pub(super) fn decode(
         Place::Text { start, end } => {
             return decode_text(b, start, end, array, values, &what, end != b.len());
         }
-        Place::Raw { start } => {
-            if need > b.len() - start {
-                return bad(
-                    b,
-                    start,
-                    format_args!("{what}: the file ends before its {values} values"),
-                );
-            }
-            return Ok(b[start..start + need]
-                .chunks_exact(size)
-                .map(|c| array.ty.value(c, true))
-                .collect());
-        }
+        Place::Raw { start } => return decode_raw(b, start, array, values, need, &what),
         Place::Base64 { start, end } => Stream {
             b,
             pos: start,
@@ -389,66 +422,10 @@ pub(super) fn decode(
             base64: true,
             pending: Vec::new(),
         },
-        Place::Appended { offset } => {
-            let (at, base64) = enc.appended.expect("checked");
-            let pos = at.checked_add(offset).filter(|&p| p <= b.len());
-            let Some(pos) = pos else {
-                return Err(ReadError::Bad(format!(
-                    "{what}: offset {offset} is past the appended data"
-                )));
-            };
-            Stream {
-                b,
-                pos,
-                end: b.len(),
-                base64,
-                pending: Vec::new(),
-            }
-        }
+        Place::Appended { offset } => appended_stream(b, enc, offset, &what)?,
     };
     let bytes = if enc.zlib {
-        let blocks = stream.word(enc, &what)? as usize;
-        let block = stream.word(enc, &what)? as usize;
-        let last = stream.word(enc, &what)? as usize;
-        let total = match blocks {
-            0 => 0,
-            n => (n - 1)
-                .saturating_mul(block)
-                .saturating_add(if last == 0 { block } else { last }),
-        };
-        if total != need {
-            return Err(ReadError::Bad(format!(
-                "{what}: its blocks hold {total} bytes, and {values} values of {size} bytes need {need} (a wrong length)"
-            )));
-        }
-        let mut sizes = Vec::new();
-        for _ in 0..blocks.min(need / block.max(1) + 1) {
-            sizes.push(stream.word(enc, &what)? as usize);
-        }
-        let mut out = Vec::with_capacity(need.min(1 << 26));
-        for (k, &compressed) in sizes.iter().enumerate() {
-            let data = stream.take(compressed, &what)?;
-            let want = if k + 1 == blocks && last != 0 {
-                last
-            } else {
-                block
-            };
-            let mut part = Vec::new();
-            flate2::read::ZlibDecoder::new(&data[..])
-                .take(want as u64 + 1)
-                .read_to_end(&mut part)
-                .map_err(|e| {
-                    ReadError::Bad(format!("{what}: block {k} does not decompress ({e})"))
-                })?;
-            if part.len() != want {
-                return Err(ReadError::Bad(format!(
-                    "{what}: block {k} holds {} bytes, not {want}",
-                    part.len()
-                )));
-            }
-            out.extend(part);
-        }
-        out
+        inflate(&mut stream, enc, values, size, need, &what)?
     } else {
         let declared = stream.word(enc, &what)? as usize;
         if declared != need {
@@ -464,6 +441,93 @@ pub(super) fn decode(
         .collect())
 }
 
+/// The `values` numbers (`need` bytes) of a legacy file's binary block at `start`
+/// (big-endian).
+fn decode_raw(
+    b: &[u8],
+    start: usize,
+    array: &Array,
+    values: usize,
+    need: usize,
+    what: &str,
+) -> Result<Vec<f64>, ReadError> {
+    if need > b.len() - start {
+        return bad(
+            b,
+            start,
+            format_args!("{what}: the file ends before its {values} values"),
+        );
+    }
+    Ok(b[start..start + need]
+        .chunks_exact(array.ty.size())
+        .map(|c| array.ty.value(c, true))
+        .collect())
+}
+
+/// The appended data from `offset` as a stream; an error when `offset` is past it.
+fn appended_stream<'a>(
+    b: &'a [u8],
+    enc: Encoding,
+    offset: usize,
+    what: &str,
+) -> Result<Stream<'a>, ReadError> {
+    let (at, base64) = enc.appended.expect("checked");
+    let pos = at.checked_add(offset).filter(|&p| p <= b.len());
+    let Some(pos) = pos else {
+        return Err(ReadError::Bad(format!(
+            "{what}: offset {offset} is past the appended data"
+        )));
+    };
+    Ok(Stream {
+        b,
+        pos,
+        end: b.len(),
+        base64,
+        pending: Vec::new(),
+    })
+}
+
+/// The `need` bytes of a zlib-compressed array of `values` values of `size` bytes: its
+/// block table, whose blocks must add up to them, then each block decompressed to its size.
+fn inflate(
+    stream: &mut Stream<'_>,
+    enc: Encoding,
+    values: usize,
+    size: usize,
+    need: usize,
+    what: &str,
+) -> Result<Vec<u8>, ReadError> {
+    let table = BlockTable::read(stream, enc, what)?;
+    let total = table.total();
+    if total != need {
+        return Err(ReadError::Bad(format!(
+            "{what}: its blocks hold {total} bytes, and {values} values of {size} bytes need {need} (a wrong length)"
+        )));
+    }
+    let mut sizes = Vec::new();
+    for _ in 0..table.blocks.min(need / table.block.max(1) + 1) {
+        sizes.push(stream.word(enc, what)? as usize);
+    }
+    let mut out = Vec::with_capacity(need.min(1 << 26));
+    for (k, &compressed) in sizes.iter().enumerate() {
+        let data = stream.take(compressed, what)?;
+        let want = table.size_of(k);
+        let mut part = Vec::new();
+        flate2::read::ZlibDecoder::new(&data[..])
+            .take(want as u64 + 1)
+            .read_to_end(&mut part)
+            .map_err(|e| ReadError::Bad(format!("{what}: block {k} does not decompress ({e})")))?;
+        if part.len() != want {
+            return Err(ReadError::Bad(format!(
+                "{what}: block {k} holds {} bytes, not {want}",
+                part.len()
+            )));
+        }
+        out.extend(part);
+    }
+    Ok(out)
+}
+
 /// `values` numbers written as text from `start` (within `end`); `exact`: nothing but
 /// whitespace may follow them before `end` (an XML array's content).
 fn decode_text(
@@ -475,17 +539,7 @@ fn decode_text(
     what: &str,
     exact: bool,
 ) -> Result<Vec<f64>, ReadError> {
-    // A value takes at least two bytes (a digit and a separator), but the last.
-    if values > (end - start) / 2 + 1 {
-        return bad(
-            b,
-            start,
-            format_args!(
-                "{what}: {} bytes cannot hold its {values} values (a wrong length)",
-                end - start
-            ),
-        );
-    }
+    text_room(b, start, end, values, what)?;
     let mut out = Vec::with_capacity(values);
     let mut pos = start;
     let text = &b[..end];

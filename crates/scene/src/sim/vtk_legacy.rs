@@ -8,6 +8,14 @@
 use super::read_error::ReadError;
 use super::vtk_data::{Array, Encoding, POINTS, Place, Structure, Ty, line_of};
 
+/// The rows the attributes being read describe, and their number: the points'
+/// (`POINT_DATA`) or the cells' (`CELL_DATA`).
+#[derive(Clone, Copy)]
+enum Rows {
+    Points(u64),
+    Cells(u64),
+}
+
 /// A cursor over a legacy file's words and its binary blocks.
 struct Words<'a> {
     b: &'a [u8],
@@ -133,10 +141,230 @@ impl<'a> Words<'a> {
             })
         }
     }
+
+    /// The next word when `wanted` accepts it; otherwise `None`, the cursor where it was.
+    fn next_if(&mut self, wanted: impl Fn(&str) -> bool) -> Option<&'a str> {
+        let save = self.pos;
+        match self.next() {
+            Some((w, _)) if wanted(w) => Some(w),
+            _ => {
+                self.pos = save;
+                None
+            }
+        }
+    }
+
+    /// Moves past a METADATA block: up to a blank line.
+    fn skip_metadata(&mut self) {
+        let rest = &self.b[self.pos..];
+        let end = rest
+            .windows(2)
+            .position(|p| p == b"\n\n")
+            .map_or(rest.len(), |k| k + 2);
+        self.pos += end.min(rest.len());
+    }
+
+    /// The type of colour and lookup-table values: bytes in a binary file, floats in ASCII.
+    fn byte_type(&self) -> Ty {
+        if self.binary { Ty::U8 } else { Ty::F32 }
+    }
+
+    /// Checks DATASET's type: one whose points are read.
+    fn dataset(&mut self) -> Result<(), ReadError> {
+        let (kind, k) = self.word("the dataset's type")?;
+        if !matches!(
+            kind.to_ascii_uppercase().as_str(),
+            "POLYDATA" | "UNSTRUCTURED_GRID" | "STRUCTURED_GRID"
+        ) {
+            return self.bad(k, format_args!("DATASET {kind}: the points are read from POLYDATA, UNSTRUCTURED_GRID and STRUCTURED_GRID"));
+        }
+        Ok(())
+    }
+
+    /// POINTS: their number and their array.
+    fn points(&mut self) -> Result<(u64, Array), ReadError> {
+        let n = self.number("the number of points")?;
+        let ty = self.ty()?;
+        let place = self.skip(n.saturating_mul(3), ty, "POINTS")?;
+        let array = Array {
+            name: POINTS.into(),
+            components: 3,
+            ty,
+            pieces: vec![place],
+        };
+        Ok((n, array))
+    }
+
+    /// Moves past a cell list (`key`: `VERTICES`... `CELLS`), in the count-and-size form or
+    /// VTK 5's `OFFSETS` and `CONNECTIVITY`.
+    fn cells(&mut self, key: &str) -> Result<(), ReadError> {
+        let a = self.number("a cell count")?;
+        let size = self.number("a cell list's size")?;
+        if self
+            .next_if(|o| o.eq_ignore_ascii_case("OFFSETS"))
+            .is_none()
+        {
+            self.skip(size, Ty::I32, key)?;
+            return Ok(());
+        }
+        let ty = self.ty()?;
+        self.skip(a, ty, "OFFSETS")?;
+        let (c, k) = self.word("CONNECTIVITY")?;
+        if !c.eq_ignore_ascii_case("CONNECTIVITY") {
+            return self.bad(
+                k,
+                format_args!("expected CONNECTIVITY after OFFSETS, found {c:?}"),
+            );
+        }
+        let ty = self.ty()?;
+        self.skip(size, ty, "CONNECTIVITY")?;
+        Ok(())
+    }
+
+    /// The rows of the attributes after POINT_DATA or CELL_DATA (`key`, at `at`); the
+    /// points' number must be the file's `count`.
+    fn data_rows(&mut self, key: &str, at: usize, count: Option<u64>) -> Result<Rows, ReadError> {
+        let n = self.number(key)?;
+        let points = key == "POINT_DATA";
+        if points && count.is_some_and(|c| c != n) {
+            return self.bad(
+                at,
+                format_args!(
+                    "POINT_DATA {n}, and the file has {} points",
+                    count.unwrap_or(0)
+                ),
+            );
+        }
+        Ok(if points {
+            Rows::Points(n)
+        } else {
+            Rows::Cells(n)
+        })
+    }
+
+    /// An attribute (`key`: `SCALARS`... `COLOR_SCALARS`, at `at`) of `rows`: its array when
+    /// the rows are the points', `None` when they are the cells'.
+    fn attribute(&mut self, key: &str, at: usize, rows: Rows) -> Result<Option<Array>, ReadError> {
+        let (Rows::Points(n) | Rows::Cells(n)) = rows;
+        let (name, _) = self.word("the attribute's name")?;
+        let name = name.to_string();
+        let (components, ty) = self.attribute_shape(key)?;
+        if components == 0 || components > 64 {
+            return self.bad(at, format_args!("{key} {name}: {components} components"));
+        }
+        let place = self.skip(
+            n.saturating_mul(components as u64),
+            ty,
+            &format!("{key} {name}"),
+        )?;
+        Ok(matches!(rows, Rows::Points(_)).then(|| Array {
+            name,
+            components,
+            ty,
+            pieces: vec![place],
+        }))
+    }
+
+    /// An attribute's components and type, as its keyword (`key`) writes them.
+    fn attribute_shape(&mut self, key: &str) -> Result<(u8, Ty), ReadError> {
+        Ok(match key {
+            "SCALARS" => self.scalars_shape()?,
+            "VECTORS" | "NORMALS" => (3, self.ty()?),
+            "TENSORS" => (9, self.ty()?),
+            "TENSORS6" => (6, self.ty()?),
+            "TEXTURE_COORDINATES" => {
+                let d = self.number("the texture's dimension")?;
+                (d.clamp(1, 3) as u8, self.ty()?)
+            }
+            _ => {
+                let k = self.number("the colour's values")?;
+                (k.clamp(1, 4) as u8, self.byte_type())
+            }
+        })
+    }
+
+    /// SCALARS' components and type: the type, then an optional component count (1 without)
+    /// and an optional LOOKUP_TABLE line.
+    fn scalars_shape(&mut self) -> Result<(u8, Ty), ReadError> {
+        let ty = self.ty()?;
+        let components = self
+            .next_if(|c| c.parse::<u8>().is_ok())
+            .map_or(1, |c| c.parse::<u8>().unwrap_or(1));
+        if self
+            .next_if(|l| l.eq_ignore_ascii_case("LOOKUP_TABLE"))
+            .is_some()
+        {
+            self.word("the lookup table's name")?;
+        }
+        Ok((components, ty))
+    }
+
+    /// Moves past a LOOKUP_TABLE: its name, its size and its RGBA values.
+    fn lookup_table(&mut self) -> Result<(), ReadError> {
+        self.word("the lookup table's name")?;
+        let size = self.number("the lookup table's size")?;
+        self.skip(size.saturating_mul(4), self.byte_type(), "LOOKUP_TABLE")?;
+        Ok(())
+    }
+
+    /// Reads a FIELD (at `at`) past, adding its arrays to `arrays` where `rows` are the
+    /// points'.
+    fn field(
+        &mut self,
+        at: usize,
+        rows: Option<Rows>,
+        arrays: &mut Vec<Array>,
+    ) -> Result<(), ReadError> {
+        self.word("the field's name")?;
+        let k = self.number("the field's number of arrays")?;
+        for _ in 0..k {
+            arrays.extend(self.field_array(at, rows)?);
+            // A METADATA block may follow an array.
+            if self
+                .next_if(|m| m.eq_ignore_ascii_case("METADATA"))
+                .is_some()
+            {
+                self.skip_metadata();
+            }
+        }
+        Ok(())
+    }
+
+    /// One array of a FIELD (at `at`): its array when `rows` are the points' (whose number
+    /// its tuples must be), `None` otherwise.
+    fn field_array(&mut self, at: usize, rows: Option<Rows>) -> Result<Option<Array>, ReadError> {
+        let (name, _) = self.word("a field array's name")?;
+        let name = name.to_string();
+        let comps = self.number("a field array's components")?;
+        let tuples = self.number("a field array's tuples")?;
+        let ty = self.ty()?;
+        if !(1..=64).contains(&comps) {
+            return self.bad(at, format_args!("field array {name}: {comps} components"));
+        }
+        let place = self.skip(
+            tuples.saturating_mul(comps),
+            ty,
+            &format!("field array {name}"),
+        )?;
+        match rows {
+            Some(Rows::Points(n)) if tuples == n => Ok(Some(Array {
+                name,
+                components: comps as u8,
+                ty,
+                pieces: vec![place],
+            })),
+            Some(Rows::Points(n)) => self.bad(
+                at,
+                format_args!("field array {name} has {tuples} tuples, and POINT_DATA {n}"),
+            ),
+            _ => Ok(None),
+        }
+    }
 }
 
-/// The structure of a legacy file.
-pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
+/// Whether the third line, the encoding, says BINARY (not ASCII); an error when it says
+/// neither.
+fn is_binary(b: &[u8]) -> Result<bool, ReadError> {
     // Three lines: the version, a title, the encoding.
     let mut lines = b.splitn(4, |&c| c == b'\n');
     let _version = lines.next();
@@ -144,122 +372,58 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
     let encoding = lines
         .next()
         .map(|l| String::from_utf8_lossy(l).trim().to_ascii_uppercase());
-    let binary = match encoding.as_deref() {
-        Some("ASCII") => false,
-        Some("BINARY") => true,
-        other => {
-            return Err(ReadError::Bad(format!(
-                "line 3 is {:?}, not ASCII or BINARY",
-                other.unwrap_or("")
-            )));
-        }
-    };
-    let header: usize = b
-        .iter()
+    match encoding.as_deref() {
+        Some("ASCII") => Ok(false),
+        Some("BINARY") => Ok(true),
+        other => Err(ReadError::Bad(format!(
+            "line 3 is {:?}, not ASCII or BINARY",
+            other.unwrap_or("")
+        ))),
+    }
+}
+
+/// Where the three header lines end (the file's length when it has fewer).
+fn header_end(b: &[u8]) -> usize {
+    b.iter()
         .enumerate()
         .filter(|(_, c)| **c == b'\n')
         .nth(2)
-        .map_or(b.len(), |(k, _)| k + 1);
+        .map_or(b.len(), |(k, _)| k + 1)
+}
+
+/// The structure of a legacy file.
+pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
+    let binary = is_binary(b)?;
     let mut w = Words {
         b,
-        pos: header,
+        pos: header_end(b),
         binary,
     };
     let mut count: Option<u64> = None;
     let mut arrays: Vec<Array> = Vec::new();
-    // Rows of the attributes read: the points' (POINT_DATA) or the cells' (CELL_DATA).
-    let mut rows: Option<(u64, bool)> = None;
+    // The rows of the attributes read, once POINT_DATA or CELL_DATA has said.
+    let mut rows: Option<Rows> = None;
     while let Some((key, at)) = w.next() {
         let key = key.to_ascii_uppercase();
-        let attribute_rows = |what: &str| -> Result<(u64, bool), ReadError> {
-            rows.ok_or_else(|| {
-                ReadError::Bad(format!(
-                    "line {}: {what} before POINT_DATA or CELL_DATA",
-                    line_of(b, at)
-                ))
-            })
-        };
         match key.as_str() {
-            "DATASET" => {
-                let (kind, k) = w.word("the dataset's type")?;
-                if !matches!(
-                    kind.to_ascii_uppercase().as_str(),
-                    "POLYDATA" | "UNSTRUCTURED_GRID" | "STRUCTURED_GRID"
-                ) {
-                    return w.bad(k, format_args!("DATASET {kind}: the points are read from POLYDATA, UNSTRUCTURED_GRID and STRUCTURED_GRID"));
-                }
-            }
+            "DATASET" => w.dataset()?,
             "DIMENSIONS" => {
                 for _ in 0..3 {
                     w.number("a dimension")?;
                 }
             }
             "POINTS" => {
-                let n = w.number("the number of points")?;
-                let ty = w.ty()?;
-                let place = w.skip(n.saturating_mul(3), ty, "POINTS")?;
+                let (n, points) = w.points()?;
                 count = Some(n);
-                arrays.insert(
-                    0,
-                    Array {
-                        name: POINTS.into(),
-                        components: 3,
-                        ty,
-                        pieces: vec![place],
-                    },
-                );
+                arrays.insert(0, points);
             }
-            "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => {
-                let a = w.number("a cell count")?;
-                let size = w.number("a cell list's size")?;
-                let before = w.pos;
-                match w.next() {
-                    Some((o, _)) if o.eq_ignore_ascii_case("OFFSETS") => {
-                        let ty = w.ty()?;
-                        w.skip(a, ty, "OFFSETS")?;
-                        let (c, k) = w.word("CONNECTIVITY")?;
-                        if !c.eq_ignore_ascii_case("CONNECTIVITY") {
-                            return w.bad(
-                                k,
-                                format_args!("expected CONNECTIVITY after OFFSETS, found {c:?}"),
-                            );
-                        }
-                        let ty = w.ty()?;
-                        w.skip(size, ty, "CONNECTIVITY")?;
-                    }
-                    _ => {
-                        w.pos = before;
-                        w.skip(size, Ty::I32, &key)?;
-                    }
-                }
-            }
+            "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" | "CELLS" => w.cells(&key)?,
             "CELL_TYPES" => {
                 let n = w.number("the number of cell types")?;
                 w.skip(n, Ty::I32, "CELL_TYPES")?;
             }
-            "METADATA" => {
-                // Up to a blank line.
-                let rest = &b[w.pos..];
-                let end = rest
-                    .windows(2)
-                    .position(|p| p == b"\n\n")
-                    .map_or(rest.len(), |k| k + 2);
-                w.pos += end.min(rest.len());
-            }
-            "POINT_DATA" | "CELL_DATA" => {
-                let n = w.number(&key)?;
-                let points = key == "POINT_DATA";
-                if points && count.is_some_and(|c| c != n) {
-                    return w.bad(
-                        at,
-                        format_args!(
-                            "POINT_DATA {n}, and the file has {} points",
-                            count.unwrap_or(0)
-                        ),
-                    );
-                }
-                rows = Some((n, points));
-            }
+            "METADATA" => w.skip_metadata(),
+            "POINT_DATA" | "CELL_DATA" => rows = Some(w.data_rows(&key, at, count)?),
             "SCALARS"
             | "VECTORS"
             | "NORMALS"
@@ -267,117 +431,13 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
             | "TENSORS6"
             | "TEXTURE_COORDINATES"
             | "COLOR_SCALARS" => {
-                let (n, points) = attribute_rows(&key)?;
-                let (name, _) = w.word("the attribute's name")?;
-                let name = name.to_string();
-                let (components, ty) = match key.as_str() {
-                    "SCALARS" => {
-                        let ty = w.ty()?;
-                        // An optional component count, then an optional LOOKUP_TABLE line.
-                        let save = w.pos;
-                        let comps = match w.next() {
-                            Some((c, _)) if c.parse::<u8>().is_ok() => c.parse::<u8>().unwrap_or(1),
-                            _ => {
-                                w.pos = save;
-                                1
-                            }
-                        };
-                        let save = w.pos;
-                        match w.next() {
-                            Some((l, _)) if l.eq_ignore_ascii_case("LOOKUP_TABLE") => {
-                                w.word("the lookup table's name")?;
-                            }
-                            _ => w.pos = save,
-                        }
-                        (comps, ty)
-                    }
-                    "VECTORS" | "NORMALS" => (3, w.ty()?),
-                    "TENSORS" => (9, w.ty()?),
-                    "TENSORS6" => (6, w.ty()?),
-                    "TEXTURE_COORDINATES" => {
-                        let d = w.number("the texture's dimension")?;
-                        (d.clamp(1, 3) as u8, w.ty()?)
-                    }
-                    _ => {
-                        let k = w.number("the colour's values")?;
-                        (k.clamp(1, 4) as u8, if binary { Ty::U8 } else { Ty::F32 })
-                    }
+                let Some(rows) = rows else {
+                    return w.bad(at, format_args!("{key} before POINT_DATA or CELL_DATA"));
                 };
-                if components == 0 || components > 64 {
-                    return w.bad(at, format_args!("{key} {name}: {components} components"));
-                }
-                let place = w.skip(
-                    n.saturating_mul(components as u64),
-                    ty,
-                    &format!("{key} {name}"),
-                )?;
-                if points {
-                    arrays.push(Array {
-                        name,
-                        components,
-                        ty,
-                        pieces: vec![place],
-                    });
-                }
+                arrays.extend(w.attribute(&key, at, rows)?);
             }
-            "LOOKUP_TABLE" => {
-                w.word("the lookup table's name")?;
-                let size = w.number("the lookup table's size")?;
-                w.skip(
-                    size.saturating_mul(4),
-                    if binary { Ty::U8 } else { Ty::F32 },
-                    "LOOKUP_TABLE",
-                )?;
-            }
-            "FIELD" => {
-                w.word("the field's name")?;
-                let k = w.number("the field's number of arrays")?;
-                for _ in 0..k {
-                    let (name, _) = w.word("a field array's name")?;
-                    let name = name.to_string();
-                    let comps = w.number("a field array's components")?;
-                    let tuples = w.number("a field array's tuples")?;
-                    let ty = w.ty()?;
-                    if !(1..=64).contains(&comps) {
-                        return w.bad(at, format_args!("field array {name}: {comps} components"));
-                    }
-                    let place = w.skip(
-                        tuples.saturating_mul(comps),
-                        ty,
-                        &format!("field array {name}"),
-                    )?;
-                    match rows {
-                        Some((n, true)) if tuples == n => arrays.push(Array {
-                            name,
-                            components: comps as u8,
-                            ty,
-                            pieces: vec![place],
-                        }),
-                        Some((n, true)) => {
-                            return w.bad(
-                                at,
-                                format_args!(
-                                    "field array {name} has {tuples} tuples, and POINT_DATA {n}"
-                                ),
-                            );
-                        }
-                        _ => {}
-                    }
-                    // A METADATA block may follow an array.
-                    let save = w.pos;
-                    match w.next() {
-                        Some((m, _)) if m.eq_ignore_ascii_case("METADATA") => {
-                            let rest = &b[w.pos..];
-                            let end = rest
-                                .windows(2)
-                                .position(|p| p == b"\n\n")
-                                .map_or(rest.len(), |e| e + 2);
-                            w.pos += end.min(rest.len());
-                        }
-                        _ => w.pos = save,
-                    }
-                }
-            }
+            "LOOKUP_TABLE" => w.lookup_table()?,
+            "FIELD" => w.field(at, rows, &mut arrays)?,
             other => {
                 return w.bad(
                     at,

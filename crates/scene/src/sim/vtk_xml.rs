@@ -133,43 +133,10 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
         match tag.name.as_str() {
             "VTKFile" => {
                 seen_file = true;
-                match tag.get("type") {
-                    Some("PolyData" | "UnstructuredGrid") => {}
-                    other => {
-                        return bad(
-                            b,
-                            tag.start,
-                            format_args!(
-                                "VTKFile type {:?}: the points are read from PolyData (.vtp) and UnstructuredGrid (.vtu) files",
-                                other.unwrap_or("")
-                            ),
-                        );
-                    }
-                }
-                encoding.big = tag.get("byte_order") == Some("BigEndian");
-                encoding.header64 = tag.get("header_type") == Some("UInt64");
-                encoding.zlib = match tag.get("compressor") {
-                    None | Some("") => false,
-                    Some("vtkZLibDataCompressor") => true,
-                    Some(other) => {
-                        return bad(
-                            b,
-                            tag.start,
-                            format_args!(
-                                "compressor {other}: only vtkZLibDataCompressor (or none) is read"
-                            ),
-                        );
-                    }
-                };
+                encoding = file_encoding(b, &tag)?;
             }
             "Piece" => {
-                let n = tag
-                    .get("NumberOfPoints")
-                    .and_then(|n| n.parse::<u64>().ok());
-                let Some(n) = n else {
-                    return bad(b, tag.start, "a Piece without a whole NumberOfPoints");
-                };
-                counts.push(n);
+                counts.push(piece_count(b, &tag)?);
                 pieces.push(Vec::new());
             }
             "DataArray" => {
@@ -180,21 +147,7 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
                 }
             }
             "AppendedData" => {
-                let Some(underscore) = b[tag.end..].iter().position(|&c| c == b'_') else {
-                    return bad(b, tag.start, "AppendedData without its '_' before the data");
-                };
-                let base64 = match tag.get("encoding") {
-                    Some("base64") => true,
-                    Some("raw") | None => false,
-                    Some(other) => {
-                        return bad(
-                            b,
-                            tag.start,
-                            format_args!("AppendedData encoding {other:?}: raw or base64"),
-                        );
-                    }
-                };
-                encoding.appended = Some((tag.end + underscore + 1, base64));
+                encoding.appended = Some(appended(b, &tag)?);
                 break;
             }
             _ => {}
@@ -211,7 +164,92 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
     if pieces.is_empty() {
         return Err(ReadError::Bad("no Piece: no points".into()));
     }
-    // Every piece with the same arrays; the points first.
+    let arrays = every_piece_arrays(b, pieces)?;
+    for a in &arrays {
+        if let Some(Place::Appended { .. }) = a.pieces.first()
+            && encoding.appended.is_none()
+        {
+            return Err(ReadError::Bad(format!(
+                "array {} is appended, and the file has no AppendedData",
+                a.name
+            )));
+        }
+    }
+    Ok(Structure {
+        piece_counts: counts,
+        arrays,
+        encoding,
+    })
+}
+
+/// How a `<VTKFile>` tag says its binary data is written (nothing appended yet); an error
+/// for a type whose points are not read or a compressor that is not.
+fn file_encoding(b: &[u8], tag: &Tag) -> Result<Encoding, ReadError> {
+    match tag.get("type") {
+        Some("PolyData" | "UnstructuredGrid") => {}
+        other => {
+            return bad(
+                b,
+                tag.start,
+                format_args!(
+                    "VTKFile type {:?}: the points are read from PolyData (.vtp) and UnstructuredGrid (.vtu) files",
+                    other.unwrap_or("")
+                ),
+            );
+        }
+    }
+    let zlib = match tag.get("compressor") {
+        None | Some("") => false,
+        Some("vtkZLibDataCompressor") => true,
+        Some(other) => {
+            return bad(
+                b,
+                tag.start,
+                format_args!("compressor {other}: only vtkZLibDataCompressor (or none) is read"),
+            );
+        }
+    };
+    Ok(Encoding {
+        big: tag.get("byte_order") == Some("BigEndian"),
+        header64: tag.get("header_type") == Some("UInt64"),
+        zlib,
+        appended: None,
+    })
+}
+
+/// A `<Piece>` tag's number of points.
+fn piece_count(b: &[u8], tag: &Tag) -> Result<u64, ReadError> {
+    let n = tag
+        .get("NumberOfPoints")
+        .and_then(|n| n.parse::<u64>().ok());
+    match n {
+        Some(n) => Ok(n),
+        None => bad(b, tag.start, "a Piece without a whole NumberOfPoints"),
+    }
+}
+
+/// Where an `<AppendedData>` tag's data begins (after its `_`) and whether it is base64.
+fn appended(b: &[u8], tag: &Tag) -> Result<(usize, bool), ReadError> {
+    let Some(underscore) = b[tag.end..].iter().position(|&c| c == b'_') else {
+        return bad(b, tag.start, "AppendedData without its '_' before the data");
+    };
+    let base64 = match tag.get("encoding") {
+        Some("base64") => true,
+        Some("raw") | None => false,
+        Some(other) => {
+            return bad(
+                b,
+                tag.start,
+                format_args!("AppendedData encoding {other:?}: raw or base64"),
+            );
+        }
+    };
+    Ok((tag.end + underscore + 1, base64))
+}
+
+/// The arrays that every piece holds alike, the points' first, each with its places in
+/// every piece; an error for a piece without points or with other arrays than piece 1's.
+fn every_piece_arrays(b: &[u8], pieces: Vec<Vec<Found>>) -> Result<Vec<Array>, ReadError> {
     let mut arrays: Vec<Array> = Vec::new();
     for (p, found) in pieces.into_iter().enumerate() {
         let mut found: Vec<Found> = found;
@@ -240,21 +278,7 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
             a.pieces.extend(f.array.pieces);
         }
     }
-    for a in &arrays {
-        if let Some(Place::Appended { .. }) = a.pieces.first()
-            && encoding.appended.is_none()
-        {
-            return Err(ReadError::Bad(format!(
-                "array {} is appended, and the file has no AppendedData",
-                a.name
-            )));
-        }
-    }
-    Ok(Structure {
-        piece_counts: counts,
-        arrays,
-        encoding,
-    })
+    Ok(arrays)
 }
 
 /// A `<DataArray>` tag: its name, type, components and where its values are.
@@ -295,6 +319,21 @@ fn data_array(b: &[u8], tag: &Tag, points: bool) -> Result<Found, ReadError> {
             format_args!("the Points array has {components} components, not 3"),
         );
     }
+    let place = data_place(b, tag, &name)?;
+    Ok(Found {
+        array: Array {
+            name,
+            components,
+            ty,
+            pieces: vec![place],
+        },
+        at: tag.start,
+    })
+}
+
+/// Where the values of a `<DataArray>` tag (of array `name`) are, as its format says: its
+/// content (text or base64, up to the next tag) or an offset in the appended data.
+fn data_place(b: &[u8], tag: &Tag, name: &str) -> Result<Place, ReadError> {
     let content_end = match tag.empty {
         true => tag.end,
         false => b[tag.end..]
@@ -302,7 +341,7 @@ fn data_array(b: &[u8], tag: &Tag, points: bool) -> Result<Found, ReadError> {
             .position(|&c| c == b'<')
             .map_or(b.len(), |k| tag.end + k),
     };
-    let place = match tag.get("format").unwrap_or("ascii") {
+    Ok(match tag.get("format").unwrap_or("ascii") {
         "ascii" => Place::Text {
             start: tag.end,
             end: content_end,
@@ -328,14 +367,5 @@ fn data_array(b: &[u8], tag: &Tag, points: bool) -> Result<Found, ReadError> {
                 format_args!("DataArray {name} has format {other:?}: ascii, binary or appended"),
             );
         }
-    };
-    Ok(Found {
-        array: Array {
-            name,
-            components,
-            ty,
-            pieces: vec![place],
-        },
-        at: tag.start,
     })
 }

@@ -132,26 +132,10 @@ pub(crate) fn next_snapshot(
     lines: &mut Lines,
     last: Option<&Arc<[Column]>>,
 ) -> Result<Option<Snapshot>, ReadError> {
-    let (start, count_text) = loop {
-        let at = lines.position().line;
-        match lines.next_line()? {
-            None => return Ok(None),
-            Some(l) if l.trim().is_empty() => continue,
-            Some(l) => break (at, l.trim().to_string()),
-        }
+    let Some((start, count_text)) = lines.next_filled_line()? else {
+        return Ok(None);
     };
-    let count: u64 = match count_text.split_whitespace().next().map(str::parse) {
-        Some(Ok(n)) if count_text.split_whitespace().count() == 1 => n,
-        _ => {
-            return bad(
-                start,
-                format_args!(
-                    "expected a frame's atom count, found \"{}\" (the count line before it lies?)",
-                    raytrace_core::error::elide(&count_text)
-                ),
-            );
-        }
-    };
+    let count = atom_count(start, &count_text)?;
     let comment_line = lines.position().line;
     let Some(comment) = lines.next_line()? else {
         return bad(
@@ -170,59 +154,7 @@ pub(crate) fn next_snapshot(
     };
     let cell = match keys.get("lattice") {
         None => None,
-        Some(text) => {
-            let numbers = |text: &str, n: usize, key: &str| -> Result<Vec<f64>, ReadError> {
-                let v: Vec<f64> = text
-                    .split_whitespace()
-                    .map(str::parse)
-                    .collect::<Result<_, _>>()
-                    .or_else(|_| {
-                        bad(
-                            comment_line,
-                            format_args!("{key}= holds a field that is not a number"),
-                        )
-                    })?;
-                if v.len() != n {
-                    return bad(
-                        comment_line,
-                        format_args!("{key}= holds {} numbers, not {n}", v.len()),
-                    );
-                }
-                Ok(v)
-            };
-            let l = numbers(text, 9, "Lattice")?;
-            let origin = match keys.get("origin") {
-                Some(o) => DVec3::from_slice(&numbers(o, 3, "Origin")?),
-                None => DVec3::ZERO,
-            };
-            let periodic = match keys.get("pbc") {
-                None => [true; 3],
-                Some(p) => {
-                    let f: Vec<&str> = p.split_whitespace().collect();
-                    let flag = |s: &str| match s {
-                        "T" | "t" | "True" | "true" | "1" => Some(true),
-                        "F" | "f" | "False" | "false" | "0" => Some(false),
-                        _ => None,
-                    };
-                    match f[..] {
-                        [a, b, c] => match (flag(a), flag(b), flag(c)) {
-                            (Some(a), Some(b), Some(c)) => [a, b, c],
-                            _ => return bad(comment_line, "pbc= holds a flag that is not T or F"),
-                        },
-                        _ => return bad(comment_line, "pbc= holds three flags (T or F)"),
-                    }
-                }
-            };
-            let edges = DMat3::from_cols(
-                DVec3::from_slice(&l[0..3]),
-                DVec3::from_slice(&l[3..6]),
-                DVec3::from_slice(&l[6..9]),
-            );
-            Some(
-                Cell::new(origin, edges, periodic)
-                    .or_else(|m| bad(comment_line, format_args!("Lattice=: {m}")))?,
-            )
-        }
+        Some(lattice) => Some(lattice_cell(lattice, &keys, comment_line)?),
     };
     Ok(Some(Snapshot {
         line: start,
@@ -232,6 +164,83 @@ pub(crate) fn next_snapshot(
         cell,
         columns,
     }))
+}
+
+/// The atom count of a frame's count line (`text`, line `line`): one whole number alone.
+fn atom_count(line: u64, text: &str) -> Result<u64, ReadError> {
+    match text.split_whitespace().next().map(str::parse) {
+        Some(Ok(n)) if text.split_whitespace().count() == 1 => Ok(n),
+        _ => bad(
+            line,
+            format_args!(
+                "expected a frame's atom count, found \"{}\" (the count line before it lies?)",
+                raytrace_core::error::elide(text)
+            ),
+        ),
+    }
+}
+
+/// The cell a comment line (line `line`, its pairs `keys`) declares: `Lattice=`'s three edge
+/// vectors (`lattice`), at `Origin=` (default 0), periodic as `pbc=` says (default: all).
+fn lattice_cell(
+    lattice: &str,
+    keys: &HashMap<String, String>,
+    line: u64,
+) -> Result<Cell, ReadError> {
+    let l = numbers(lattice, 9, "Lattice", line)?;
+    let origin = match keys.get("origin") {
+        Some(o) => DVec3::from_slice(&numbers(o, 3, "Origin", line)?),
+        None => DVec3::ZERO,
+    };
+    let periodic = match keys.get("pbc") {
+        None => [true; 3],
+        Some(p) => pbc_flags(p, line)?,
+    };
+    let edges = DMat3::from_cols(
+        DVec3::from_slice(&l[0..3]),
+        DVec3::from_slice(&l[3..6]),
+        DVec3::from_slice(&l[6..9]),
+    );
+    Cell::new(origin, edges, periodic).or_else(|m| bad(line, format_args!("Lattice=: {m}")))
+}
+
+/// The `n` numbers of a comment line's (line `line`) `key=` value `text`.
+fn numbers(text: &str, n: usize, key: &str, line: u64) -> Result<Vec<f64>, ReadError> {
+    let v: Vec<f64> = text
+        .split_whitespace()
+        .map(str::parse)
+        .collect::<Result<_, _>>()
+        .or_else(|_| {
+            bad(
+                line,
+                format_args!("{key}= holds a field that is not a number"),
+            )
+        })?;
+    if v.len() != n {
+        return bad(
+            line,
+            format_args!("{key}= holds {} numbers, not {n}", v.len()),
+        );
+    }
+    Ok(v)
+}
+
+/// Which of the cell's axes are periodic, as a comment line's (line `line`) `pbc=` value
+/// `text` says: three flags, T or F.
+fn pbc_flags(text: &str, line: u64) -> Result<[bool; 3], ReadError> {
+    let f: Vec<&str> = text.split_whitespace().collect();
+    let flag = |s: &str| match s {
+        "T" | "t" | "True" | "true" | "1" => Some(true),
+        "F" | "f" | "False" | "false" | "0" => Some(false),
+        _ => None,
+    };
+    match f[..] {
+        [a, b, c] => match (flag(a), flag(b), flag(c)) {
+            (Some(a), Some(b), Some(c)) => Ok([a, b, c]),
+            _ => bad(line, "pbc= holds a flag that is not T or F"),
+        },
+        _ => bad(line, "pbc= holds three flags (T or F)"),
+    }
 }
 
 /// Skips the atom lines of `snap`; an error when the file ends first. The last line is read:
@@ -309,47 +318,8 @@ pub(crate) fn read_rows(
         let mut n = 0;
         for field in text.split_ascii_whitespace() {
             if n < columns && slot[n] != usize::MAX {
-                let c = &snap.columns[n];
-                let value = match c.kind {
-                    ColumnKind::Text => match labels.iter().position(|l| l == field) {
-                        Some(k) => Some(k as f64),
-                        // At most 65,536 distinct labels (species) in a frame.
-                        None if labels.len() < 1 << 16 => {
-                            labels.push(field.to_string());
-                            Some((labels.len() - 1) as f64)
-                        }
-                        None => {
-                            return bad(
-                                line,
-                                format_args!(
-                                    "atom {i}: more than 65536 different {} values",
-                                    c.name
-                                ),
-                            );
-                        }
-                    },
-                    ColumnKind::Logical => match field {
-                        "T" | "True" | "true" => Some(1.0),
-                        "F" | "False" | "false" => Some(0.0),
-                        _ => None,
-                    },
-                    ColumnKind::Integer => field.parse::<i64>().ok().map(|x| x as f64),
-                    ColumnKind::Real | ColumnKind::List => field.parse::<f64>().ok(),
-                };
-                values[slot[n]] = match value {
-                    Some(v) => v,
-                    None => {
-                        return bad(
-                            line,
-                            format_args!(
-                                "atom {i}: {} is \"{}\", not {}",
-                                c.label(),
-                                raytrace_core::error::elide(field),
-                                c.kind.expected()
-                            ),
-                        );
-                    }
-                };
+                let value = field_value(field, &snap.columns[n], &mut labels);
+                values[slot[n]] = value.or_else(|m| bad(line, format_args!("atom {i}: {m}")))?;
             }
             n += 1;
         }
@@ -365,6 +335,37 @@ pub(crate) fn read_rows(
         row(i, &values).or_else(|m| bad(line, m))?;
     }
     Ok(labels)
+}
+
+/// The value of `field` in column `c`: a number as it is, a logical as 1 or 0, text as the
+/// index of its first appearance in `labels` (added there when new).
+fn field_value(field: &str, c: &Column, labels: &mut Vec<String>) -> Result<f64, String> {
+    let value = match c.kind {
+        ColumnKind::Text => match labels.iter().position(|l| l == field) {
+            Some(k) => Some(k as f64),
+            // At most 65,536 distinct labels (species) in a frame.
+            None if labels.len() < 1 << 16 => {
+                labels.push(field.to_string());
+                Some((labels.len() - 1) as f64)
+            }
+            None => return Err(format!("more than 65536 different {} values", c.name)),
+        },
+        ColumnKind::Logical => match field {
+            "T" | "True" | "true" => Some(1.0),
+            "F" | "False" | "false" => Some(0.0),
+            _ => None,
+        },
+        ColumnKind::Integer => field.parse::<i64>().ok().map(|x| x as f64),
+        ColumnKind::Real | ColumnKind::List => field.parse::<f64>().ok(),
+    };
+    value.ok_or_else(|| {
+        format!(
+            "{} is \"{}\", not {}",
+            c.label(),
+            raytrace_core::error::elide(field),
+            c.kind.expected()
+        )
+    })
 }
 
 #[cfg(test)]

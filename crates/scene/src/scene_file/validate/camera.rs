@@ -1,6 +1,7 @@
 //! The camera's checks: a view that never degenerates, at the keys and exactly between them.
 
 use super::*;
+use crate::scene_file::schema::RawCameraKey;
 
 impl Check<'_> {
     /// Checks that `up` can orient a camera: not zero, nor so short that it underflows.
@@ -89,6 +90,8 @@ impl Check<'_> {
         Ok(())
     }
 
+    /// The camera rig of `c`: its view checked never to degenerate, still, orbiting or
+    /// between keyframes.
     pub(super) fn camera(&self, c: &RawCamera) -> Result<CameraRig, String> {
         let from = self.vec(
             "camera.look_from",
@@ -130,33 +133,7 @@ impl Check<'_> {
                 Motion::Still(at),
             )
         } else if let Some(keys) = &c.keyframes {
-            let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time.0))?;
-            let (mut f, mut a) = (from, at);
-            let (mut fk, mut ak) = (Vec::<Key>::new(), Vec::<Key>::new());
-            for (i, (k, time)) in keys.iter().zip(times).enumerate() {
-                let field = format!("camera.keyframes[{i}]");
-                if let Some(v) = k.look_from {
-                    f = self.vec(&format!("{field}.look_from"), v)?;
-                }
-                if let Some(v) = k.look_at {
-                    a = self.vec(&format!("{field}.look_at"), v)?;
-                }
-                self.view(&field, f, a, up)?;
-                // Between keys both points move linearly; before the first key and after the
-                // last they are held, at views just checked.
-                if let (Some(pf), Some(pa)) = (fk.last(), ak.last()) {
-                    self.views(
-                        &format!("camera.keyframes[{}..{i}]", i - 1),
-                        (pf.position, pa.position),
-                        (f, a),
-                        up,
-                        Some((pf.time, time)),
-                    )?;
-                }
-                fk.push(Key { time, position: f });
-                ak.push(Key { time, position: a });
-            }
-            (Motion::Keyframes(fk), Motion::Keyframes(ak))
+            self.camera_keyframes(keys, from, at, up)?
         } else {
             self.view("camera", from, at, up)?;
             (Motion::Still(from), Motion::Still(at))
@@ -169,6 +146,44 @@ impl Check<'_> {
             aperture,
             focus_distance,
         })
+    }
+
+    /// The motions of look_from and look_at through `keys` (a key without one keeps the one
+    /// before, from `from` and `at`): each key's view checked, and the views between keys.
+    fn camera_keyframes(
+        &self,
+        keys: &[RawCameraKey],
+        from: DVec3,
+        at: DVec3,
+        up: DVec3,
+    ) -> Result<(Motion, Motion), String> {
+        let times = self.keys("camera.keyframes", keys.iter().map(|k| k.time.0))?;
+        let (mut f, mut a) = (from, at);
+        let (mut fk, mut ak) = (Vec::<Key>::new(), Vec::<Key>::new());
+        for (i, (k, time)) in keys.iter().zip(times).enumerate() {
+            let field = format!("camera.keyframes[{i}]");
+            if let Some(v) = k.look_from {
+                f = self.vec(&format!("{field}.look_from"), v)?;
+            }
+            if let Some(v) = k.look_at {
+                a = self.vec(&format!("{field}.look_at"), v)?;
+            }
+            self.view(&field, f, a, up)?;
+            // Between keys both points move linearly; before the first key and after the
+            // last they are held, at views just checked.
+            if let (Some(pf), Some(pa)) = (fk.last(), ak.last()) {
+                self.views(
+                    &format!("camera.keyframes[{}..{i}]", i - 1),
+                    (pf.position, pa.position),
+                    (f, a),
+                    up,
+                    Some((pf.time, time)),
+                )?;
+            }
+            fk.push(Key { time, position: f });
+            ak.push(Key { time, position: a });
+        }
+        Ok((Motion::Keyframes(fk), Motion::Keyframes(ak)))
     }
 }
 

@@ -47,26 +47,7 @@ impl Check<'_> {
         names: &BTreeMap<&str, u32>,
         materials: &mut Vec<Material>,
     ) -> Result<PointCacheDesc, String> {
-        if p.file.trim().is_empty() {
-            return self.err(format_args!("{field}.file must not be empty"));
-        }
-        let file = match source.parent() {
-            Some(dir) if Path::new(&p.file).is_relative() => {
-                dir.join(&p.file).to_string_lossy().into_owned()
-            }
-            _ => p.file.clone(),
-        };
-        let file = FramePattern::new(file)
-            .or_else(|e| self.err(format_args!("{field}.file \"{}\": {e}", p.file)))?;
-        if p.file.contains('*') {
-            let name = Path::new(&p.file).file_name().map(|n| n.to_string_lossy());
-            let stars = p.file.matches('*').count();
-            if p.file.contains('#') || stars > 1 || !name.is_some_and(|n| n.contains('*')) {
-                return self.err(format_args!(
-                    "{field}.file may hold one '*' (any number: a series of one file a snapshot), in the file's name, and no '#' with it"
-                ));
-            }
-        }
+        let file = self.cache_file(field, p, source)?;
         let format = p
             .format
             .map_or_else(|| CacheFormat::from_name(&p.file), |f| f.0);
@@ -101,6 +82,79 @@ impl Check<'_> {
             RawPointMotion::Interpolate => PointMotion::Interpolate,
             RawPointMotion::None => PointMotion::Still,
         });
+        let snapshots = self.snapshot_time(field, p, format)?;
+        let velocity_scale = match p.velocity_scale {
+            Some(s) => self.num(&format!("{field}.velocity_scale"), s.0)?,
+            None => 1.0,
+        };
+        let types = self.type_looks(field, p, &mut material)?;
+        for (key, column) in [("radius_by", &p.radius_by), ("color_by", &p.color_by)] {
+            if column.as_ref().is_some_and(|c| c.trim().is_empty()) {
+                return self.err(format_args!("{field}.{key} must name a column"));
+            }
+        }
+        let desc = PointCacheDesc {
+            file,
+            format,
+            material: base,
+            radius,
+            motion,
+            snapshots,
+            velocity_scale,
+            periodic: p.periodic,
+            color_by,
+            radius_by: p.radius_by.clone(),
+            types,
+        };
+        let moves_on = desc.is_sequence() || desc.is_series() || format.has_snapshots();
+        if motion == Some(PointMotion::Interpolate) && !moves_on {
+            return self.err(format_args!(
+                "{field}.motion = \"interpolate\" moves each point to its place in the next snapshot, and {field}.file is one {} file for every frame: name a sequence (with # for the frame number) or a series (with *), or use velocity",
+                format.name()
+            ));
+        }
+        Ok(desc)
+    }
+
+    /// The file of cache `p` (at `field`), joined to the scene file `source`'s folder: one
+    /// file, a sequence (`#`) or a series (one `*`, in the file's name).
+    fn cache_file(
+        &self,
+        field: &str,
+        p: &RawPoints,
+        source: &Path,
+    ) -> Result<FramePattern, String> {
+        if p.file.trim().is_empty() {
+            return self.err(format_args!("{field}.file must not be empty"));
+        }
+        let file = match source.parent() {
+            Some(dir) if Path::new(&p.file).is_relative() => {
+                dir.join(&p.file).to_string_lossy().into_owned()
+            }
+            _ => p.file.clone(),
+        };
+        let file = FramePattern::new(file)
+            .or_else(|e| self.err(format_args!("{field}.file \"{}\": {e}", p.file)))?;
+        if p.file.contains('*') {
+            let name = Path::new(&p.file).file_name().map(|n| n.to_string_lossy());
+            let stars = p.file.matches('*').count();
+            if p.file.contains('#') || stars > 1 || !name.is_some_and(|n| n.contains('*')) {
+                return self.err(format_args!(
+                    "{field}.file may hold one '*' (any number: a series of one file a snapshot), in the file's name, and no '#' with it"
+                ));
+            }
+        }
+        Ok(file)
+    }
+
+    /// When cache `p`'s (at `field`, of `format`) snapshots are shown: one a frame, or at
+    /// TIMESTEP * `dt` (LAMMPS dumps, not a sequence).
+    fn snapshot_time(
+        &self,
+        field: &str,
+        p: &RawPoints,
+        format: CacheFormat,
+    ) -> Result<SnapshotTime, String> {
         let snapshots = match (p.snapshots, p.dt) {
             (Some(RawSnapshots::Timestep), Some(dt)) => SnapshotTime::Timestep {
                 dt: self.positive(&format!("{field}.dt"), dt.0)?,
@@ -130,59 +184,42 @@ impl Check<'_> {
                 ));
             }
         }
-        let velocity_scale = match p.velocity_scale {
-            Some(s) => self.num(&format!("{field}.velocity_scale"), s.0)?,
-            None => 1.0,
-        };
+        Ok(snapshots)
+    }
+
+    /// The looks of cache `p`'s (at `field`) `types`: each type's radius, and its material's
+    /// index (from `material`, given the material and where it is).
+    fn type_looks(
+        &self,
+        field: &str,
+        p: &RawPoints,
+        material: &mut impl FnMut(&MaterialRef, &str) -> Result<u32, String>,
+    ) -> Result<Vec<TypeLook>, String> {
         let mut types = Vec::new();
-        if let Some(t) = &p.types {
-            if t.len() > MAX_TYPES {
-                return self.err(format_args!(
-                    "{field}.types has {} entries, more than {MAX_TYPES}",
-                    t.len()
-                ));
-            }
-            for (key, look) in t {
-                let at = format!("{field}.types.\"{key}\"");
-                types.push(TypeLook {
-                    key: key.clone(),
-                    radius: match look.radius {
-                        Some(r) => Some(self.positive(&format!("{at}.radius"), r.0)?),
-                        None => None,
-                    },
-                    material: match &look.material {
-                        Some(m) => Some(material(m, &at)?),
-                        None => None,
-                    },
-                });
-            }
-        }
-        for (key, column) in [("radius_by", &p.radius_by), ("color_by", &p.color_by)] {
-            if column.as_ref().is_some_and(|c| c.trim().is_empty()) {
-                return self.err(format_args!("{field}.{key} must name a column"));
-            }
-        }
-        let desc = PointCacheDesc {
-            file,
-            format,
-            material: base,
-            radius,
-            motion,
-            snapshots,
-            velocity_scale,
-            periodic: p.periodic,
-            color_by,
-            radius_by: p.radius_by.clone(),
-            types,
+        let Some(t) = &p.types else {
+            return Ok(types);
         };
-        let moves_on = desc.is_sequence() || desc.is_series() || format.has_snapshots();
-        if motion == Some(PointMotion::Interpolate) && !moves_on {
+        if t.len() > MAX_TYPES {
             return self.err(format_args!(
-                "{field}.motion = \"interpolate\" moves each point to its place in the next snapshot, and {field}.file is one {} file for every frame: name a sequence (with # for the frame number) or a series (with *), or use velocity",
-                format.name()
+                "{field}.types has {} entries, more than {MAX_TYPES}",
+                t.len()
             ));
         }
-        Ok(desc)
+        for (key, look) in t {
+            let at = format!("{field}.types.\"{key}\"");
+            types.push(TypeLook {
+                key: key.clone(),
+                radius: match look.radius {
+                    Some(r) => Some(self.positive(&format!("{at}.radius"), r.0)?),
+                    None => None,
+                },
+                material: match &look.material {
+                    Some(m) => Some(material(m, &at)?),
+                    None => None,
+                },
+            });
+        }
+        Ok(types)
     }
 
     /// `color_by` with its `colormap` and `color_range`.
