@@ -70,6 +70,54 @@ struct Group {
 }
 
 impl Group {
+    /// The group of `records` (points whose sets share a time `lead` seconds before the
+    /// shutter opens) with its hierarchy for `interval`, and how many of them move during it.
+    fn build(mut records: Vec<Record>, lead: f64, interval: Interval) -> (Group, usize) {
+        let duration = interval.close - interval.open;
+        let moving = if interval.is_instant() {
+            0
+        } else {
+            records.par_iter().filter(|q| q.v != Vec3::ZERO).count()
+        };
+        // The build's boxes, in `f32` (they only steer its splits).
+        let (lead32, duration32) = (lead as f32, duration as f32);
+        let bounds = |q: &Record| {
+            let start = q.p + q.v * lead32;
+            BuildBox {
+                lo: start - q.radius,
+                hi: start + q.radius,
+                shift: q.v * duration32,
+            }
+        };
+        let topology = Topology::build_in_place(&mut records, bounds, NODE_COST);
+        let mut group = Group {
+            lead,
+            records,
+            topology,
+            boxes: Boxes::default(),
+        };
+        group.boxes = if moving == 0 {
+            group.topology.refit_still_with(&|pos| {
+                let q = &group.records[pos as usize];
+                Aabb::point(group.center(q, 0.0))
+                    .grow(q.radius.into())
+                    .pad_for_rounding()
+            })
+        } else {
+            // As `PreparedPoint::shutter_boxes`: the sphere at the opening and at the
+            // closing, padded for the interpolation's rounding.
+            group.topology.refit_moving_with(&|pos| {
+                let q = &group.records[pos as usize];
+                let r = f64::from(q.radius);
+                let start = group.center(q, 0.0);
+                let open = Aabb::point(start).grow(r);
+                let close = Aabb::point(start + q.v.as_dvec3() * duration).grow(r);
+                pad_for_interpolation(open, close)
+            })
+        };
+        (group, moving)
+    }
+
     /// The centre of `q` at `dt` seconds after the shutter opened.
     #[inline(always)]
     fn center(&self, q: &Record, dt: f64) -> DVec3 {
@@ -105,8 +153,6 @@ impl TracedPoints {
     /// pool), point `k` (numbered over every set) numbered `first_id + k`. The same records
     /// and hierarchies on any number of threads.
     pub(crate) fn prepare(points: &FramePoints, first_id: u32, interval: Interval) -> TracedPoints {
-        let duration = interval.close - interval.open;
-        let still = interval.is_instant();
         // The sets' first numbers, and their distinct times in the order met.
         let mut firsts = Vec::with_capacity(points.sets.len());
         let mut times: Vec<f64> = Vec::new();
@@ -139,48 +185,8 @@ impl TracedPoints {
             if records.is_empty() {
                 continue;
             }
-            let moving = if still {
-                0
-            } else {
-                records.par_iter().filter(|q| q.v != Vec3::ZERO).count()
-            };
+            let (group, moving) = Group::build(records, lead, interval);
             out.moving += moving;
-            // The build's boxes, in `f32` (they only steer its splits).
-            let (lead32, duration32) = (lead as f32, duration as f32);
-            let bounds = |q: &Record| {
-                let start = q.p + q.v * lead32;
-                BuildBox {
-                    lo: start - q.radius,
-                    hi: start + q.radius,
-                    shift: q.v * duration32,
-                }
-            };
-            let topology = Topology::build_in_place(&mut records, bounds, NODE_COST);
-            let mut group = Group {
-                lead,
-                records,
-                topology,
-                boxes: Boxes::default(),
-            };
-            group.boxes = if moving == 0 {
-                group.topology.refit_still_with(&|pos| {
-                    let q = &group.records[pos as usize];
-                    Aabb::point(group.center(q, 0.0))
-                        .grow(q.radius.into())
-                        .pad_for_rounding()
-                })
-            } else {
-                // As `PreparedPoint::shutter_boxes`: the sphere at the opening and at the
-                // closing, padded for the interpolation's rounding.
-                group.topology.refit_moving_with(&|pos| {
-                    let q = &group.records[pos as usize];
-                    let r = f64::from(q.radius);
-                    let start = group.center(q, 0.0);
-                    let open = Aabb::point(start).grow(r);
-                    let close = Aabb::point(start + q.v.as_dvec3() * duration).grow(r);
-                    pad_for_interpolation(open, close)
-                })
-            };
             out.groups.push(group);
         }
         out

@@ -335,65 +335,9 @@ impl<'a> World<'a> {
     ) -> World<'a> {
         let prepared = prepare_spheres(scene, &statics.animated, interval);
         let first_point = scene.spheres.len() as u32;
-        let own = || {
-            let (topology, boxes) = build_animated(&prepared, interval);
-            (Cow::Owned(topology), boxes)
-        };
-        let (animated_topology, animated_boxes) = match &statics.shared {
-            Some(shared) => {
-                let boxes = shared.topology.refit_moving_with(&|pos| {
-                    prepared[shared.topology.order()[pos as usize] as usize].shutter_boxes(interval)
-                });
-                // Refitted boxes that have moved far from those the topology was built on
-                // overlap a lot and make a slow traversal: then the frame builds its own
-                // hierarchy. Both give the same nearest hits; the choice depends only on this
-                // frame's boxes and the shot's first frame, so a frame is traced the same way
-                // whichever frames were prepared before or alongside it.
-                if boxes.area() > REBUILD_AREA * shared.area {
-                    own()
-                } else {
-                    (Cow::Borrowed(&shared.topology), boxes)
-                }
-            }
-            None => own(),
-        };
-        // The tracer's copies in leaf order, in parallel; then, in order, each curved path
-        // gets its index in `motions`.
-        let order = animated_topology.order();
-        let mut animated: Vec<MovingPrim> = order
-            .par_iter()
-            .map(|&k| {
-                let k = k as usize;
-                let id = statics.animated[k];
-                let s = &prepared[k];
-                let mut prim = MovingPrim {
-                    center: DVec3::ZERO,
-                    velocity: DVec3::ZERO,
-                    radius: s.radius,
-                    material: scene.spheres[id as usize].material,
-                    id,
-                    general: LINEAR,
-                };
-                match &s.motion {
-                    FrameMotion::Fixed(c) => prim.center = *c,
-                    FrameMotion::Linear {
-                        start, velocity, ..
-                    } => {
-                        prim.center = *start;
-                        prim.velocity = *velocity;
-                    }
-                    _ => prim.general = CURVED,
-                }
-                prim
-            })
-            .collect();
-        let mut motions = Vec::new();
-        for (prim, &k) in animated.iter_mut().zip(order) {
-            if prim.general == CURVED {
-                prim.general = motions.len() as u32;
-                motions.push(prepared[k as usize].motion.clone());
-            }
-        }
+        let (animated_topology, animated_boxes) = animated_hierarchy(statics, &prepared, interval);
+        let (animated, motions) =
+            tracer_copies(scene, statics, &prepared, animated_topology.order());
         drop(prepared);
         let points_traced = TracedPoints::prepare(points, first_point, interval);
         let moving = animated
@@ -620,6 +564,79 @@ impl World<'_> {
 
 /// The spheres `ids` of `scene` prepared for the shutter `interval` (in parallel on the
 /// current rayon pool).
+/// The hierarchy of the frame's animated spheres (`prepared`, in `statics.animated`'s order)
+/// and its boxes: the shot's shared topology refitted, or the frame's own.
+fn animated_hierarchy<'a>(
+    statics: &'a StaticGeometry,
+    prepared: &[PreparedSphere],
+    interval: Interval,
+) -> (Cow<'a, Topology>, Boxes) {
+    let own = || {
+        let (topology, boxes) = build_animated(prepared, interval);
+        (Cow::Owned(topology), boxes)
+    };
+    let Some(shared) = &statics.shared else {
+        return own();
+    };
+    let boxes = shared.topology.refit_moving_with(&|pos| {
+        prepared[shared.topology.order()[pos as usize] as usize].shutter_boxes(interval)
+    });
+    // Refitted boxes that have moved far from those the topology was built on overlap a lot
+    // and make a slow traversal: then the frame builds its own hierarchy. Both give the same
+    // nearest hits; the choice depends only on this frame's boxes and the shot's first frame,
+    // so a frame is traced the same way whichever frames were prepared before or alongside it.
+    if boxes.area() > REBUILD_AREA * shared.area {
+        own()
+    } else {
+        (Cow::Borrowed(&shared.topology), boxes)
+    }
+}
+
+/// The tracer's copies of the animated spheres in the hierarchy's leaf `order` (in parallel),
+/// and the curved paths they index (in order, each curved path its index in the list).
+fn tracer_copies(
+    scene: &Scene,
+    statics: &StaticGeometry,
+    prepared: &[PreparedSphere],
+    order: &[u32],
+) -> (Vec<MovingPrim>, Vec<FrameMotion>) {
+    let mut animated: Vec<MovingPrim> = order
+        .par_iter()
+        .map(|&k| {
+            let k = k as usize;
+            let id = statics.animated[k];
+            let s = &prepared[k];
+            let mut prim = MovingPrim {
+                center: DVec3::ZERO,
+                velocity: DVec3::ZERO,
+                radius: s.radius,
+                material: scene.spheres[id as usize].material,
+                id,
+                general: LINEAR,
+            };
+            match &s.motion {
+                FrameMotion::Fixed(c) => prim.center = *c,
+                FrameMotion::Linear {
+                    start, velocity, ..
+                } => {
+                    prim.center = *start;
+                    prim.velocity = *velocity;
+                }
+                _ => prim.general = CURVED,
+            }
+            prim
+        })
+        .collect();
+    let mut motions = Vec::new();
+    for (prim, &k) in animated.iter_mut().zip(order) {
+        if prim.general == CURVED {
+            prim.general = motions.len() as u32;
+            motions.push(prepared[k as usize].motion.clone());
+        }
+    }
+    (animated, motions)
+}
+
 fn prepare_spheres(scene: &Scene, ids: &[u32], interval: Interval) -> Vec<PreparedSphere> {
     ids.par_iter()
         .map(|&id| scene.spheres[id as usize].prepare(interval))

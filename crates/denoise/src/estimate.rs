@@ -38,7 +38,7 @@
 //! error are unchanged, the raw frame's variance is the film's again, and the covariance
 //! falls with the samples: `F' = (n F + (n' - n) F_new) / n'`, the new samples independent of
 //! `D̄`, so `cov(D̄, F') = c n / n'`. A frame can be re-blended exactly without another
-//! denoise ([`Snapshot::blend`]).
+//! denoise ([`DenoiseTerms::blend`]).
 //!
 //! `m`, standing in for the true value in the relative error's denominator, is per channel
 //! the smaller of the written pixel and the mean of `F` over its 3x3 neighbourhood: the
@@ -147,7 +147,7 @@ pub(crate) fn blended_error(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
     part(w * w, e_d) + part(r * r, v) + part(2.0 * w * r, c)
 }
 
-/// The denoised frame `D̄` in a [`Snapshot`]'s terms.
+/// The denoised frame `D̄` in a [`DenoiseTerms`]'s terms.
 pub(crate) const DENOISED: Rgb = Rgb(["denoised.R", "denoised.G", "denoised.B"]);
 /// The denoised frame's error `E[(D̄ - T)^2]` in a snapshot's terms (kept infinite where
 /// nothing is known).
@@ -169,16 +169,16 @@ pub(crate) const SMOOTH_ERROR: Rgb = Rgb(["smoothError.R", "smoothError.G", "smo
 /// The raw frame's variance `v` in a written frame's terms.
 pub(crate) const RAW_VARIANCE: Rgb = Rgb(["rawVariance.R", "rawVariance.G", "rawVariance.B"]);
 
-/// One denoise of a film: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
+/// One denoise of a film, its terms: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
 /// [`DENOISED_ERROR`], [`CROSS`]) and the samples they were made from ([`SAMPLES`]), an image
 /// of 40 bytes a pixel. It blends with the film as it is then or after more samples
-/// ([`Snapshot::blend`]).
+/// ([`DenoiseTerms::blend`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Snapshot {
+pub struct DenoiseTerms {
     terms: Image,
 }
 
-/// The written frame ([`Snapshot::blend`]), or the written frame combined with earlier
+/// The written frame ([`DenoiseTerms::blend`]), or the written frame combined with earlier
 /// frames (`denoise::history`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Blend {
@@ -197,7 +197,7 @@ pub struct Blend {
 }
 
 impl Blend {
-    /// The written frame of `written` (a written frame's terms, [`Snapshot::written`]).
+    /// The written frame of `written` (a written frame's terms, [`DenoiseTerms::written`]).
     pub fn from_written(written: &Image) -> Blend {
         let mut blend = Blend::new(written);
         blend.denoised_share = denoised_share(written);
@@ -241,19 +241,19 @@ impl Blend {
     }
 }
 
-/// The bytes a snapshot of a frame of `pixels` pixels holds ([`Snapshot`]: its terms' nine
+/// The bytes a snapshot of a frame of `pixels` pixels holds ([`DenoiseTerms`]: its terms' nine
 /// channels and the samples).
-pub fn snapshot_bytes(pixels: u64) -> u64 {
+pub fn terms_bytes(pixels: u64) -> u64 {
     Image::bytes_for(pixels, 10)
 }
 
 /// The bytes a written frame of `pixels` pixels holds once blended: its terms' 21 channels
-/// ([`Snapshot::written`]) and its blend (the colour and each pixel's error).
+/// ([`DenoiseTerms::written`]) and its blend (the colour and each pixel's error).
 pub fn written_bytes(pixels: u64) -> u64 {
     Image::bytes_for(pixels, 21 + 3) + pixels * std::mem::size_of::<f64>() as u64
 }
 
-/// The bytes a blend ([`Snapshot::written`], then [`Blend::from_written`]) holds at its peak
+/// The bytes a blend ([`DenoiseTerms::written`], then [`Blend::from_written`]) holds at its peak
 /// beyond its inputs, for a frame of `pixels` pixels: each pixel's terms now and their
 /// neighbourhood means (three `DVec3`s each) while the written frame's terms are made (21
 /// `f32`s); the blend after them holds less (the terms, and a `DVec3` a pixel for the raw
@@ -279,11 +279,11 @@ fn to_f32(v: DVec3) -> Vec3 {
     if c.is_finite() { c } else { Vec3::ZERO }
 }
 
-impl Snapshot {
+impl DenoiseTerms {
     /// The snapshot of a film whose replicates are `replicates` (a film's replicates image)
     /// and whose replicates denoised are `da` and `db` (each [`REPLICATE_A`]'s and
     /// [`REPLICATE_B`]'s channels as the denoiser gives them back); all of one size.
-    pub fn new(replicates: &Image, da: &Image, db: &Image) -> Snapshot {
+    pub fn new(replicates: &Image, da: &Image, db: &Image) -> DenoiseTerms {
         let h = Replicates::of(replicates);
         let (da, db) = (
             da.rgb(REPLICATE_A).expect("replicate a, denoised"),
@@ -300,7 +300,7 @@ impl Snapshot {
             ]
         });
         terms.set(SAMPLES, Precision::Float, Values::Count(h.taken().to_vec()));
-        Snapshot { terms }
+        DenoiseTerms { terms }
     }
 
     /// The frame written from this denoise and the film's replicates now, `replicates` (the
@@ -574,7 +574,7 @@ mod tests {
         // One pixel wide: its neighbourhood is itself.
         let h = halves(1.0, 1.2, 4, 0.01);
         let (replicates, da, db) = one_pixel(&h, 0.9, 1.1);
-        let s = Snapshot::new(&replicates, &da, &db);
+        let s = DenoiseTerms::new(&replicates, &da, &db);
         let now = s.blend(&replicates);
         // Four times the samples: a quarter of the covariance, a new variance.
         let later = halves(1.05, 1.1, 16, 0.002);

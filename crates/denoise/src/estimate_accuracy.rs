@@ -4,7 +4,7 @@
 //! further from the truth than the raw one.
 
 use super::denoiser::Denoiser;
-use super::estimate::{Blend, Snapshot};
+use super::estimate::{Blend, DenoiseTerms};
 use super::synthetic::{self, Frame};
 use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics::rel_mse;
@@ -21,7 +21,7 @@ fn written(frame: &Frame) -> (Blend, f64) {
     let replicates = frame.replicates();
     let da = filter.run(&replicates, REPLICATE_A).unwrap();
     let db = filter.run(&replicates, REPLICATE_B).unwrap();
-    let blend = Snapshot::new(&replicates, &da, &db).blend(&replicates);
+    let blend = DenoiseTerms::new(&replicates, &da, &db).blend(&replicates);
     let truth = rel_mse(&blend.image, &frame.truth()).sqrt();
     (blend, truth)
 }
@@ -155,7 +155,7 @@ fn the_mean_of_denoised_halves_is_what_is_blended() {
         filter.run(&replicates, REPLICATE_A).unwrap(),
         filter.run(&replicates, REPLICATE_B).unwrap(),
     );
-    let snapshot = Snapshot::new(&replicates, &da, &db);
+    let snapshot = DenoiseTerms::new(&replicates, &da, &db);
     let (da, db) = (
         da.interleaved(REPLICATE_A).unwrap(),
         db.interleaved(REPLICATE_B).unwrap(),

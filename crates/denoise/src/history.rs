@@ -35,73 +35,134 @@ use super::estimate::{
     box_mean_of_others, denoised_share,
 };
 use super::reproject::Reprojected;
-use raytrace_core::image::{COLOUR, Image};
+use raytrace_core::image::{COLOUR, Image, RgbPlanes};
 
 /// Estimates a pixel may combine: its own and [`super::reproject::HISTORY`] earlier frames'.
 const MOST: usize = 1 + super::reproject::HISTORY;
 
-/// The frame of `written` (a written frame's terms, `estimate::Snapshot::written`) combined
+/// The frame of `written` (a written frame's terms, `estimate::DenoiseTerms::written`) combined
 /// with `earlier`, its earlier frames' colours carried to its pixels (at most
 /// [`super::reproject::HISTORY`]): see the module's notes.
 pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
     assert!(earlier.len() < MOST, "at most {} earlier frames", MOST - 1);
     let n = written.pixels();
-    let width = written.width() as usize;
-    let k = 1 + earlier.len();
-    let planes = |names| written.rgb(names).expect("a written frame's terms");
-    let (value, raw, raw_variance) = (planes(WRITTEN), planes(RAW), planes(RAW_VARIANCE));
-    let (error, weight, cross) = (planes(ERROR), planes(WEIGHT), planes(CROSS));
-    let earlier_colours: Vec<_> = earlier
-        .iter()
-        .map(|e| e.image.rgb(COLOUR).expect("an earlier frame's colour"))
-        .collect();
-    let colour = |j: usize, i: usize| -> Option<DVec3> {
-        if j == 0 {
-            return Some(value.at_f64(i));
-        }
-        earlier[j - 1].found[i].then(|| earlier_colours[j - 1].at_f64(i))
-    };
-    // Each pixel's unbiased terms Σ_ij (upper triangle), None where an estimate is missing.
-    let entry = |i: usize, a: usize, b: usize| -> Option<DVec3> {
-        let (f, v) = (raw.at_f64(i), raw_variance.at_f64(i));
-        let (xa, xb) = (colour(a, i)?, colour(b, i)?);
-        Some(match (a, b) {
-            (0, 0) => error.at_f64(i),
-            (0, _) => (xa - f) * (xb - f) + weight.at_f64(i) * (cross.at_f64(i) - v),
-            _ => (xa - f) * (xb - f) - v,
-        })
-    };
-    let pairs: Vec<(usize, usize)> = (0..k).flat_map(|a| (a..k).map(move |b| (a, b))).collect();
-    // The neighbourhood means of each entry over the pixels that have it.
-    let smoothed: Vec<Vec<Option<DVec3>>> = pairs
-        .iter()
-        .map(|&(a, b)| {
-            let (sums, counts): (Vec<DVec3>, Vec<f64>) = (0..n)
-                .map(|i| match entry(i, a, b) {
-                    Some(e) if e.is_finite() => (e, 1.0),
-                    _ => (DVec3::ZERO, 0.0),
-                })
-                .unzip();
-            let (sums, counts) = (
-                box_mean_of_others(&sums, width, WEIGHT_RADIUS),
-                box_mean_of_others(&counts, width, WEIGHT_RADIUS),
-            );
-            sums.into_iter()
-                .zip(counts)
-                .map(|(s, c)| (c > 0.0).then(|| s / c))
-                .collect()
-        })
-        .collect();
-    let at = |m: &[Option<DVec3>; MOST * MOST], a: usize, b: usize| m[a.min(b) * MOST + a.max(b)];
+    let estimates = Estimates::new(written, earlier);
+    let smoothed = estimates.smoothed(n, written.width() as usize);
     let mut values = Vec::with_capacity(n);
     let mut history = 0.0;
-    #[allow(clippy::needless_range_loop)] // `i` indexes the entries of every pair
     for i in 0..n {
-        let (mut own, mut smooth) = ([None; MOST * MOST], [None; MOST * MOST]);
-        for (p, &(a, b)) in pairs.iter().enumerate() {
-            own[a * MOST + b] = entry(i, a, b);
+        values.push(estimates.combined(i, &smoothed, &mut history));
+    }
+    // The combined frame's terms, with the raw frame that stands in for the true value.
+    let mut terms = written.select(&RAW.0);
+    for (k, names) in [WRITTEN, ERROR, SMOOTH_ERROR].into_iter().enumerate() {
+        terms.set_rgb(names, values.iter().map(|v: &[Vec3; 3]| v[k]));
+    }
+    let mut blend = Blend::new(&terms);
+    blend.denoised_share = denoised_share(written);
+    blend.history_share = history / (3 * n.max(1)) as f64;
+    blend
+}
+
+/// A pixel's entries `Σ_ab` for every pair `a <= b` of its estimates, at `a * MOST + b`;
+/// `None` where an estimate is missing.
+type Entries = [Option<DVec3>; MOST * MOST];
+
+/// The estimates a pixel may combine (the written frame's and the earlier frames' colours)
+/// with the written frame's terms that make their error covariance estimable.
+struct Estimates<'a> {
+    value: RgbPlanes<'a>,
+    raw: RgbPlanes<'a>,
+    raw_variance: RgbPlanes<'a>,
+    error: RgbPlanes<'a>,
+    weight: RgbPlanes<'a>,
+    cross: RgbPlanes<'a>,
+    earlier: &'a [Reprojected],
+    earlier_colours: Vec<RgbPlanes<'a>>,
+    /// The pairs `(a, b)`, `a <= b`, of the estimates.
+    pairs: Vec<(usize, usize)>,
+}
+
+impl<'a> Estimates<'a> {
+    fn new(written: &'a Image, earlier: &'a [Reprojected]) -> Self {
+        let planes = |names| written.rgb(names).expect("a written frame's terms");
+        let k = 1 + earlier.len();
+        Estimates {
+            value: planes(WRITTEN),
+            raw: planes(RAW),
+            raw_variance: planes(RAW_VARIANCE),
+            error: planes(ERROR),
+            weight: planes(WEIGHT),
+            cross: planes(CROSS),
+            earlier,
+            earlier_colours: earlier
+                .iter()
+                .map(|e| e.image.rgb(COLOUR).expect("an earlier frame's colour"))
+                .collect(),
+            pairs: (0..k).flat_map(|a| (a..k).map(move |b| (a, b))).collect(),
+        }
+    }
+
+    /// How many estimates a pixel may combine.
+    fn count(&self) -> usize {
+        1 + self.earlier.len()
+    }
+
+    /// Estimate `j`'s colour at pixel `i` (the written frame's for `j = 0`); `None` where the
+    /// earlier frame does not show the pixel's surface.
+    fn colour(&self, j: usize, i: usize) -> Option<DVec3> {
+        if j == 0 {
+            return Some(self.value.at_f64(i));
+        }
+        self.earlier[j - 1].found[i].then(|| self.earlier_colours[j - 1].at_f64(i))
+    }
+
+    /// Pixel `i`'s unbiased term `Σ_ab` (see the module's notes), `None` where an estimate
+    /// is missing.
+    fn entry(&self, i: usize, a: usize, b: usize) -> Option<DVec3> {
+        let (f, v) = (self.raw.at_f64(i), self.raw_variance.at_f64(i));
+        let (xa, xb) = (self.colour(a, i)?, self.colour(b, i)?);
+        Some(match (a, b) {
+            (0, 0) => self.error.at_f64(i),
+            (0, _) => (xa - f) * (xb - f) + self.weight.at_f64(i) * (self.cross.at_f64(i) - v),
+            _ => (xa - f) * (xb - f) - v,
+        })
+    }
+
+    /// For each pair, every pixel's (of `n`, in rows of `width`) neighbourhood mean of the entry over the pixels that have
+    /// it (`None` where none has).
+    fn smoothed(&self, n: usize, width: usize) -> Vec<Vec<Option<DVec3>>> {
+        self.pairs
+            .iter()
+            .map(|&(a, b)| {
+                let (sums, counts): (Vec<DVec3>, Vec<f64>) = (0..n)
+                    .map(|i| match self.entry(i, a, b) {
+                        Some(e) if e.is_finite() => (e, 1.0),
+                        _ => (DVec3::ZERO, 0.0),
+                    })
+                    .unzip();
+                let (sums, counts) = (
+                    box_mean_of_others(&sums, width, WEIGHT_RADIUS),
+                    box_mean_of_others(&counts, width, WEIGHT_RADIUS),
+                );
+                sums.into_iter()
+                    .zip(counts)
+                    .map(|(s, c)| (c > 0.0).then(|| s / c))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Pixel `i`'s combination: its value, the unbiased estimate of its squared error and
+    /// that estimate's neighbourhood mean; the earlier frames' weights are added to `history`.
+    fn combined(&self, i: usize, smoothed: &[Vec<Option<DVec3>>], history: &mut f64) -> [Vec3; 3] {
+        let (mut own, mut smooth): (Entries, Entries) = ([None; MOST * MOST], [None; MOST * MOST]);
+        for (p, &(a, b)) in self.pairs.iter().enumerate() {
+            own[a * MOST + b] = self.entry(i, a, b);
             smooth[a * MOST + b] = smoothed[p][i];
         }
+        let at = |m: &Entries, a: usize, b: usize| m[a.min(b) * MOST + a.max(b)];
+        let k = self.count();
         let mut value = DVec3::ZERO;
         let (mut error, mut smooth_error) = (DVec3::ZERO, DVec3::ZERO);
         for c in 0..3 {
@@ -112,8 +173,8 @@ pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
                 if *la == 0.0 {
                     continue;
                 }
-                value[c] += la * colour(a, i).expect("weighted only where present")[c];
-                history += if a > 0 { *la } else { 0.0 };
+                value[c] += la * self.colour(a, i).expect("weighted only where present")[c];
+                *history += if a > 0 { *la } else { 0.0 };
                 for (b, lb) in lambda.iter().enumerate().take(k) {
                     if *lb == 0.0 {
                         continue;
@@ -127,21 +188,12 @@ pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
                 }
             }
         }
-        values.push([
+        [
             value.as_vec3(),
             error.as_vec3(),
             smooth_error.max(DVec3::ZERO).as_vec3(),
-        ]);
+        ]
     }
-    // The combined frame's terms, with the raw frame that stands in for the true value.
-    let mut terms = written.select(&RAW.0);
-    for (k, names) in [WRITTEN, ERROR, SMOOTH_ERROR].into_iter().enumerate() {
-        terms.set_rgb(names, values.iter().map(|v: &[Vec3; 3]| v[k]));
-    }
-    let mut blend = Blend::new(&terms);
-    blend.denoised_share = denoised_share(written);
-    blend.history_share = history / (3 * n.max(1)) as f64;
-    blend
 }
 
 /// The bytes [`combine`] holds at its peak beyond its inputs, for a frame of `pixels` pixels

@@ -143,7 +143,7 @@ fn int_attribute(value: u32) -> exr::meta::attribute::AttributeValue {
 /// The layer attributes of a frame, or a message saying what is wrong with `info`.
 pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAttributes, String> {
     use exr::meta::attribute::{AttributeValue, Text};
-    use exr::meta::header::{LayerAttributes, standard_names};
+    use exr::meta::header::LayerAttributes;
 
     let mut attributes = LayerAttributes {
         frames_per_second: Some(
@@ -154,58 +154,72 @@ pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAtt
         ..LayerAttributes::default()
     };
     let other = &mut attributes.other;
-    other.insert(
-        Text::from(attribute_names::FRAME),
-        int_attribute(info.frame),
-    );
-    other.insert(
-        Text::from(attribute_names::SHUTTER_OPEN),
+    let mut insert = |name: &str, value| other.insert(Text::from(name), value);
+    insert(attribute_names::FRAME, int_attribute(info.frame));
+    insert(
+        attribute_names::SHUTTER_OPEN,
         AttributeValue::F64(info.shutter_open),
     );
-    other.insert(
-        Text::from(attribute_names::SHUTTER_CLOSE),
+    insert(
+        attribute_names::SHUTTER_CLOSE,
         AttributeValue::F64(info.shutter_close),
     );
-    other.insert(
-        Text::from(attribute_names::SAMPLES),
-        int_attribute(info.samples),
-    );
-    other.insert(
-        Text::from(attribute_names::SEED),
+    insert(attribute_names::SAMPLES, int_attribute(info.samples));
+    insert(
+        attribute_names::SEED,
         AttributeValue::Text(Text::from(info.seed.to_string().as_str())),
     );
-    other.insert(
-        Text::from(attribute_names::SAMPLER),
-        AttributeValue::Text(
-            Text::new_or_none(&info.sampler)
-                .ok_or_else(|| format!("sampler name \"{}\" is not Latin-1", info.sampler))?,
-        ),
+    insert(
+        attribute_names::SAMPLER,
+        latin1(&info.sampler, || {
+            format!("sampler name \"{}\"", info.sampler)
+        })?,
     );
     if let Some(readout) = info.rolling_shutter_readout {
-        other.insert(
-            Text::from(attribute_names::ROLLING_SHUTTER_READOUT),
+        insert(
+            attribute_names::ROLLING_SHUTTER_READOUT,
             AttributeValue::F64(readout),
         );
     }
     if let Some(curve) = &info.shutter_curve {
-        other.insert(
-            Text::from(attribute_names::SHUTTER_CURVE),
-            AttributeValue::Text(
-                Text::new_or_none(curve)
-                    .ok_or_else(|| format!("shutter curve \"{curve}\" is not Latin-1"))?,
-            ),
+        insert(
+            attribute_names::SHUTTER_CURVE,
+            latin1(curve, || format!("shutter curve \"{curve}\""))?,
         );
     }
     if let Some(denoiser) = &info.denoiser {
-        other.insert(
-            Text::from(attribute_names::DENOISER),
-            AttributeValue::Text(
-                Text::new_or_none(denoiser)
-                    .ok_or_else(|| format!("denoiser \"{denoiser}\" is not Latin-1"))?,
-            ),
+        insert(
+            attribute_names::DENOISER,
+            latin1(denoiser, || format!("denoiser \"{denoiser}\""))?,
         );
     }
-    for (name, value) in &info.extra {
+    insert_extra(other, &info.extra)?;
+    Ok(attributes)
+}
+
+/// `text` as a text attribute, or a message saying that `what` is not Latin-1.
+fn latin1(
+    text: &str,
+    what: impl FnOnce() -> String,
+) -> Result<exr::meta::attribute::AttributeValue, String> {
+    exr::meta::attribute::Text::new_or_none(text)
+        .map(exr::meta::attribute::AttributeValue::Text)
+        .ok_or_else(|| format!("{} is not Latin-1", what()))
+}
+
+/// Adds the frame's extra attributes (a number each) to `other`, or says which name is not
+/// allowed: EXR names, unique, and none of ours or the standard ones.
+fn insert_extra(
+    other: &mut std::collections::HashMap<
+        exr::meta::attribute::Text,
+        exr::meta::attribute::AttributeValue,
+    >,
+    extra: &[(String, f64)],
+) -> Result<(), String> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    use exr::meta::header::standard_names;
+
+    for (name, value) in extra {
         let bad = |why: &str| format!("extra attribute name \"{name}\" {why}");
         // Up to 31 characters: longer names need the file's long-name flag.
         if name.is_empty() || name.len() > 31 {
@@ -224,7 +238,7 @@ pub(super) fn attributes(info: &FrameInfo) -> Result<exr::meta::header::LayerAtt
             return Err(bad("appears twice"));
         }
     }
-    Ok(attributes)
+    Ok(())
 }
 
 /// Writes the frame as EXR into `writer`, with `attributes` spliced into the header in name
@@ -247,7 +261,7 @@ pub(super) fn write(
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    if super::frame::passes(image).next().is_some() {
+    if super::frame_file::passes(image).next().is_some() {
         return write_with_passes(writer, path, image, attributes, encoding);
     }
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
@@ -311,7 +325,7 @@ fn write_with_passes(
         let values = image.floats(name).expect("a frame's colour").to_vec();
         list.push(AnyChannel::new(name, FlatSamples::F32(values)));
     }
-    for c in super::frame::passes(image) {
+    for c in super::frame_file::passes(image) {
         let floats: Vec<f32> = match &c.values {
             Values::Float(v) => v.clone(),
             Values::Count(v) => v.iter().map(|&n| n as f32).collect(),

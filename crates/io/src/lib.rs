@@ -7,7 +7,7 @@ mod atomic;
 pub mod clip;
 mod exr;
 mod files;
-mod frame;
+mod frame_file;
 mod png;
 
 #[cfg(test)]
@@ -21,6 +21,6 @@ pub(crate) use exr::fps_rational;
 
 pub use exr::{FrameInfo, read_exr_colour};
 pub use files::file_kind;
-pub use frame::check_frame_file;
-pub use frame::{bytes_for, write_image};
+pub use frame_file::check_frame_file;
+pub use frame_file::{bytes_for, write_image};
 pub use png::{encode as encode_png, linear_to_srgb8};

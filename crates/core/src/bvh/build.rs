@@ -505,10 +505,8 @@ fn best_split<P: Sync, const N: usize>(
 
 /// Appends the 8-wide node whose two halves are `a` and `b`, and then its subtree, to
 /// `links` in depth-first order (each node's inner children after it, in slot order, each
-/// subtree contiguous); `items` are its primitives, the first at position `a.start`. The eight
-/// children are found by opening, from the node's two, the inner child with the largest
-/// area until there are eight (Embree's BVH8); a node with fewer leaves below it has fewer,
-/// its other slots empty.
+/// subtree contiguous); `items` are its primitives, the first at position `a.start`. Its
+/// children are [`children`]'s; a node with fewer than eight has its other slots empty.
 fn node<P: Send + Sync>(
     items: &mut [P],
     a: Span,
@@ -516,35 +514,8 @@ fn node<P: Send + Sync>(
     links: &mut Vec<Links>,
     build: &Build<impl Fn(&P) -> BuildBox + Sync>,
 ) {
-    let base = a.start;
     let total = a.len + b.len;
-    let mut kids: Vec<Kid> = Vec::with_capacity(LANES);
-    for s in [a, b] {
-        let part = &mut items[s.start - base..][..s.len];
-        kids.push(decide(part, s, build));
-    }
-    while kids.len() < LANES {
-        // Of equal largest, the last in position.
-        let Some((i, _, _)) = kids
-            .iter()
-            .enumerate()
-            .filter_map(|(i, k)| match k {
-                Kid::Inner(s, _, _) => Some((i, s.area(), s.start)),
-                Kid::Leaf(_) => None,
-            })
-            .max_by(|x, y| x.1.total_cmp(&y.1).then(x.2.cmp(&y.2)))
-        else {
-            break;
-        };
-        let Kid::Inner(_, l, r) = kids[i] else {
-            unreachable!("an inner child was chosen")
-        };
-        let mut split = |s: Span| decide(&mut items[s.start - base..][..s.len], s, build);
-        kids[i] = split(l);
-        kids.push(split(r));
-    }
-    // In position order: each child's primitives after the one's before.
-    kids.sort_unstable_by_key(|k| k.span().start);
+    let kids = children(items, a, b, build);
     let index = links.len();
     links.push(Links::default());
     for (k, kid) in kids.iter().enumerate() {
@@ -593,6 +564,46 @@ fn node<P: Send + Sync>(
             n
         }));
     }
+}
+
+/// The up to eight children of the node whose two halves are `a` and `b` (`items` its
+/// primitives, the first at position `a.start`), in position order: from the node's two, the
+/// inner child with the largest area is opened until there are eight (Embree's BVH8).
+fn children<P: Send + Sync>(
+    items: &mut [P],
+    a: Span,
+    b: Span,
+    build: &Build<impl Fn(&P) -> BuildBox + Sync>,
+) -> Vec<Kid> {
+    let base = a.start;
+    let mut kids: Vec<Kid> = Vec::with_capacity(LANES);
+    for s in [a, b] {
+        let part = &mut items[s.start - base..][..s.len];
+        kids.push(decide(part, s, build));
+    }
+    while kids.len() < LANES {
+        // Of equal largest, the last in position.
+        let Some((i, _, _)) = kids
+            .iter()
+            .enumerate()
+            .filter_map(|(i, k)| match k {
+                Kid::Inner(s, _, _) => Some((i, s.area(), s.start)),
+                Kid::Leaf(_) => None,
+            })
+            .max_by(|x, y| x.1.total_cmp(&y.1).then(x.2.cmp(&y.2)))
+        else {
+            break;
+        };
+        let Kid::Inner(_, l, r) = kids[i] else {
+            unreachable!("an inner child was chosen")
+        };
+        let mut split = |s: Span| decide(&mut items[s.start - base..][..s.len], s, build);
+        kids[i] = split(l);
+        kids.push(split(r));
+    }
+    // In position order: each child's primitives after the one's before.
+    kids.sort_unstable_by_key(|k| k.span().start);
+    kids
 }
 
 /// What a build reads of its items and how it weighs a split.

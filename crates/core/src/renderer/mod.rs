@@ -2,7 +2,7 @@
 //! film's tiles, in one round of the requested samples or, under a time or noise budget, in
 //! rounds until the budget is met.
 //!
-//! - [`frame`]: [`FrameJob`], one frame sampled into its raw film; its figures and result;
+//! - [`job`]: [`FrameJob`], one frame sampled into its raw film; its figures and result;
 //! - [`tiles`]: what is fixed before the first sample, and one round over every tile;
 //! - [`budget`]: when to stop, and the uniform rounds' sizes;
 //! - [`adaptive`]: which pixels take more samples in an adaptive round;
@@ -14,13 +14,13 @@
 
 mod adaptive;
 mod budget;
-mod frame;
+mod job;
 mod stop;
 mod tiles;
 mod tracers;
 
 pub use adaptive::{RoundPlan, Weights};
 pub use budget::{Budget, StopReason};
-pub use frame::{Denoised, FrameJob, FrameResult, FrameStats};
+pub use job::{Denoised, FrameJob, FrameResult, FrameStats};
 pub use stop::{RawStop, StopRule, relative_error};
 pub use tracers::{CpuShot, FrameTracer, RoundCounts, ShotTracer};

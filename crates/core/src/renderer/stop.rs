@@ -1,5 +1,5 @@
 //! When a frame under a noise threshold has sampled enough, and where the next round's samples
-//! go: one interface, [`StopRule`], that the round loop (`frame`) asks after every round once
+//! go: one interface, [`StopRule`], that the round loop (`job`) asks after every round once
 //! every pixel has its first samples. [`RawStop`] judges the raw film by its own estimate; the
 //! denoised implementation (`finish::Denoising`) judges the frame that will be written, the
 //! raw and denoised frames blended.

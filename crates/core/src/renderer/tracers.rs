@@ -1,5 +1,5 @@
 //! The seam between a frame's rounds of samples and the device that traces them. The round
-//! loop ([`super::frame`]) asks a [`ShotTracer`] to make each prepared frame ready
+//! loop ([`super::job`]) asks a [`ShotTracer`] to make each prepared frame ready
 //! ([`ShotTracer::frame`]) and the [`FrameTracer`] it returns to take each round's samples into
 //! the film; the budget, the adaptive rounds, the stop rule and the film are the same code
 //! whatever the device. The CPU's tracer is [`CpuShot`] (its tiles, [`super::tiles`]); the

@@ -11,7 +11,7 @@ use raytrace_core::renderer::{StopRule, Weights, relative_error};
 use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicates};
 use raytrace_core::scene::DenoiseQuality;
 use raytrace_denoise::denoiser::{DenoiseError, Denoiser, Filter};
-use raytrace_denoise::estimate::{Blend, Snapshot};
+use raytrace_denoise::estimate::{Blend, DenoiseTerms};
 
 /// Denoises a frame takes under a noise threshold, at most.
 pub(crate) const MAX_DENOISES: u32 = 2;
@@ -28,7 +28,7 @@ pub(super) struct Denoising<'d> {
     state: FrameState,
 }
 
-/// The frame written from a film: its terms (`Snapshot::written`) and their blend, with the
+/// The frame written from a film: its terms (`DenoiseTerms::written`) and their blend, with the
 /// samples the film held then, which tell whether it has changed since.
 pub(super) struct Written {
     samples: u64,
@@ -40,7 +40,7 @@ pub(super) struct Written {
 #[derive(Default)]
 struct FrameState {
     /// The last denoise of the frame's film.
-    snapshot: Option<Snapshot>,
+    snapshot: Option<DenoiseTerms>,
     /// The frame written after the last round judged: what finishing writes if no samples
     /// were taken since (the blend is computed once).
     written: Option<Written>,
@@ -85,7 +85,7 @@ impl<'d> Denoising<'d> {
         let start = Instant::now();
         let da = self.filter.run(replicates, REPLICATE_A)?;
         let db = self.filter.run(replicates, REPLICATE_B)?;
-        self.state.snapshot = Some(Snapshot::new(replicates, &da, &db));
+        self.state.snapshot = Some(DenoiseTerms::new(replicates, &da, &db));
         self.state.denoises += 1;
         self.state.seconds += start.elapsed().as_secs_f64();
         Ok(())

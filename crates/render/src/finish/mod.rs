@@ -65,7 +65,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         return 0;
     };
     let pixels = scene.output.width as u64 * scene.output.height as u64;
-    let snapshot = estimate::snapshot_bytes(pixels);
+    let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
     let history = match settings.temporal {

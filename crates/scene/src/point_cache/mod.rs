@@ -9,12 +9,12 @@
 //! The rooms: `files` (which snapshot each frame shows, and when), `table` (a file's
 //! snapshots in any format: indexing, reading rows), `columns` (which columns mean what),
 //! `read` (values read and checked), `motion` (interpolation by id, periodic copies),
-//! `survey` (the shot's survey, check's figures), `frame` (a frame's points), `load` (what
+//! `survey` (the shot's survey, check's figures), `frame_points` (a frame's points), `load` (what
 //! a frame's points hold in memory).
 
 mod columns;
 mod files;
-mod frame;
+mod frame_points;
 mod load;
 mod message;
 mod motion;
@@ -22,6 +22,6 @@ mod read;
 mod survey;
 mod table;
 
-pub use frame::read_frame;
+pub use frame_points::read_frame;
 pub use load::PointLoad;
 pub use survey::{Depth, FrameSurvey, Frames, ShotPoints, frame_list};

@@ -194,7 +194,7 @@ pub(super) fn parse_whole(
     scan::scan(text, 0).map_err(located)?;
     let mut raw: schema::RawScene =
         toml::from_str(text).map_err(|e| located(report::toml_error(text, &e, 0)))?;
-    let check = validate::Check::new(&file, overrides);
+    let check = validate::Validator::new(&file, overrides);
     check.apply(&mut raw);
     check.scene(raw, source).map_err(Error::Scene)
 }

@@ -8,7 +8,6 @@
 //! - [`validate`]: the one validator, from those raw values (with any [`Overrides`] applied to
 //!   them first) to a `Scene`, naming the field of any bad value;
 //! - [`pieces`]: large files cut at their `[[sphere]]` headers and parsed in parallel;
-//! - [`device`]: `[render] device`, and the refusal of a scene the GPU path does not render.
 //!
 //! [`schema_curve`] holds the shutter curve's part of the schema, and `validate::points` the
 //! `[[points]]` tables' checks.
@@ -18,7 +17,6 @@
 //!
 //! This file only declares and re-exports: the children import each other directly.
 
-mod device;
 pub mod generate;
 mod load;
 mod overrides;

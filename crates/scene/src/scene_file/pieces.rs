@@ -12,7 +12,7 @@ use super::overrides::Overrides;
 use super::report::{self, Located};
 use super::scan;
 use super::schema::{RawScene, RawSphere};
-use super::validate::{Check, Validated, add_spheres};
+use super::validate::{Validated, Validator, add_spheres};
 use raytrace_core::error::Error;
 use raytrace_core::scene::Scene;
 
@@ -164,7 +164,7 @@ pub(super) fn parse_in_pieces(
     let sections = sections(text)?;
     let cut = Cut::of(&sections, text.len(), per_piece)?;
     let file = raytrace_core::error::elide_path(source);
-    let check = Check::new(&file, overrides);
+    let check = Validator::new(&file, overrides);
     let rest = Rest::of(text, &cut.rest);
     let head = rest.parse(&check);
     if let Ok(raw) = &head
@@ -295,7 +295,7 @@ impl Rest {
     }
 
     /// The rest scanned and parsed, with `check`'s overrides applied.
-    fn parse(&self, check: &Check) -> Result<RawScene, PieceError> {
+    fn parse(&self, check: &Validator) -> Result<RawScene, PieceError> {
         match scan::scan(&self.text, 0) {
             Err(e) => Err(PieceError::Limit(self.locate(e))),
             Ok(()) => toml::from_str(&self.text)
@@ -315,7 +315,7 @@ impl Rest {
 fn parse_piece(
     text: &str,
     (a, b, first): (usize, usize, usize),
-    check: &Check,
+    check: &Validator,
     names: Option<&BTreeMap<&str, u32>>,
 ) -> Result<Validated, PieceError> {
     let doc = &text[a..b];

@@ -229,6 +229,13 @@ pub(super) struct RawOutput {
     pub(super) denoise_quality: Option<Named<raytrace_core::scene::DenoiseQuality>>,
 }
 
+impl Keyword for raytrace_core::scene::Device {
+    const NAMES: &'static [(&'static str, Self)] = &[
+        ("cpu", raytrace_core::scene::Device::Cpu),
+        ("gpu", raytrace_core::scene::Device::Gpu),
+    ];
+}
+
 impl Keyword for raytrace_core::scene::DenoiseQuality {
     const NAMES: &'static [(&'static str, Self)] = {
         use raytrace_core::scene::DenoiseQuality;

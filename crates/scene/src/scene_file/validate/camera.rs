@@ -3,7 +3,7 @@
 use super::*;
 use crate::scene_file::schema::RawCameraKey;
 
-impl Check<'_> {
+impl Validator<'_> {
     /// Checks that `up` can orient a camera: not zero, nor so short that it underflows.
     fn up(&self, up: DVec3) -> Result<(), String> {
         let len = robust_length(up);

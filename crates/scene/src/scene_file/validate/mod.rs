@@ -50,10 +50,10 @@ pub(super) const MAX_ALBEDO: f64 = 1.0;
 /// range. A million times a white sky is brighter than any scene the format can light.
 pub(super) const MAX_RADIANCE: f64 = 1e6;
 
-/// A piece's validated spheres and their inline materials (see [`Check::spheres`]).
+/// A piece's validated spheres and their inline materials (see [`Validator::spheres`]).
 pub(super) type Validated = (Vec<SphereDesc>, Vec<Material>);
 
-/// Marks, in [`Check::spheres`]' output, a material index into that call's inline materials.
+/// Marks, in [`Validator::spheres`]' output, a material index into that call's inline materials.
 const INLINE: u32 = 1 << 31;
 
 /// Appends validated spheres to `scene`, with their inline materials after its others.
@@ -73,7 +73,7 @@ pub(super) fn add_spheres(scene: &mut Scene, mut spheres: Vec<SphereDesc>, inlin
 }
 
 /// The validator of one file, with the overrides applied to it.
-pub(super) struct Check<'a> {
+pub(super) struct Validator<'a> {
     file: &'a str,
     overrides: &'a Overrides,
 }
@@ -94,9 +94,9 @@ const FLAGS: [(&str, &str); 12] = [
     ("output.temporal", "--temporal"),
 ];
 
-impl<'a> Check<'a> {
-    pub(super) fn new(file: &'a str, overrides: &'a Overrides) -> Check<'a> {
-        Check { file, overrides }
+impl<'a> Validator<'a> {
+    pub(super) fn new(file: &'a str, overrides: &'a Overrides) -> Validator<'a> {
+        Validator { file, overrides }
     }
 
     /// Writes the overrides into the file's raw values, to be validated with them.

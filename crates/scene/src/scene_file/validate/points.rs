@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::Check;
+use super::Validator;
 use crate::scene_file::schema::{MaterialRef, RawPointMotion, RawPoints, RawSnapshots};
 use raytrace_core::material::Material;
 use raytrace_core::points::{
@@ -21,7 +21,7 @@ use raytrace_core::points::{
 const MAX_TYPES: usize = 4096;
 use raytrace_core::path_pattern::FramePattern;
 
-impl Check<'_> {
+impl Validator<'_> {
     /// The point caches, numbered from 0 (`points[0]`), with their files joined to the scene
     /// file's folder; inline materials (and white copies for `color_by`) are appended to
     /// `materials`.

@@ -3,11 +3,11 @@
 
 use std::time::Instant;
 
-use super::adaptive::{RoundPlan, plan_adaptive};
+use super::adaptive::{RoundPlan, Weights, plan_adaptive};
 use super::budget::{Budget, MIN_SAMPLES_FOR_THRESHOLD, StopReason, next_round};
 use super::stop::{RawStop, StopRule, relative_error};
 use super::tiles::FrameRequest;
-use super::tracers::ShotTracer;
+use super::tracers::{RoundCounts, ShotTracer};
 
 use crate::error::Error;
 use crate::film::{Film, Pixel};
@@ -218,99 +218,47 @@ fn sample(
         progress,
         read,
     } = job;
-    let budget = &budget;
     let frame_start = Instant::now();
     let req = &FrameRequest::from_scene(scene);
     let layout = SumLayout::keeping(scene.output.passes, read);
     // One prepared frame, whichever device traces it.
     let prepared = PreparedFrame::new(scene, tracer.statics(), points, frame);
     let interval = prepared.interval();
-    let mut rounds = tracer.frame(prepared, points, &layout)?;
-    let prepare_seconds = frame_start.elapsed().as_secs_f64();
-
-    let render_start = Instant::now();
-    let mut film = Film::with_pass_sums(req.width, req.height, layout.stride);
-    let pixels = req.width as f64 * req.height as f64;
-
+    let mut device = tracer.frame(prepared, points, &layout)?;
     let mut stats = FrameStats {
-        prepare_seconds,
-        moving_spheres: rounds.moving_spheres(),
+        prepare_seconds: frame_start.elapsed().as_secs_f64(),
+        moving_spheres: device.moving_spheres(),
         ..FrameStats::default()
     };
 
+    let render_start = Instant::now();
+    let mut film = Film::with_pass_sums(req.width, req.height, layout.stride);
+    let mut schedule = RoundSchedule::new(&budget, req.samples);
     stop.begin();
-    // Samples every pixel has taken in the uniform rounds.
-    let mut done = 0u32;
-    // Seconds a round took per sample of every pixel, and per sample of one pixel.
-    let mut seconds_per_sample = None;
-    let mut seconds_per_pixel_sample = f64::INFINITY;
-    let warm_up = MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX));
     loop {
         let weights = stop.weights();
-        let plan = if !budget.is_set() {
-            if done >= req.samples {
+        let elapsed = frame_start.elapsed().as_secs_f64();
+        let plan = match schedule.next(&budget, &film, weights, elapsed) {
+            Ok(Some(plan)) => plan,
+            Ok(None) => break,
+            Err(reason) => {
+                stats.stop = reason;
                 break;
-            }
-            RoundPlan::Uniform(req.samples)
-        } else if done < warm_up {
-            match next_round(
-                budget,
-                done,
-                frame_start.elapsed().as_secs_f64(),
-                seconds_per_sample,
-            ) {
-                Ok(size) => RoundPlan::Uniform(done + size),
-                Err(reason) => {
-                    stats.stop = reason;
-                    break;
-                }
-            }
-        } else {
-            match plan_adaptive(
-                &film,
-                &weights,
-                budget,
-                frame_start.elapsed().as_secs_f64(),
-                seconds_per_pixel_sample,
-            ) {
-                Ok(a) => RoundPlan::Adaptive(a, weights),
-                Err(reason) => {
-                    stats.stop = reason;
-                    break;
-                }
             }
         };
         let round_start = Instant::now();
-        let counts = rounds.round(&mut film, &plan, progress)?;
-        let seconds = round_start.elapsed().as_secs_f64();
-        if let RoundPlan::Uniform(n) = plan {
-            seconds_per_sample = Some(seconds / (n - done) as f64);
-            done = n;
-        }
-        if counts.samples > 0 {
-            seconds_per_pixel_sample = seconds / counts.samples as f64;
-        }
-        stats.rays += counts.rays;
-        stats.samples += counts.samples;
-        stats.non_finite += counts.non_finite;
-        stats.tile_seconds += counts.busy_seconds;
-        stats.rounds += 1;
+        let counts = device.round(&mut film, &plan, progress)?;
+        schedule.took(&plan, round_start.elapsed().as_secs_f64(), &counts);
+        stats.add(&counts);
         if let Some(threshold) = budget.noise_threshold
-            && done >= warm_up
+            && schedule.warmed_up()
             && stop.reached(&film, threshold)?
         {
             stats.stop = StopReason::NoiseThreshold;
             break;
         }
     }
-
-    stats.noisy_relative_error = relative_error(&film);
-    stats.relative_error = stats.noisy_relative_error;
-    let taken = film.all_pixels().iter().map(Pixel::taken);
-    stats.samples_per_pixel = taken.clone().max().unwrap_or(0);
-    stats.min_samples_per_pixel = taken.min().unwrap_or(0);
-    stats.mean_samples_per_pixel = stats.samples as f64 / pixels;
-    stats.readback_bytes = rounds.readback_bytes();
+    stats.sampled(&film, device.readback_bytes());
     stats.render_seconds = render_start.elapsed().as_secs_f64();
     let mut image = film.colour();
     add_pass_channels(&mut image, layout.passes(), &layout, &film);
@@ -324,6 +272,103 @@ fn sample(
         denoised: None,
         stats,
     })
+}
+
+impl FrameStats {
+    /// Adds a round's counts.
+    fn add(&mut self, counts: &RoundCounts) {
+        self.rays += counts.rays;
+        self.samples += counts.samples;
+        self.non_finite += counts.non_finite;
+        self.tile_seconds += counts.busy_seconds;
+        self.rounds += 1;
+    }
+
+    /// Fills in what a sampled `film` tells: its estimated error, its pixels' fewest, most and
+    /// mean samples; and the bytes read back from its device.
+    fn sampled(&mut self, film: &Film, readback_bytes: u64) {
+        self.noisy_relative_error = relative_error(film);
+        self.relative_error = self.noisy_relative_error;
+        let taken = film.all_pixels().iter().map(Pixel::taken);
+        self.samples_per_pixel = taken.clone().max().unwrap_or(0);
+        self.min_samples_per_pixel = taken.min().unwrap_or(0);
+        let pixels = film.width as f64 * film.height as f64;
+        self.mean_samples_per_pixel = self.samples as f64 / pixels;
+        self.readback_bytes = readback_bytes;
+    }
+}
+
+/// Where a frame's rounds stand, and so what the next one takes: without a budget, one round
+/// of the scene's samples; under one, uniform rounds that double the samples
+/// ([`next_round`]) up to [`MIN_SAMPLES_FOR_THRESHOLD`] (or the cap), timed, then adaptive
+/// rounds ([`plan_adaptive`]) paced by the time a pixel's sample took.
+struct RoundSchedule {
+    /// The scene's samples, which a frame without a budget takes.
+    samples: u32,
+    /// The samples every pixel has taken in the uniform rounds.
+    done: u32,
+    /// The samples after which rounds are adaptive.
+    warm_up: u32,
+    /// Seconds the last uniform round took per sample of every pixel.
+    seconds_per_sample: Option<f64>,
+    /// Seconds the last round took per sample of one pixel.
+    seconds_per_pixel_sample: f64,
+}
+
+impl RoundSchedule {
+    fn new(budget: &Budget, samples: u32) -> RoundSchedule {
+        RoundSchedule {
+            samples,
+            done: 0,
+            warm_up: MIN_SAMPLES_FOR_THRESHOLD.min(budget.max_samples.unwrap_or(u32::MAX)),
+            seconds_per_sample: None,
+            seconds_per_pixel_sample: f64::INFINITY,
+        }
+    }
+
+    /// The next round of a frame under `budget` whose `film` is as it is after `elapsed`
+    /// seconds, its pixels weighed by `weights`; `None` when a frame without a budget has its
+    /// samples; why sampling stops, when the budget says.
+    fn next<'w>(
+        &self,
+        budget: &Budget,
+        film: &Film,
+        weights: Weights<'w>,
+        elapsed: f64,
+    ) -> Result<Option<RoundPlan<'w>>, StopReason> {
+        if !budget.is_set() {
+            return Ok((self.done < self.samples).then_some(RoundPlan::Uniform(self.samples)));
+        }
+        if !self.warmed_up() {
+            let size = next_round(budget, self.done, elapsed, self.seconds_per_sample)?;
+            return Ok(Some(RoundPlan::Uniform(self.done + size)));
+        }
+        let a = plan_adaptive(
+            film,
+            &weights,
+            budget,
+            elapsed,
+            self.seconds_per_pixel_sample,
+        )?;
+        Ok(Some(RoundPlan::Adaptive(a, weights)))
+    }
+
+    /// Records that the round `plan` took `seconds` and did `counts`.
+    fn took(&mut self, plan: &RoundPlan<'_>, seconds: f64, counts: &RoundCounts) {
+        if let RoundPlan::Uniform(n) = *plan {
+            self.seconds_per_sample = Some(seconds / (n - self.done) as f64);
+            self.done = n;
+        }
+        if counts.samples > 0 {
+            self.seconds_per_pixel_sample = seconds / counts.samples as f64;
+        }
+    }
+
+    /// Whether every pixel has its first samples, after which a noise threshold is judged and
+    /// rounds are adaptive.
+    fn warmed_up(&self) -> bool {
+        self.done >= self.warm_up
+    }
 }
 
 #[cfg(test)]
