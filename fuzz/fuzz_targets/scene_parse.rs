@@ -6,10 +6,10 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use raytrace_scene::scene_file::SceneFile;
 use raytrace_core::Scene;
-use raytrace_core::renderer::{Budget, render_frame};
-use raytrace_core::world::StaticGeometry;
+use raytrace_core::image::COLOUR;
+use raytrace_core::renderer::{CpuShot, FrameJob};
+use raytrace_scene::scene_file::SceneFile;
 
 fuzz_target!(|data: &[u8]| {
     match Scene::parse_bytes(data, Path::new("fuzz.toml")) {
@@ -22,11 +22,12 @@ fuzz_target!(|data: &[u8]| {
             scene.output.height = 2;
             scene.render.samples = 1;
             scene.render.max_depth = 4;
-            let statics = StaticGeometry::new(&scene);
+            let shot = CpuShot::new(&scene);
             for frame in [scene.shot.first_frame, scene.shot.last_frame()] {
-                let r = render_frame(&scene, &statics, frame, &Budget::default(), &|_| {});
-                assert_eq!(r.stats.dropped, 0);
-                assert!(r.film.pixels().iter().all(|p| p.is_finite()));
+                let r = FrameJob::new(&scene, frame).sample(&shot).expect("a CPU frame");
+                assert_eq!(r.stats.non_finite, 0);
+                let colour = r.image.rgb(COLOUR).expect("a frame's colour");
+                assert!((0..r.image.pixels()).all(|i| colour.at(i).is_finite()));
             }
         }
     }
