@@ -5,7 +5,7 @@
 //! when both render the same image: their difference, pixel by pixel, has mean zero and the
 //! variance the films estimate from their two replicates. Every shipped scene is held to
 //! that, and the books' scene through the binary as a user renders it. With the same seed the
-//! GPU draws the CPU's sampler numbers (src/gpu/tests.rs), so its camera rays and first hits
+//! GPU draws the CPU's sampler numbers (crates/gpu/src/tests.rs), so its camera rays and first hits
 //! are the CPU's up to `f32` rounding: the passes are compared pixel by pixel.
 
 use crate::common;

@@ -6,7 +6,7 @@
 //! (no sample dropped for not being finite). Never a panic. Then the binary on inputs that are not scene files at all.
 //!
 //! ```text
-//! cargo test --release --test hostile_scenes -- --nocapture   # prints the counts and times
+//! cargo test --release --test integration hostile_scenes:: -- --nocapture   # prints the counts and times
 //! ```
 
 use std::path::Path;

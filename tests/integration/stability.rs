@@ -1308,7 +1308,7 @@ seed = 9
 color = [1.0, 1.0, 1.0]
 "#;
 
-/// The sample times of pixel (x, y) in `frame`, drawn as `render_frame` draws them (the
+/// The sample times of pixel (x, y) in `frame`, drawn as a frame's sampling draws them (the
 /// camera's numbers), as fractions of the shutter; and the largest difference between a
 /// time's fraction and the uniform number it was drawn from.
 fn shutter_fractions(sc: &Scene, frame: u32, x: u32, y: u32, n: u32) -> (Vec<f64>, f64) {

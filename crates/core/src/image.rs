@@ -3,7 +3,7 @@
 //! descriptors). The one form a frame takes from the film to the file: the film's replicates
 //! ([`crate::film::Film::replicates`]), what the denoiser reads and gives back, the written
 //! frame's terms and colour, history's earlier frames, and the frame the writers encode
-//! ([`crate::film::Film::image`]: the colour and the passes' channels).
+//! ([`crate::renderer::FrameResult::image`]: the film's colour and the passes' channels).
 //!
 //! A group of three channels (a colour, a normal) is named once, as an [`Rgb`], and read or
 //! written as a `Vec3` a pixel ([`Image::rgb`], [`Image::set_rgb`]), never by offsets.

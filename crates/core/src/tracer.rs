@@ -62,9 +62,8 @@ pub(crate) fn radiance_packet<S: Sampler>(
 }
 
 /// [`radiance_packet`] handing each camera ray's first intersection to `first` (with the
-/// ray's index in `rays`), as [`camera_radiance`] does for one ray; with `transparent`, a
-/// camera ray that misses every sphere returns black. The same values, bit for bit, as
-/// [`camera_radiance`] of each ray in turn.
+/// ray's index in `rays`); with `transparent`, a camera ray that misses every sphere returns
+/// black. Otherwise the same values, bit for bit, as [`radiance`] of each ray in turn.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn camera_radiance_packet<S: Sampler, F: FnMut(usize, Option<&Hit>)>(
@@ -95,7 +94,7 @@ pub(crate) fn camera_radiance_packet<S: Sampler, F: FnMut(usize, Option<&Hit>)>(
     out
 }
 
-/// The loop of [`radiance`], [`camera_radiance`] and their packets; `camera_hit`, if
+/// The loop of [`radiance`] and the packets' rays; `camera_hit`, if
 /// given, is the ray's first intersection, found already.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]

@@ -1,7 +1,6 @@
 //! Finishing a sampled frame for writing: raw film → denoise → history → the frame written. A
-//! shot's
-//! command assembles the stages its scene asks for once ([`Finishing::new`]) and runs every
-//! frame through them ([`Finishing::finish`]); the sampling never branches on them, but asks
+//! shot's command assembles the stages its scene asks for once ([`Finishing::new`]) and runs
+//! every frame through them ([`Finishing::finish`]); the sampling never branches on them, but asks
 //! the pipeline's stop rule ([`Finishing::stop_rule`]) whether the frame that will be written
 //! is within a noise threshold.
 //!
