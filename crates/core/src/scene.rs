@@ -1,7 +1,7 @@
 //! The validated description of a shot: everything a render needs, with defaults applied,
 //! names resolved and every value checked, command-line overrides included. It is made only by
-//! [`raytrace_scene::scene_file`] (which reads and checks scene files) and read by the core
-//! ([`crate::world`], [`crate::render`], [`crate::tracer`]), which never sees the file or its
+//! `raytrace_scene::scene_file` (which reads and checks scene files) and read by the core
+//! ([`crate::world`], [`crate::renderer`], [`crate::tracer`]), which never sees the file or its
 //! reader.
 
 use std::path::PathBuf;

@@ -4,16 +4,16 @@
 //! ([`raytrace_core::prepared::PreparedFrame`], which the upload only copies), the rounds and the film
 //! each round's sums are added to, so frames, passes, budgets and files go through one path.
 //!
-//! - [`context`]: the adapter, the device, the compiled shader, the errors ([`Adapter`],
+//! - `context`: the adapter, the device, the compiled shader, the errors ([`Adapter`],
 //!   [`Gpu`], [`GpuError`]);
-//! - [`support`]: what the GPU path refuses before rendering ([`unsupported`]);
-//! - [`layout`]: where everything lies in the GPU's buffers, for the CPU and the shaders;
-//! - [`flatten`]: a hierarchy flattened for the GPU, its only reader of one;
-//! - [`upload`]: a shot's and a frame's words, serialised from the CPU's preparation;
-//! - [`shot`]: a shot and its frames on the GPU, rounds of samples into the film ([`GpuShot`]);
-//! - [`device_film`]: the film on the device, its dispatches and what comes back;
-//! - [`schedule`]: a round's windows of dispatches, sized by the device's pace;
-//! - [`quiet`]: keeping a driver's stray `XDG_RUNTIME_DIR` line out of the output;
+//! - `support`: what the GPU path refuses before rendering ([`unsupported`]);
+//! - `layout`: where everything lies in the GPU's buffers, for the CPU and the shaders;
+//! - `flatten`: a hierarchy flattened for the GPU, its only reader of one;
+//! - `upload`: a shot's and a frame's words, serialised from the CPU's preparation;
+//! - `shot`: a shot and its frames on the GPU, rounds of samples into the film ([`GpuShot`]);
+//! - `device_film`: the film on the device, its dispatches and what comes back;
+//! - `schedule`: a round's windows of dispatches, sized by the device's pace;
+//! - `quiet`: keeping a driver's stray `XDG_RUNTIME_DIR` line out of the output;
 //! - `shaders/`: the WGSL, included in the binary.
 //!
 //! This file only declares and re-exports: the children import each other directly.

@@ -18,7 +18,7 @@ const FLOOR_BYTES: u64 = 9 << 20;
 /// An estimate of the most memory a render of one frame of `scene` at a time holds, in
 /// bytes: the sum of what each room that holds memory says it holds for it (so that a buffer
 /// is counted where it is allocated):
-/// - the process's floor ([`FLOOR_BYTES`]);
+/// - the process's floor (`FLOOR_BYTES`);
 /// - the scene file while it is read ([`raytrace_scene::scene_file::bytes_for`]) and the
 ///   spheres, described, prepared and in their hierarchies ([`world::bytes_for`]);
 /// - the frame's points and the reading of their files ([`PointLoad::bytes`]: `load` is the

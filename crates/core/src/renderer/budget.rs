@@ -7,7 +7,7 @@
 pub struct Budget {
     /// Stop once this many seconds (preparation included) would be exceeded.
     pub time_limit: Option<f64>,
-    /// Stop once the estimated relative error ([`FrameStats::relative_error`]) is at or below
+    /// Stop once the estimated relative error ([`FrameStats::relative_error`](super::FrameStats::relative_error)) is at or below
     /// this.
     pub noise_threshold: Option<f64>,
     /// Never take more samples per pixel than this.

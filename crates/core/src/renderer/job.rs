@@ -54,7 +54,7 @@ pub struct FrameStats {
     /// Spheres moving during the frame's shutter.
     pub moving_spheres: usize,
     /// The relative error estimated from the pixels' replicates
-    /// ([`relative_error`](super::relative_error)): the square root of the estimated relative
+    /// ([`relative_error`]): the square root of the estimated relative
     /// mean squared error. Infinite with fewer than two samples per pixel. Of the frame
     /// written: when the frame is denoised, the raw and denoised frames blended, bias
     /// included (`denoise::estimate`).
@@ -132,7 +132,7 @@ pub struct Denoised {
 /// plain sum of its samples over their count: a pixel that stopped at N samples is
 /// bit-identical to the same pixel rendered with exactly N samples.
 ///
-/// The frame comes out raw: finishing it (denoising, history) is [`Finishing`](super::Finishing)'s.
+/// The frame comes out raw: finishing it (denoising, history) is `raytrace_render`'s `Finishing`.
 /// The scene's point caches are not read here (reading files is not the frame's business):
 /// the frame's points are given ([`FrameJob::points`]).
 pub struct FrameJob<'a> {
@@ -161,7 +161,7 @@ impl<'a> FrameJob<'a> {
     }
 
     /// Also samples `read`, the passes the frame's finishing reads without writing them
-    /// ([`Finishing::passes_read`](super::Finishing::passes_read)).
+    /// (`Finishing::passes_read` in `raytrace_render`).
     pub fn reading(self, read: PassSet) -> FrameJob<'a> {
         FrameJob { read, ..self }
     }

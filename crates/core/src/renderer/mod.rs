@@ -1,6 +1,7 @@
-//! Rendering one frame on the CPU (or on the GPU, [`raytrace_gpu`]): the frame's world, its camera rays, in parallel over the
-//! film's tiles, in one round of the requested samples or, under a time or noise budget, in
-//! rounds until the budget is met.
+//! Sampling one frame on a device (the CPU's tiles here, the GPU's in `raytrace_gpu`, through
+//! [`ShotTracer`]): the frame prepared, its camera rays in parallel over the film, in one round
+//! of the requested samples or, under a time or noise budget, in rounds until the budget is
+//! met.
 //!
 //! - [`job`]: [`FrameJob`], one frame sampled into its raw film; its figures and result;
 //! - [`tiles`]: what is fixed before the first sample, and one round over every tile;

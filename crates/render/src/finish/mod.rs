@@ -4,12 +4,12 @@
 //! the pipeline's stop rule ([`Finishing::stop_rule`]) whether the frame that will be written
 //! is within a noise threshold.
 //!
-//! **Denoise** ([`Denoising`]): the film's two replicates are denoised, each alone, by one
+//! **Denoise** (`Denoising`): the film's two replicates are denoised, each alone, by one
 //! filter made for the shot; the written frame blends the raw frame and the denoised halves'
 //! mean per pixel by their estimated errors, and states its own error
 //! (`denoise::estimate`, derived there).
 //!
-//! **History** ([`History`], `--temporal`): the written frame is combined with the two frames
+//! **History** (`History`, `--temporal`): the written frame is combined with the two frames
 //! before it, carried to its pixels along the motion vectors, each weighed by its estimated
 //! error (`denoise::history`, derived there). A frame reads the frames before it as they were
 //! written before their own history, so it depends on those two frames' renders and no

@@ -10,7 +10,7 @@
 //! same numbers).
 //!
 //! Hostile files cost little: only a regular file is opened (a named pipe would block, a
-//! directory has no data), the header is at most [`MAX_HEADER`] bytes and is read in time
+//! directory has no data), the header is at most [`MAX_HEADER`](header::MAX_HEADER) bytes and is read in time
 //! linear in its size, an element's count is compared with the bytes the file holds before
 //! anything is allocated for it (a header that declares 2^31 rows of a small file is refused
 //! at once), and rows are read through buffers bounded in bytes ([`READ_BUFFER_BYTES`] in

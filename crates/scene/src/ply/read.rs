@@ -27,7 +27,7 @@ const SKIP_BYTES: usize = 1 << 16;
 
 /// The buffers reading one PLY file holds, in bytes: the reader's and a chunk of rows, 2 MiB
 /// whatever the rows' size. The point caches' memory estimate counts one such file at a
-/// time ([`raytrace_render::memory`]). The parsed header comes on top: a few hundred bytes for a
+/// time (`raytrace_render::memory`, through `PointLoad`). The parsed header comes on top: a few hundred bytes for a
 /// cache's usual dozen properties, at most about 6 MiB for the largest header, 1 MiB of
 /// one-byte properties (measured: docs/robustness.md).
 pub(crate) const READ_BUFFER_BYTES: u64 = (READER_BYTES + CHUNK_BYTES) as u64;
