@@ -1,5 +1,5 @@
 //! Clips: a shot's rendered frames, read back from disk, assembled into one file to watch.
-//! The clip's extension picks the kind ([`crate::CLIP_FORMATS`]):
+//! The clip's extension picks the kind ([`CLIP_FORMATS`]):
 //!
 //! - `.mp4`: H.264 made by the `ffmpeg` program ([`mp4`]);
 //! - `.gif`: an animated GIF ([`gif`]);
