@@ -9,8 +9,9 @@ use super::args::RenderArgs;
 use super::interrupt;
 use super::jobs::{Job, Targets, load_shots};
 use super::progress::Progress;
+use crate::estimated_error::{frame_error_note, relative_error_percent};
 use raytrace_core::error::{Error, elide_path};
-use raytrace_core::renderer::{FrameJob, FrameResult, FrameStats};
+use raytrace_core::renderer::{FrameJob, FrameStats};
 use raytrace_core::scene::{Device, Scene};
 use raytrace_io as io;
 use raytrace_io::clip;
@@ -154,8 +155,8 @@ fn summary_text(summary: &RunSummary) -> String {
     } else {
         format!(
             ", est. error mean {} max {}",
-            percent(summary.error_mean),
-            percent(summary.error_max)
+            relative_error_percent(summary.error_mean),
+            relative_error_percent(summary.error_max)
         )
     };
     format!(
@@ -244,7 +245,7 @@ fn render_shot(
         progress.line(&format!(
             "frame {frame}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
             spp_note(st),
-            error_note(&result),
+            frame_error_note(&result),
             st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
             st.non_finite,
             non_finite_note(non_finite),
@@ -281,35 +282,12 @@ fn spp_note(st: &FrameStats) -> String {
     }
 }
 
-/// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
-/// (3.456% before)`.
-fn error_note(result: &FrameResult) -> String {
-    let st = &result.stats;
-    match &result.denoised {
-        Some(_) => format!(
-            "{} denoised ({} before)",
-            percent(st.relative_error),
-            percent(st.noisy_relative_error)
-        ),
-        None => percent(st.relative_error),
-    }
-}
-
 /// The frame line's note of pixels written as black because they were not finite, if any.
 fn non_finite_note(pixels: u64) -> String {
     if pixels == 0 {
         String::new()
     } else {
         format!("{pixels} non-finite pixels written as 0, ")
-    }
-}
-
-/// An estimated relative error as a percentage, or why there is none.
-fn percent(relative_error: f64) -> String {
-    if relative_error.is_finite() {
-        format!("{:.3}%", relative_error * 100.0)
-    } else {
-        "unknown (1 sample)".to_string()
     }
 }
 
