@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use super::args::CheckArgs;
+use super::args::{CheckArgs, FramesArg};
 use super::frames;
 use super::jobs::{Job, load_shots};
 use raytrace_core::error::{Error, elide, elide_path};
@@ -22,7 +22,13 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         device: args.device,
         ..Overrides::default()
     };
-    let shots = load_shots(&args.scenes, &overrides, None, None, Depth::Values)?;
+    let shots = load_shots(
+        &args.scenes,
+        &overrides,
+        &FramesArg::Every,
+        None,
+        Depth::Values,
+    )?;
     // The adapter a render on the GPU would take, found once.
     let gpu = Needs::of(shots.iter().map(|s| &s.scene))
         .gpu

@@ -48,7 +48,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let shots = load_shots(
         &args.scenes,
         &args.overrides(),
-        args.frames.as_ref(),
+        &args.frames_arg(),
         chunk,
         Depth::Files,
     )?;
