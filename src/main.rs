@@ -1,11 +1,13 @@
 //! `raytrace`: renders animation sequences of moving spheres, with motion blur and defocus
 //! blur, as EXR or PNG frames. This binary is the command line ([`cli`]: one module per
-//! command), the live preview ([`preview`]) and `converge`'s analysis ([`analysis`]); the
-//! renderer is the workspace's library crates (docs/architecture.md).
+//! command), the live preview ([`preview`]) and `converge`'s analysis ([`analysis`]), with
+//! how their lines state a frame's estimated error ([`estimated_error`]); the renderer is the
+//! workspace's library crates (docs/architecture.md).
 #![forbid(unsafe_code)]
 
 mod analysis;
 mod cli;
+mod estimated_error;
 mod preview;
 
 use std::process::ExitCode;

@@ -463,7 +463,35 @@ impl SceneArgs {
     }
 }
 
+/// What `--frames` asks for (it takes a value or none): every frame of the shot, or the frames
+/// of a spec, which [`Selection::parse`](super::frames::Selection::parse) reads against the
+/// shot's frames.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum FramesArg {
+    /// `--frames` absent, or given without a value.
+    Every,
+    /// `--frames SPEC`: `12`, `1-48`, `1-48:4` or a comma list of those (an empty spec is an
+    /// error).
+    Spec(String),
+}
+
+impl FramesArg {
+    /// The `--frames` clap read: absent (`None`), given without a value (`Some(None)`), or
+    /// with one.
+    fn of(frames: &Option<Option<String>>) -> FramesArg {
+        match frames {
+            None | Some(None) => FramesArg::Every,
+            Some(Some(spec)) => FramesArg::Spec(spec.clone()),
+        }
+    }
+}
+
 impl RenderArgs {
+    /// The frames `--frames` asks for, of each scene.
+    pub(crate) fn frames_arg(&self) -> FramesArg {
+        FramesArg::of(&self.frames)
+    }
+
     /// The scene values these arguments replace.
     pub fn overrides(&self) -> Overrides {
         Overrides {
@@ -477,6 +505,20 @@ impl RenderArgs {
             temporal: self.temporal.then_some(true),
             ..self.scene_args.overrides()
         }
+    }
+}
+
+impl PreviewArgs {
+    /// The frames `--frames` puts on the timeline.
+    pub(crate) fn frames_arg(&self) -> FramesArg {
+        FramesArg::of(&self.frames)
+    }
+}
+
+impl ClipArgs {
+    /// The frames `--frames` puts in the clip.
+    pub(crate) fn frames_arg(&self) -> FramesArg {
+        FramesArg::of(&self.frames)
     }
 }
 

@@ -3,15 +3,16 @@
 
 use std::fmt::Write;
 
-use super::args::CheckArgs;
-use super::frames;
+use super::args::{CheckArgs, FramesArg};
+use super::frames::{self, Selection};
 use super::jobs::{Job, load_shots};
 use raytrace_core::error::{Error, elide, elide_path};
 use raytrace_core::motion::Motion;
 use raytrace_core::points::PointCacheDesc;
+use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Needs, adapter_line};
 use raytrace_render::memory::{check_memory, memory_estimate, mib};
-use raytrace_scene::point_cache::{Depth, FrameSurvey};
+use raytrace_scene::point_cache::{Depth, FrameSurvey, ShotPoints};
 use raytrace_scene::scene_file::Overrides;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
@@ -22,7 +23,13 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         device: args.device,
         ..Overrides::default()
     };
-    let shots = load_shots(&args.scenes, &overrides, None, None, Depth::Values)?;
+    let shots = load_shots(
+        &args.scenes,
+        &overrides,
+        &FramesArg::Every,
+        None,
+        Depth::Values,
+    )?;
     // The adapter a render on the GPU would take, found once.
     let gpu = Needs::of(shots.iter().map(|s| &s.scene))
         .gpu
@@ -56,9 +63,37 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
     // Every file of every selected frame was read and checked, value by value, once, by the
     // survey.
     let caches = &shot.caches;
-    let shot = &scene.shot;
     let mut s = String::new();
     let _ = writeln!(s, "{}: ok", elide_path(scene_path));
+    write_shot(&mut s, scene);
+    write_points(&mut s, scene, selected, caches)?;
+    let _ = writeln!(s, "camera: {}", camera_note(scene));
+    write_image(&mut s, scene, gpu);
+    let _ = writeln!(s, "memory: about {}", mib(memory));
+    let per_frame =
+        scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64;
+    // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.
+    let _ = writeln!(
+        s,
+        "total samples: {} ({} per frame)",
+        per_frame as u128 * selected.len() as u128,
+        per_frame
+    );
+    if let Some(size) = chunk_size {
+        let _ = writeln!(
+            s,
+            "chunks: {} of up to {size} frames",
+            frames::chunk_count(selected.len(), size)
+        );
+    }
+    write_frames(&mut s, scene, caches)?;
+    Ok(s)
+}
+
+/// Writes the `shot:` line (with the `shutter:` note when the shutter has one) and the
+/// `spheres:` line.
+fn write_shot(s: &mut String, scene: &Scene) {
+    let shot = &scene.shot;
     let _ = writeln!(
         s,
         "shot: {} frames ({}-{}) at {} fps, shutter {} s ({}), start time {} s",
@@ -86,6 +121,16 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
         moving,
         scene.spheres.len() - moving
     );
+}
+
+/// Writes a `points[i]:` line per point cache and, after the last, the `points:` line of the
+/// points a frame holds over the `selected` frames, from the survey `caches`.
+fn write_points(
+    s: &mut String,
+    scene: &Scene,
+    selected: &Selection,
+    caches: &ShotPoints,
+) -> Result<(), Error> {
     for (i, p) in scene.points.iter().enumerate() {
         let kind = if p.is_sequence() {
             "a file per frame"
@@ -117,6 +162,11 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
             );
         }
     }
+    Ok(())
+}
+
+/// The camera's motion and lens, as the `camera:` line states them: `still, pinhole, vfov 40`.
+fn camera_note(scene: &Scene) -> String {
     let cam = match (&scene.camera.look_from, &scene.camera.look_at) {
         (Motion::Orbit { orbit, .. }, _) => {
             format!("orbit at {} degrees/s", orbit.degrees_per_second)
@@ -129,9 +179,13 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
     } else {
         "pinhole".to_string()
     };
-    let _ = writeln!(s, "camera: {cam}, {lens}, vfov {}", scene.camera.vfov);
-    let per_frame =
-        scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64;
+    format!("{cam}, {lens}, vfov {}", scene.camera.vfov)
+}
+
+/// Writes the `image:` line, and the lines of what else the frames are made and written
+/// with: the GPU's `device:` line (`gpu`, when the scene renders on it), `passes:` and
+/// `clip:`.
+fn write_image(s: &mut String, scene: &Scene, gpu: Option<&str>) {
     let _ = writeln!(
         s,
         "image: {}x{}, {} samples/pixel, max depth {}, seed {}, output {}",
@@ -158,23 +212,13 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
     if let Some(c) = &scene.output.clip {
         let _ = writeln!(s, "clip: {}", elide(c));
     }
-    let _ = writeln!(s, "memory: about {}", mib(memory));
-    // Up to 2^32 frames of up to 2^64 samples: a u128 holds the product.
-    let _ = writeln!(
-        s,
-        "total samples: {} ({} per frame)",
-        per_frame as u128 * selected.len() as u128,
-        per_frame
-    );
-    if let Some(size) = chunk_size {
-        let _ = writeln!(
-            s,
-            "chunks: {} of up to {size} frames",
-            frames::chunk_count(selected.len(), size)
-        );
-    }
+}
+
+/// Writes the `frames:` list: every frame of a short shot, the first 20 and the last 5 of a
+/// long one (`...` between), each with its line.
+fn write_frames(s: &mut String, scene: &Scene, caches: &ShotPoints) -> Result<(), Error> {
     let _ = writeln!(s, "frames:");
-    // Every frame of a short shot; the first 20 and the last 5 of a long one.
+    let shot = &scene.shot;
     let (first, last) = (shot.first_frame, shot.last_frame());
     let listed: Vec<Option<u32>> = if shot.frames <= 50 {
         (first..=last).map(Some).collect()
@@ -188,39 +232,44 @@ fn describe(shot: &Job, chunk_size: Option<u64>, gpu: Option<&str>) -> Result<St
     for f in listed {
         match f {
             Some(f) => {
-                let i = shot.interval(f);
-                let moving_now = scene
-                    .spheres
-                    .iter()
-                    .filter(|s| s.prepare(i).motion.is_moving())
-                    .count();
-                let points = match scene.points.is_empty() {
-                    true => String::new(),
-                    false => {
-                        let p: FrameSurvey = caches.frame_survey(scene, f)?;
-                        let moving = match p.moving {
-                            Some(m) => format!("{m} moving"),
-                            None => "moving to their next snapshot".to_string(),
-                        };
-                        format!(
-                            ", {} points ({moving}), memory about {}",
-                            p.points,
-                            mib(memory_estimate(scene, p.load))
-                        )
-                    }
-                };
-                let _ = writeln!(
-                    s,
-                    "  {f}: shutter [{}, {}] s, {moving_now} moving{points}",
-                    i.open, i.close
-                );
+                let _ = writeln!(s, "{}", frame_line(scene, caches, f)?);
             }
             None => {
                 let _ = writeln!(s, "  ...");
             }
         }
     }
-    Ok(s)
+    Ok(())
+}
+
+/// A frame's line in the `frames:` list: its exposure and the spheres moving in it, with its
+/// points (their survey in `caches`) and memory when the scene has point caches.
+fn frame_line(scene: &Scene, caches: &ShotPoints, f: u32) -> Result<String, Error> {
+    let i = scene.shot.interval(f);
+    let moving_now = scene
+        .spheres
+        .iter()
+        .filter(|s| s.prepare(i).motion.is_moving())
+        .count();
+    let points = match scene.points.is_empty() {
+        true => String::new(),
+        false => {
+            let p: FrameSurvey = caches.frame_survey(scene, f)?;
+            let moving = match p.moving {
+                Some(m) => format!("{m} moving"),
+                None => "moving to their next snapshot".to_string(),
+            };
+            format!(
+                ", {} points ({moving}), memory about {}",
+                p.points,
+                mib(memory_estimate(scene, p.load))
+            )
+        }
+    };
+    Ok(format!(
+        "  {f}: shutter [{}, {}] s, {moving_now} moving{points}",
+        i.open, i.close
+    ))
 }
 
 /// A cache's looks and time, as `check` lists them after its motion: `, color_by c_speed

@@ -222,7 +222,71 @@ fn measure(
             render_references(scene, variant, shot, frame, paths, args, &say)?
         }
     };
+    let plan = Plan::new(scene, args);
+    let mut report = measure_points(&plan, variant, (shot, frame), &references, &say)?;
+    for note in report.fit_times() {
+        say(&note);
+    }
+    let levels = series::level_times(&report);
+    say(&table::summary(&report, &levels));
+    if let Some(path) = &args.csv {
+        write_csv(path, &report, &levels, &say)?;
+    }
+    if let Some(path) = &args.plot {
+        write_plot(path, scene, frame, &report, &say)?;
+    }
+    Ok(report)
+}
 
+/// What `converge` measures: the series, each one's settings step by step, the seeds of a
+/// point, how many times a point is rendered, and the seconds a series may take.
+struct Plan<'a> {
+    kinds: Vec<SeriesKind>,
+    /// The uniform series' samples per pixel, step by step.
+    uniform: Vec<u32>,
+    /// The adaptive series' noise thresholds, step by step.
+    thresholds: &'a [f64],
+    seeds: Vec<u64>,
+    /// The most renders of a point.
+    most: usize,
+    /// The fewest renders of a point whose times have settled.
+    fewest: usize,
+    /// `--budget`: seconds of rendering per series, at most.
+    budget: Option<f64>,
+}
+
+impl<'a> Plan<'a> {
+    /// The plan `args` ask for, of `scene`.
+    fn new(scene: &Scene, args: &'a ConvergeArgs) -> Plan<'a> {
+        let max_samples = args.max_samples.unwrap_or(match args.budget {
+            Some(_) => u32::MAX,
+            None => scene.render.samples,
+        });
+        let seed_count = args.seeds.unwrap_or(DEFAULT_SEEDS) as usize;
+        let most = (args.repeats.unwrap_or(DEFAULT_REPEATS) as usize).max(seed_count);
+        Plan {
+            kinds: series_kinds(args),
+            uniform: schedule(max_samples),
+            thresholds: &args.thresholds,
+            seeds: measured_seeds(scene, seed_count),
+            most,
+            fewest: MIN_RENDERS.max(seed_count).min(most),
+            budget: args.budget,
+        }
+    }
+
+    /// The setting of `kind`'s point at `step`, if its series has one.
+    fn setting(&self, kind: &SeriesKind, step: usize) -> Option<Setting> {
+        match kind.sampling {
+            Sampling::Uniform => self.uniform.get(step).map(|&n| Setting::Samples(n)),
+            Sampling::Adaptive => self.thresholds.get(step).map(|&e| Setting::Threshold(e)),
+        }
+    }
+}
+
+/// The series `args` ask for: each sampler (`--sampler`, or all), uniform and with
+/// `--thresholds` adaptive, raw and with `--denoise` denoised, in that order.
+fn series_kinds(args: &ConvergeArgs) -> Vec<SeriesKind> {
     let samplers = match args.sampler.is_empty() {
         true => SamplerKind::ALL.to_vec(),
         false => args.sampler.clone(),
@@ -247,34 +311,39 @@ fn measure(
             }
         }
     }
-    let max_samples = args.max_samples.unwrap_or(match args.budget {
-        Some(_) => u32::MAX,
-        None => scene.render.samples,
-    });
-    let uniform = schedule(max_samples);
-    let settings = |kind: &SeriesKind, step: usize| match kind.sampling {
-        Sampling::Uniform => uniform.get(step).map(|&n| Setting::Samples(n)),
-        Sampling::Adaptive => args.thresholds.get(step).map(|&e| Setting::Threshold(e)),
-    };
-    let seed_count = args.seeds.unwrap_or(DEFAULT_SEEDS) as usize;
-    let seeds: Vec<u64> = (0..seed_count as u64)
+    kinds
+}
+
+/// The `count` seeds a point is rendered with: the scene's, then seeds of their own.
+fn measured_seeds(scene: &Scene, count: usize) -> Vec<u64> {
+    (0..count as u64)
         .map(|k| match k {
             0 => scene.render.seed,
             _ => hash_words(&[scene.render.seed, MEASURED_SEED, k]) >> 1,
         })
-        .collect();
-    let most = (args.repeats.unwrap_or(DEFAULT_REPEATS) as usize).max(seed_count);
-    let fewest = MIN_RENDERS.max(seed_count).min(most);
+        .collect()
+}
 
+/// Measures the points of `plan`, a step at a time (each series' next setting), printing a
+/// row per point; a series stops when its settings end, or when its next point would take
+/// it over the budget.
+fn measure_points(
+    plan: &Plan,
+    variant: &Variant,
+    (shot, frame): (Shot, u32),
+    references: &References,
+    say: &dyn Fn(&str),
+) -> Result<Report, Error> {
     let mut report = Report::default();
-    let mut spent = vec![0.0; kinds.len()];
-    let mut active = vec![true; kinds.len()];
+    let mut spent = vec![0.0; plan.kinds.len()];
+    let mut active = vec![true; plan.kinds.len()];
     say(&table::header());
     for step in 0.. {
         let mut runs = Vec::new();
-        for (i, kind) in kinds.iter().enumerate() {
-            if let (true, Some(setting)) = (active[i], settings(kind, step)) {
-                let scenes = seeds
+        for (i, kind) in plan.kinds.iter().enumerate() {
+            if let (true, Some(setting)) = (active[i], plan.setting(kind, step)) {
+                let scenes = plan
+                    .seeds
                     .iter()
                     .map(|&seed| variant(setting_samples(setting), seed, kind.sampler, kind.finish))
                     .collect::<Result<Vec<Scene>, Error>>()?;
@@ -284,23 +353,7 @@ fn measure(
         if runs.is_empty() {
             break;
         }
-        // The points of this step take turns render by render.
-        for r in 0..most {
-            for run in runs.iter_mut().filter(|run| !run.done) {
-                let scene = &run.scenes[r % seed_count];
-                let (result, seconds) = render(scene, shot, frame, &run.budget())?;
-                run.times.push(seconds);
-                // Renders of a seed already measured are bit-identical: only their times count.
-                if r < seed_count {
-                    run.figures.push(figures(&result, &references));
-                }
-                let walls: Vec<f64> = run.times.iter().map(|t| t.0).collect();
-                run.done = r + 1 >= most || (r + 1 >= fewest && settled(&walls, SETTLED));
-            }
-            if runs.iter().all(|run| run.done) {
-                break;
-            }
-        }
+        render_in_turns(&mut runs, plan, (shot, frame), references)?;
         for run in runs {
             let point = run.point();
             say(&table::row(&point));
@@ -308,51 +361,92 @@ fn measure(
             let total: f64 = run.times.iter().map(|t| t.0).sum();
             spent[i] += total;
             // The next point takes about twice as long as this one.
-            if args.budget.is_some_and(|b| spent[i] + 2.0 * total > b) {
+            if plan.budget.is_some_and(|b| spent[i] + 2.0 * total > b) {
                 active[i] = false;
             }
             report.points.push(point);
         }
     }
-    for note in report.fit_times() {
-        say(&note);
-    }
-    let levels = series::level_times(&report);
-    say(&table::summary(&report, &levels));
-    if let Some(path) = &args.csv {
-        io::write_file(path, table::csv(&report).as_bytes())?;
-        let levels_path = levels_csv_path(path);
-        io::write_file(&levels_path, table::levels_csv(&levels).as_bytes())?;
-        say(&format!(
-            "CSV written to {} and {}",
-            path.display(),
-            levels_path.display()
-        ));
-    }
-    if let Some(path) = &args.plot {
-        let (series, guides) = table::plot_series(&report);
-        let title = format!(
-            "{} frame {frame}: error against render time",
-            scene
-                .source
-                .file_name()
-                .map_or("scene".into(), |n| n.to_string_lossy())
-        );
-        plot::write_plot(
-            path,
-            &title,
-            "render time (s): median of alternated repeats",
-            "relative MSE against the truth (mean over seeds)",
-            &series,
-            &guides,
-        )
-        .map_err(|message| Error::Output {
-            path: path.clone(),
-            message,
-        })?;
-        say(&format!("plot written to {}", path.display()));
-    }
     Ok(report)
+}
+
+/// Renders the points of one step, taking turns render by render, each until its times
+/// settle or it has been rendered the most times; each seed's figures are taken once.
+fn render_in_turns(
+    runs: &mut [Run],
+    plan: &Plan,
+    (shot, frame): (Shot, u32),
+    references: &References,
+) -> Result<(), Error> {
+    let seed_count = plan.seeds.len();
+    for r in 0..plan.most {
+        for run in runs.iter_mut().filter(|run| !run.done) {
+            let scene = &run.scenes[r % seed_count];
+            let (result, seconds) = render(scene, shot, frame, &run.budget())?;
+            run.times.push(seconds);
+            // Renders of a seed already measured are bit-identical: only their times count.
+            if r < seed_count {
+                run.figures.push(figures(&result, references));
+            }
+            let walls: Vec<f64> = run.times.iter().map(|t| t.0).collect();
+            run.done = r + 1 >= plan.most || (r + 1 >= plan.fewest && settled(&walls, SETTLED));
+        }
+        if runs.iter().all(|run| run.done) {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// Writes the points' CSV to `path`, and the times to error levels beside it.
+fn write_csv(
+    path: &Path,
+    report: &Report,
+    levels: &[series::LevelTime],
+    say: &dyn Fn(&str),
+) -> Result<(), Error> {
+    io::write_file(path, table::csv(report).as_bytes())?;
+    let levels_path = levels_csv_path(path);
+    io::write_file(&levels_path, table::levels_csv(levels).as_bytes())?;
+    say(&format!(
+        "CSV written to {} and {}",
+        path.display(),
+        levels_path.display()
+    ));
+    Ok(())
+}
+
+/// Draws the error against time of the series of `report`, measured on `frame` of `scene`,
+/// to `path`.
+fn write_plot(
+    path: &Path,
+    scene: &Scene,
+    frame: u32,
+    report: &Report,
+    say: &dyn Fn(&str),
+) -> Result<(), Error> {
+    let (series, guides) = table::plot_series(report);
+    let title = format!(
+        "{} frame {frame}: error against render time",
+        scene
+            .source
+            .file_name()
+            .map_or("scene".into(), |n| n.to_string_lossy())
+    );
+    plot::write_plot(
+        path,
+        &title,
+        "render time (s): median of alternated repeats",
+        "relative MSE against the truth (mean over seeds)",
+        &series,
+        &guides,
+    )
+    .map_err(|message| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    say(&format!("plot written to {}", path.display()));
+    Ok(())
 }
 
 /// The samples per pixel of the measured uniform renders: powers of two up to `max_samples`,

@@ -13,11 +13,12 @@ use super::frames::Selection;
 use super::progress::print_line;
 use raytrace_core::error::Error;
 use raytrace_core::metrics::{self, FlickerSum};
-use raytrace_core::renderer::FrameJob;
+use raytrace_core::renderer::{FrameJob, ShotTracer};
 use raytrace_core::rng::hash_words;
 use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Devices, supported};
-use raytrace_scene::point_cache;
+use raytrace_render::finish::Finishing;
+use raytrace_scene::point_cache::{self, ShotPoints};
 use raytrace_scene::scene_file::{Overrides, SceneSource};
 
 /// Samples of each frame's reference, unless --reference-samples says otherwise.
@@ -97,11 +98,152 @@ struct Scenes<'a> {
     reference: &'a Scene,
 }
 
-/// One frame as measured: its reference, the reference's variances, and the three finishes.
+/// One frame as measured: its reference, the reference's variances and its own error, and
+/// the three finishes with the seconds each took.
 struct Measured {
     reference: Image,
     variances: Image,
+    /// The reference's own relative MSE, which the finishes' errors leave out.
+    own: f64,
     images: [Image; 3],
+    seconds: [f64; 3],
+}
+
+/// What a flicker measurement renders with: the scenes on their device, the two ways the
+/// sampled frames are finished, and the sequence's point caches, surveyed.
+struct Renders<'a> {
+    scenes: Scenes<'a>,
+    /// The shot of `scenes.temporal`, which every frame is sampled from.
+    tracer: Box<dyn ShotTracer>,
+    /// The shot of `scenes.reference`.
+    reference_tracer: Box<dyn ShotTracer>,
+    /// As `scenes.denoised` finishes a frame.
+    denoised: Finishing<'a>,
+    /// As `scenes.temporal` finishes a frame, with its history.
+    history: Finishing<'a>,
+    caches: ShotPoints,
+}
+
+impl<'a> Renders<'a> {
+    /// The renders of `scenes` on `devices`, with the point caches of the frames of
+    /// `selection` surveyed.
+    fn open(
+        scenes: Scenes<'a>,
+        selection: &Selection,
+        devices: &'a Devices,
+    ) -> Result<Renders<'a>, Error> {
+        let tracer = devices.shot(scenes.temporal)?;
+        let reference_tracer = devices.shot(scenes.reference)?;
+        let denoised = devices.finishing(scenes.denoised)?;
+        let history = devices.finishing(scenes.temporal)?;
+        let frames = || point_cache::Frames {
+            first: selection.first().expect("two frames or more"),
+            last: selection.last().expect("two frames or more"),
+            each: Box::new(selection.iter()),
+        };
+        let caches = ShotPoints::survey(
+            scenes.temporal,
+            Some(frames()),
+            Some(frames()),
+            point_cache::Depth::Files,
+        )?;
+        Ok(Renders {
+            scenes,
+            tracer,
+            reference_tracer,
+            denoised,
+            history,
+            caches,
+        })
+    }
+
+    /// `frame` sampled once, finished raw, denoised and with its history, and its reference
+    /// (first, the frames before it that its history reads and has not: rendered, not
+    /// measured).
+    fn measure_frame(&mut self, frame: u32) -> Result<Measured, Error> {
+        let Scenes {
+            temporal,
+            reference,
+            ..
+        } = self.scenes;
+        for earlier in self.history.needs(frame) {
+            let points = self.caches.read_frame(temporal, earlier)?;
+            self.history.render(
+                FrameJob::new(temporal, earlier).points(&points),
+                self.tracer.as_ref(),
+            )?;
+        }
+        let points = self.caches.read_frame(temporal, frame)?;
+        // Sampled and not finished: a reference is the raw frame.
+        let r = FrameJob::new(reference, frame)
+            .points(&points)
+            .sample(self.reference_tracer.as_ref())?;
+        let start = Instant::now();
+        let raw = FrameJob::new(temporal, frame)
+            .points(&points)
+            .reading(self.history.passes_read())
+            .sample(self.tracer.as_ref())?;
+        let sampled = start.elapsed().as_secs_f64();
+        let mut seconds = [sampled, 0.0, 0.0];
+        let mut finished = Vec::with_capacity(2);
+        for finishing in [&mut self.denoised, &mut self.history] {
+            let start = Instant::now();
+            let result = finishing.finish(raw.clone())?;
+            seconds[finished.len() + 1] = sampled + start.elapsed().as_secs_f64();
+            finished.push(result.image);
+        }
+        let [denoised_image, history_image]: [Image; 2] =
+            finished.try_into().expect("two finishes");
+        Ok(Measured {
+            own: r.stats.relative_error.powi(2),
+            variances: r.film.variances(),
+            reference: r.image,
+            images: [raw.image, denoised_image, history_image],
+            seconds,
+        })
+    }
+}
+
+/// The three finishes' sums over the frames measured so far, raw, denoised and temporal in
+/// that order.
+#[derive(Default)]
+struct Sums {
+    seconds: [f64; 3],
+    errors: [f64; 3],
+    flicker: [FlickerSum; 3],
+}
+
+impl Sums {
+    /// Adds frame `now`: its seconds, its true errors (less its reference's own), and its
+    /// flicker from the frame measured before it, `last`.
+    fn add(&mut self, now: &Measured, last: Option<&Measured>) {
+        for k in 0..3 {
+            self.seconds[k] += now.seconds[k];
+            self.errors[k] += (metrics::rel_mse(&now.images[k], &now.reference) - now.own)
+                .max(0.0)
+                .sqrt();
+            if let Some(before) = last {
+                self.flicker[k].add(
+                    (&before.images[k], &before.reference, &before.variances),
+                    (&now.images[k], &now.reference, &now.variances),
+                );
+            }
+        }
+    }
+
+    /// The variants' figures: the means over `frames` frames, and the flicker.
+    fn variants(&self, frames: u64) -> Vec<Variant> {
+        let names = ["raw", "denoised", "denoised --temporal"];
+        let n = frames as f64;
+        (0..3)
+            .map(|k| Variant {
+                name: names[k],
+                error: self.errors[k] / n,
+                flicker: self.flicker[k].flicker(),
+                seconds: self.seconds[k] / n,
+            })
+            .collect()
+    }
 }
 
 /// Renders the frames of `selection`, each sampled once from `scenes.temporal`, and measures
@@ -113,93 +255,19 @@ fn measure(
     devices: &Devices,
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
-    let Scenes {
-        denoised: scene,
-        temporal,
-        reference,
-    } = scenes;
-    let tracer = devices.shot(temporal)?;
-    let reference_tracer = devices.shot(reference)?;
-    let mut denoised = devices.finishing(scene)?;
-    let mut history = devices.finishing(temporal)?;
-    let frames = || point_cache::Frames {
-        first: selection.first().expect("two frames or more"),
-        last: selection.last().expect("two frames or more"),
-        each: Box::new(selection.iter()),
-    };
-    let caches = point_cache::ShotPoints::survey(
-        temporal,
-        Some(frames()),
-        Some(frames()),
-        point_cache::Depth::Files,
-    )?;
-    let mut seconds = [0.0; 3];
-    let mut errors = [0.0; 3];
-    let mut flicker = [FlickerSum::default(); 3];
+    let mut renders = Renders::open(scenes, selection, devices)?;
+    let mut sums = Sums::default();
     let mut last: Option<Measured> = None;
     for frame in selection.iter() {
-        // The frames before the first that its history reads: rendered, not measured.
-        for earlier in history.needs(frame) {
-            let points = caches.read_frame(temporal, earlier)?;
-            history.render(
-                FrameJob::new(temporal, earlier).points(&points),
-                tracer.as_ref(),
-            )?;
-        }
-        let points = caches.read_frame(temporal, frame)?;
-        // Sampled and not finished: a reference is the raw frame.
-        let r = FrameJob::new(reference, frame)
-            .points(&points)
-            .sample(reference_tracer.as_ref())?;
-        let own = r.stats.relative_error.powi(2);
-        let start = Instant::now();
-        let raw = FrameJob::new(temporal, frame)
-            .points(&points)
-            .reading(history.passes_read())
-            .sample(tracer.as_ref())?;
-        let sampled = start.elapsed().as_secs_f64();
-        seconds[0] += sampled;
-        let mut finished = Vec::with_capacity(2);
-        for finishing in [&mut denoised, &mut history] {
-            let start = Instant::now();
-            let result = finishing.finish(raw.clone())?;
-            seconds[finished.len() + 1] += sampled + start.elapsed().as_secs_f64();
-            finished.push(result.image);
-        }
-        let [denoised_image, history_image]: [Image; 2] =
-            finished.try_into().expect("two finishes");
-        let now = Measured {
-            variances: r.film.variances(),
-            reference: r.image,
-            images: [raw.image, denoised_image, history_image],
-        };
-        for k in 0..3 {
-            errors[k] += (metrics::rel_mse(&now.images[k], &now.reference) - own)
-                .max(0.0)
-                .sqrt();
-            if let Some(before) = &last {
-                flicker[k].add(
-                    (&before.images[k], &before.reference, &before.variances),
-                    (&now.images[k], &now.reference, &now.variances),
-                );
-            }
-        }
+        let now = renders.measure_frame(frame)?;
+        sums.add(&now, last.as_ref());
         last = Some(now);
     }
-    let names = ["raw", "denoised", "denoised --temporal"];
     say(&format!(
         "{:<22} {:>11} {:>9} {:>14}",
         "", "rel. error", "flicker", "seconds/frame"
     ));
-    let n = selection.len() as f64;
-    let variants: Vec<Variant> = (0..3)
-        .map(|k| Variant {
-            name: names[k],
-            error: errors[k] / n,
-            flicker: flicker[k].flicker(),
-            seconds: seconds[k] / n,
-        })
-        .collect();
+    let variants = sums.variants(selection.len());
     for v in &variants {
         say(&format!(
             "{:<22} {:>10.3}% {:>8.3}% {:>14.3}",

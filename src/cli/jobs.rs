@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use super::args::FramesArg;
 use super::frames::{Selection, batch_chunk};
 use raytrace_core::error::{Error, elide_path};
 use raytrace_core::path_pattern::{self, FramePattern};
@@ -14,17 +15,17 @@ use raytrace_scene::point_cache::{Depth, Frames, PointLoad, ShotPoints};
 use raytrace_scene::scene_file::Overrides;
 use raytrace_scene::scene_file::SceneFile;
 
-/// The frames a run renders: the `--frames` selection (absent or bare: the whole shot), then
-/// the chunk. Ranges, never a list: any shot length costs the same.
+/// The frames a run renders: those `frames` asks for (every frame: the whole shot), then the
+/// chunk. Ranges, never a list: any shot length costs the same.
 pub(crate) fn select_frames(
     scene: &Scene,
-    frames: Option<&Option<String>>,
+    frames: &FramesArg,
     chunk: Option<(u64, u64)>,
 ) -> Result<Selection, Error> {
     let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
     let all = match frames {
-        None | Some(None) => Selection::range(first, last),
-        Some(Some(spec)) => Selection::parse(spec, first, last)
+        FramesArg::Every => Selection::range(first, last),
+        FramesArg::Spec(spec) => Selection::parse(spec, first, last)
             .map_err(|e| Error::Usage(format!("--frames: {e}")))?,
     };
     match chunk {
@@ -113,7 +114,7 @@ fn survey_points(
 pub(crate) fn load_shots(
     paths: &[PathBuf],
     overrides: &Overrides,
-    frames: Option<&Option<String>>,
+    frames: &FramesArg,
     chunk: Option<(u64, u64)>,
     depth: Depth,
 ) -> Result<Vec<Job>, Error> {

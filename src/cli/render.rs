@@ -9,12 +9,14 @@ use super::args::RenderArgs;
 use super::interrupt;
 use super::jobs::{Job, Targets, load_shots};
 use super::progress::Progress;
+use crate::estimated_error::{frame_error_note, relative_error_percent};
 use raytrace_core::error::{Error, elide_path};
-use raytrace_core::renderer::{FrameJob, FrameResult, FrameStats};
+use raytrace_core::renderer::{Budget, FrameJob, FrameResult, FrameStats, ShotTracer};
 use raytrace_core::scene::{Device, Scene};
 use raytrace_io as io;
 use raytrace_io::clip;
 use raytrace_render::devices::Devices;
+use raytrace_render::finish::Finishing;
 use raytrace_render::memory::{check_memory, mib, peak_memory_bytes};
 use raytrace_render::output;
 use raytrace_scene::point_cache::{Depth, ShotPoints};
@@ -47,7 +49,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     let shots = load_shots(
         &args.scenes,
         &args.overrides(),
-        args.frames.as_ref(),
+        &args.frames_arg(),
         chunk,
         Depth::Files,
     )?;
@@ -154,8 +156,8 @@ fn summary_text(summary: &RunSummary) -> String {
     } else {
         format!(
             ", est. error mean {} max {}",
-            percent(summary.error_mean),
-            percent(summary.error_max)
+            relative_error_percent(summary.error_mean),
+            relative_error_percent(summary.error_max)
         )
     };
     format!(
@@ -177,8 +179,14 @@ fn render_shot(
     progress: &Progress,
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
-    let budget = args.budget.budget();
     let tracer = devices.shot(scene)?;
+    let shot = ShotFrames {
+        scene,
+        caches,
+        tracer: tracer.as_ref(),
+        budget: args.budget.budget(),
+        progress,
+    };
     let mut finishing = devices.finishing(scene)?;
     let mut summary = RunSummary::default();
     let mut error_sum = 0.0;
@@ -187,71 +195,26 @@ fn render_shot(
         // io::remove_stale_temp_files for the rule, and the age for files of other
         // machines writing into a shared folder).
         io::remove_stale_temp_files(&path, STALE_TEMP_AGE)?;
-        if args.skip_existing && path.exists() {
-            match io::check_frame_file(&path) {
-                Ok(()) => {
-                    progress.line(&format!(
-                        "frame {frame}: {} exists, skipped",
-                        elide_path(&path)
-                    ));
-                    summary.skipped += 1;
-                    interrupt::frame_skipped();
-                    progress.frame_done();
-                    continue;
-                }
-                Err(why) => progress.line(&format!(
-                    "incomplete file {} ({why}): frame {frame} is rendered again",
-                    elide_path(&path)
-                )),
-            }
+        if args.skip_existing && kept_complete(frame, &path, progress) {
+            summary.skipped += 1;
+            interrupt::frame_skipped();
+            progress.frame_done();
+            continue;
         }
-        // Frames this one's history reads, where this run has not rendered them: rendered
-        // and finished as they would be in sequence, not written.
-        for earlier in finishing.needs(frame) {
-            let points = caches.read_frame(scene, earlier)?;
-            let job = FrameJob::new(scene, earlier).points(&points).budget(budget);
-            finishing.render(job, tracer.as_ref())?;
-            progress.line(&format!(
-                "frame {earlier}: rendered for frame {frame}'s history, not written"
-            ));
-        }
-        // The frame's points, read and checked (their files were surveyed before the run).
-        let read_start = Instant::now();
-        let points = caches.read_frame(scene, frame)?;
-        let read_seconds = read_start.elapsed().as_secs_f64();
-        let planned = (!budget.is_set()).then(|| {
-            scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
-        });
-        let bar = progress.start_frame(frame, planned);
-        let progress_bar = |n| bar.inc(n);
-        let job = FrameJob::new(scene, frame)
-            .points(&points)
-            .budget(budget)
-            .progress(&progress_bar);
-        let result = finishing.render(job, tracer.as_ref());
-        let point_count = points.len();
-        drop(points);
-        bar.finish_and_clear();
-        let result = result?;
+        shot.render_history(frame, &mut finishing)?;
+        let (result, read) = shot.render_frame(frame, &mut finishing)?;
         let st = &result.stats;
-        let non_finite = output::write_frame(&path, scene.output.format, scene, &result, &budget)?;
-        let seconds = read_seconds + st.prepare_seconds + st.render_seconds;
-        let stop = if budget.is_set() {
-            format!(" ({})", st.stop.describe())
-        } else {
-            String::new()
-        };
-        progress.line(&format!(
-            "frame {frame}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
-            spp_note(st),
-            error_note(&result),
-            st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
-            st.non_finite,
-            non_finite_note(non_finite),
-            elide_path(&path)
+        let non_finite =
+            output::write_frame(&path, scene.output.format, scene, &result, &shot.budget)?;
+        progress.line(&frame_line(
+            &result,
+            read.seconds,
+            &shot.budget,
+            non_finite,
+            &path,
         ));
         if args.stats {
-            let read = (!scene.points.is_empty()).then_some((read_seconds, point_count));
+            let read = (!scene.points.is_empty()).then_some((read.seconds, read.points));
             progress.line(&stats_line(frame, st, scene.render.device, read));
         }
         error_sum += st.relative_error;
@@ -268,6 +231,123 @@ fn render_shot(
     Ok(summary)
 }
 
+/// Whether `frame`'s file at `path` (with --skip-existing) is complete and left alone, saying
+/// so; a file that is not complete is said to be rendered again.
+fn kept_complete(frame: u32, path: &Path, progress: &Progress) -> bool {
+    if !path.exists() {
+        return false;
+    }
+    match io::check_frame_file(path) {
+        Ok(()) => {
+            progress.line(&format!(
+                "frame {frame}: {} exists, skipped",
+                elide_path(path)
+            ));
+            true
+        }
+        Err(why) => {
+            progress.line(&format!(
+                "incomplete file {} ({why}): frame {frame} is rendered again",
+                elide_path(path)
+            ));
+            false
+        }
+    }
+}
+
+/// What renders a shot's frames: its scene and surveyed point caches, the shot on its device,
+/// the run's budget, and the progress the frames are shown in.
+struct ShotFrames<'a> {
+    scene: &'a Scene,
+    caches: &'a ShotPoints,
+    tracer: &'a dyn ShotTracer,
+    budget: Budget,
+    progress: &'a Progress,
+}
+
+/// How long a frame's points took to read, and how many there were.
+struct PointsRead {
+    seconds: f64,
+    points: usize,
+}
+
+impl ShotFrames<'_> {
+    /// Renders and finishes, through `finishing`, the frames `frame`'s history reads that this
+    /// run has not rendered, as they would be in sequence; they are not written.
+    fn render_history(&self, frame: u32, finishing: &mut Finishing) -> Result<(), Error> {
+        for earlier in finishing.needs(frame) {
+            let points = self.caches.read_frame(self.scene, earlier)?;
+            let job = FrameJob::new(self.scene, earlier)
+                .points(&points)
+                .budget(self.budget);
+            finishing.render(job, self.tracer)?;
+            self.progress.line(&format!(
+                "frame {earlier}: rendered for frame {frame}'s history, not written"
+            ));
+        }
+        Ok(())
+    }
+
+    /// `frame` rendered and finished through `finishing`, under a progress bar of its samples
+    /// (a spinner under a budget), with how its points were read (their files were surveyed
+    /// before the run: here they are read and checked).
+    fn render_frame(
+        &self,
+        frame: u32,
+        finishing: &mut Finishing,
+    ) -> Result<(FrameResult, PointsRead), Error> {
+        let scene = self.scene;
+        let read_start = Instant::now();
+        let points = self.caches.read_frame(scene, frame)?;
+        let read_seconds = read_start.elapsed().as_secs_f64();
+        let planned = (!self.budget.is_set()).then(|| {
+            scene.output.width as u64 * scene.output.height as u64 * scene.render.samples as u64
+        });
+        let bar = self.progress.start_frame(frame, planned);
+        let progress_bar = |n| bar.inc(n);
+        let job = FrameJob::new(scene, frame)
+            .points(&points)
+            .budget(self.budget)
+            .progress(&progress_bar);
+        let result = finishing.render(job, self.tracer);
+        let read = PointsRead {
+            seconds: read_seconds,
+            points: points.len(),
+        };
+        drop(points);
+        bar.finish_and_clear();
+        Ok((result?, read))
+    }
+}
+
+/// The line of a frame written to `path`: its time (with `read_seconds`, its points'), samples,
+/// estimated error and speed, and the pixels written as black.
+fn frame_line(
+    result: &FrameResult,
+    read_seconds: f64,
+    budget: &Budget,
+    non_finite: u64,
+    path: &Path,
+) -> String {
+    let st = &result.stats;
+    let seconds = read_seconds + st.prepare_seconds + st.render_seconds;
+    let stop = if budget.is_set() {
+        format!(" ({})", st.stop.describe())
+    } else {
+        String::new()
+    };
+    format!(
+        "frame {}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
+        result.frame,
+        spp_note(st),
+        frame_error_note(result),
+        st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
+        st.non_finite,
+        non_finite_note(non_finite),
+        elide_path(path)
+    )
+}
+
 /// The frame line's samples per pixel: `100 spp`, or with adaptive sampling `mean 37.5 spp
 /// (16 to 512)`.
 fn spp_note(st: &FrameStats) -> String {
@@ -281,35 +361,12 @@ fn spp_note(st: &FrameStats) -> String {
     }
 }
 
-/// The frame line's estimated error: `1.234%`, or for a denoised frame `1.234% denoised
-/// (3.456% before)`.
-fn error_note(result: &FrameResult) -> String {
-    let st = &result.stats;
-    match &result.denoised {
-        Some(_) => format!(
-            "{} denoised ({} before)",
-            percent(st.relative_error),
-            percent(st.noisy_relative_error)
-        ),
-        None => percent(st.relative_error),
-    }
-}
-
 /// The frame line's note of pixels written as black because they were not finite, if any.
 fn non_finite_note(pixels: u64) -> String {
     if pixels == 0 {
         String::new()
     } else {
         format!("{pixels} non-finite pixels written as 0, ")
-    }
-}
-
-/// An estimated relative error as a percentage, or why there is none.
-fn percent(relative_error: f64) -> String {
-    if relative_error.is_finite() {
-        format!("{:.3}%", relative_error * 100.0)
-    } else {
-        "unknown (1 sample)".to_string()
     }
 }
 

@@ -25,6 +25,7 @@ use super::render::render_frame;
 use super::timeline::{shot_json, view_names};
 use super::views::encode_views;
 use super::watch::Watch;
+use crate::estimated_error::frame_error_note;
 use raytrace_core::error::{Error, elide_path};
 use raytrace_core::renderer::{FrameResult, ShotTracer};
 use raytrace_core::scene::Scene;
@@ -401,22 +402,11 @@ fn pass(l: &Loaded, job: Running) -> Result<FrameImages, Error> {
 /// 0.12 s`.
 fn figures(result: &FrameResult, target: u32) -> String {
     let st = &result.stats;
-    let percent = |e: f64| match e.is_finite() {
-        true => format!("{:.3}%", e * 100.0),
-        false => "unknown (1 sample)".to_string(),
-    };
-    let error = match &result.denoised {
-        Some(_) => format!(
-            "{} denoised ({} before)",
-            percent(st.relative_error),
-            percent(st.noisy_relative_error)
-        ),
-        None => percent(st.relative_error),
-    };
     format!(
-        "frame {}: {} of {target} spp, est. error {error}, {:.2} M samples/s, {:.2} s",
+        "frame {}: {} of {target} spp, est. error {}, {:.2} M samples/s, {:.2} s",
         result.frame,
         st.samples_per_pixel,
+        frame_error_note(result),
         st.samples as f64 / st.render_seconds.max(1e-9) / 1e6,
         st.prepare_seconds + st.render_seconds
     )

@@ -12,6 +12,7 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::OnceLock;
 
+use plotters::coord::combinators::{LogCoord, WithKeyPoints};
 use plotters::coord::{CoordTranslate, Shift};
 use plotters::element::ComposedElement;
 use plotters::prelude::*;
@@ -22,7 +23,7 @@ mod ticks;
 use super::fit::usable;
 use raytrace_core::format::Format;
 use raytrace_io as io;
-use ticks::{axis_range, log_ticks, tick_format, tick_label};
+use ticks::{TickFormat, axis_range, log_ticks, tick_format, tick_label};
 
 /// The formats a plot can be written in.
 const PLOT_FORMATS: &[Format] = &[Format::Png, Format::Svg];
@@ -336,6 +337,9 @@ const AXIS_LABEL_SIZE: f64 = 21.0;
 const TICK_LABEL_SIZE: f64 = 17.0;
 const LEGEND_SIZE: f64 = 18.0;
 
+/// The plot's coordinates: log axes, each with its major and minor ticks.
+type LogLog = Cartesian2d<WithKeyPoints<LogCoord<f64>>, WithKeyPoints<LogCoord<f64>>>;
+
 /// Draws the whole plot on `root`.
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -348,7 +352,41 @@ where
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
+    let (x_range, y_range) = axis_ranges(series, guides);
+    let ranges = (&x_range, &y_range);
+    let mut chart = chart(root, labels, ranges).map_err(err)?;
+    draw_guides(&mut chart, guides, ranges).map_err(err)?;
+    let lines: Vec<Line> = series
+        .iter()
+        .enumerate()
+        .map(|(i, s)| Line {
+            colour: PALETTE[i % PALETTE.len()],
+            shape: SHAPES[i % SHAPES.len()],
+            points: s.points.iter().copied().filter(|&p| usable(p)).collect(),
+        })
+        .collect();
+    // All lines first, then all markers, so that no line hides a measurement.
+    draw_lines(&mut chart, series, &lines).map_err(err)?;
+    for (s, line) in series.iter().zip(&lines) {
+        draw_bars(&mut chart, s, line.colour, ranges).map_err(err)?;
+    }
+    for line in &lines {
+        chart
+            .draw_series(
+                line.points
+                    .iter()
+                    .map(|&p| marker::<_, DB>(p, line.shape, line.colour, (0, 0))),
+            )
+            .map_err(err)?;
+    }
+    if !series.is_empty() {
+        draw_legend(root, &mut chart, (series, guides), &lines).map_err(err)?;
+    }
+    Ok(())
+}
 
+/// The axes' ranges: of the usable points' `x`, and of their `y` with the levels'.
+fn axis_ranges(series: &[Series], guides: &Guides) -> (Range<f64>, Range<f64>) {
     let usable_points = || {
         series
             .iter()
@@ -362,17 +400,23 @@ where
         .map(|l| l.0)
         .filter(|&y| usable((1.0, y)));
     let y_range = axis_range(usable_points().map(|p| p.1).chain(levels));
-    let (x_major, x_minor) = log_ticks(&x_range);
-    let (y_major, y_minor) = log_ticks(&y_range);
+    (x_range, y_range)
+}
+
+/// The chart on `root`: its title, and log axes over `ranges` with their ticks labelled,
+/// their descriptions and their mesh drawn.
+fn chart<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    labels: &Labels,
+    (x_range, y_range): (&Range<f64>, &Range<f64>),
+) -> Result<ChartContext<'a, DB, LogLog>, DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB::ErrorType: 'static,
+{
+    let (x_major, x_minor) = log_ticks(x_range);
+    let (y_major, y_minor) = log_ticks(y_range);
     let (x_format, y_format) = (tick_format(&x_major), tick_format(&y_major));
-
-    let tick_style = TextStyle::from((FAMILY, TICK_LABEL_SIZE).into_font());
-    let widest_y_tick = y_major
-        .iter()
-        .map(|&v| root.estimate_text_size(&tick_label(v, y_format), &tick_style))
-        .try_fold(0, |w, size| size.map(|(tw, _)| w.max(tw)))
-        .map_err(err)?;
-
+    let widest_y_tick = widest_label(root, &y_major, y_format)?;
     let mut builder = ChartBuilder::on(root);
     builder
         .margin_top(16)
@@ -384,21 +428,18 @@ where
     if !labels.title.is_empty() {
         builder.caption(labels.title, (FAMILY, TITLE_SIZE));
     }
-    let mut chart = builder
-        .build_cartesian_2d(
-            x_range
-                .clone()
-                .log_scale()
-                .with_key_points(x_major)
-                .with_light_points(x_minor),
-            y_range
-                .clone()
-                .log_scale()
-                .with_key_points(y_major)
-                .with_light_points(y_minor),
-        )
-        .map_err(err)?;
-
+    let mut chart = builder.build_cartesian_2d(
+        x_range
+            .clone()
+            .log_scale()
+            .with_key_points(x_major)
+            .with_light_points(x_minor),
+        y_range
+            .clone()
+            .log_scale()
+            .with_key_points(y_major)
+            .with_light_points(y_minor),
+    )?;
     let x_formatter = |v: &f64| tick_label(*v, x_format);
     let y_formatter = |v: &f64| tick_label(*v, y_format);
     chart
@@ -412,26 +453,37 @@ where
         .bold_line_style(BLACK.mix(0.16))
         .light_line_style(BLACK.mix(0.06))
         .axis_style(BLACK.mix(0.75))
-        .draw()
-        .map_err(err)?;
+        .draw()?;
+    Ok(chart)
+}
 
-    draw_guides(&mut chart, guides, (&x_range, &y_range)).map_err(err)?;
-
-    let lines: Vec<Line> = series
+/// The width in pixels, on `root`, of the widest label of the `ticks` written in `format`.
+fn widest_label<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    ticks: &[f64],
+    format: TickFormat,
+) -> Result<u32, DrawingAreaErrorKind<DB::ErrorType>> {
+    let tick_style = TextStyle::from((FAMILY, TICK_LABEL_SIZE).into_font());
+    ticks
         .iter()
-        .enumerate()
-        .map(|(i, s)| Line {
-            colour: PALETTE[i % PALETTE.len()],
-            shape: SHAPES[i % SHAPES.len()],
-            points: s.points.iter().copied().filter(|&p| usable(p)).collect(),
-        })
-        .collect();
-    // All lines first, then all markers, so that no line hides a measurement.
-    for (s, line) in series.iter().zip(&lines) {
+        .map(|&v| root.estimate_text_size(&tick_label(v, format), &tick_style))
+        .try_fold(0, |w, size| size.map(|(tw, _)| w.max(tw)))
+}
+
+/// Draws each series' line on `chart`, with its legend entry: its label, and its line and
+/// marker.
+fn draw_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, LogLog>,
+    series: &[Series],
+    lines: &[Line],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB::ErrorType: 'static,
+{
+    for (s, line) in series.iter().zip(lines) {
         let (colour, shape) = (line.colour, line.shape);
         chart
-            .draw_series(LineSeries::new(line.points.clone(), colour.stroke_width(2)))
-            .map_err(err)?
+            .draw_series(LineSeries::new(line.points.clone(), colour.stroke_width(2)))?
             .label(legend_label(s))
             .legend(move |(x, y)| {
                 let outline = marker_outline(shape, (14, 0));
@@ -443,85 +495,108 @@ where
                     + PathElement::new(rim, WHITE.stroke_width(1))
             });
     }
-    for (s, line) in series.iter().zip(&lines) {
-        let clamp = |v: f64, r: &Range<f64>| {
-            if v.is_nan() {
-                r.start
-            } else {
-                v.clamp(r.start, r.end)
-            }
-        };
-        let bars = s.points.iter().zip(&s.bars).filter(|(p, _)| usable(**p));
-        for (&(x, y), bar) in bars {
-            let (x0, x1) = (clamp(bar.x.0, &x_range), clamp(bar.x.1, &x_range));
-            let (y0, y1) = (clamp(bar.y.0, &y_range), clamp(bar.y.1, &y_range));
-            let (x, y) = (clamp(x, &x_range), clamp(y, &y_range));
-            for segment in [[(x0, y), (x1, y)], [(x, y0), (x, y1)]] {
-                chart
-                    .draw_series(std::iter::once(PathElement::new(
-                        segment.to_vec(),
-                        line.colour.stroke_width(2),
-                    )))
-                    .map_err(err)?;
-            }
-        }
-    }
-    for line in &lines {
-        chart
-            .draw_series(
-                line.points
-                    .iter()
-                    .map(|&p| marker::<_, DB>(p, line.shape, line.colour, (0, 0))),
-            )
-            .map_err(err)?;
-    }
+    Ok(())
+}
 
-    if !series.is_empty() {
-        let legend_style = TextStyle::from((FAMILY, LEGEND_SIZE).into_font());
-        let (margin, key_width) = (10u32, 40u32);
-        let mut text_width = 0;
-        let names = series
-            .iter()
-            .map(legend_label)
-            .chain(guides.slope.iter().map(|g| g.name.clone()));
-        for name in names {
-            let (w, _) = root.estimate_text_size(&name, &legend_style).map_err(err)?;
-            text_width = text_width.max(w);
+/// Draws the bars of `series`' usable points on `chart` in `colour`, each end within `ranges`
+/// (an end that log axes cannot show at the axis' end).
+fn draw_bars<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, LogLog>,
+    series: &Series,
+    colour: RGBColor,
+    (x_range, y_range): (&Range<f64>, &Range<f64>),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB::ErrorType: 'static,
+{
+    let clamp = |v: f64, r: &Range<f64>| {
+        if v.is_nan() {
+            r.start
+        } else {
+            v.clamp(r.start, r.end)
         }
-        // Lines are spaced at 1.25 times the font size, as plotters lays them out.
-        let entries = series.len() + usize::from(guides.slope.is_some());
-        let text_height = (entries as f64 * LEGEND_SIZE * 1.25).ceil() as u32;
-        let legend_size = (
-            text_width + key_width + 2 * margin,
-            text_height + 2 * margin,
-        );
-        let base = chart.plotting_area().get_base_pixel();
-        let pixel_lines: Vec<Vec<(i32, i32)>> = lines
-            .iter()
-            .map(|line| {
-                line.points
-                    .iter()
-                    .map(|p| {
-                        let (x, y) = chart.backend_coord(p);
-                        (x - base.0, y - base.1)
-                    })
-                    .collect()
-            })
-            .collect();
-        let area = chart.plotting_area().dim_in_pixel();
-        let corner = legend_corner(&pixel_lines, area, legend_size);
-        chart
-            .configure_series_labels()
-            .position(LEGEND_CORNERS[corner].clone())
-            .margin(margin)
-            .legend_area_size(key_width)
-            .label_font((FAMILY, LEGEND_SIZE))
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK.mix(0.4))
-            .draw()
-            .map_err(err)?;
+    };
+    let bars = series
+        .points
+        .iter()
+        .zip(&series.bars)
+        .filter(|(p, _)| usable(**p));
+    for (&(x, y), bar) in bars {
+        let (x0, x1) = (clamp(bar.x.0, x_range), clamp(bar.x.1, x_range));
+        let (y0, y1) = (clamp(bar.y.0, y_range), clamp(bar.y.1, y_range));
+        let (x, y) = (clamp(x, x_range), clamp(y, y_range));
+        for segment in [[(x0, y), (x1, y)], [(x, y0), (x, y1)]] {
+            chart.draw_series(std::iter::once(PathElement::new(
+                segment.to_vec(),
+                colour.stroke_width(2),
+            )))?;
+        }
     }
     Ok(())
+}
+
+/// Draws the legend of the `series` and the slope guide of `guides` on `chart`, in the corner
+/// of the plotting area where it hides the least of the `lines`.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &mut ChartContext<'a, DB, LogLog>,
+    (series, guides): (&[Series], &Guides),
+    lines: &[Line],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB::ErrorType: 'static,
+{
+    let (margin, key_width) = (10u32, 40u32);
+    let names: Vec<String> = series
+        .iter()
+        .map(legend_label)
+        .chain(guides.slope.iter().map(|g| g.name.clone()))
+        .collect();
+    let (text_width, text_height) = legend_text_size(root, &names)?;
+    let legend_size = (
+        text_width + key_width + 2 * margin,
+        text_height + 2 * margin,
+    );
+    let base = chart.plotting_area().get_base_pixel();
+    let pixel_lines: Vec<Vec<(i32, i32)>> = lines
+        .iter()
+        .map(|line| {
+            line.points
+                .iter()
+                .map(|p| {
+                    let (x, y) = chart.backend_coord(p);
+                    (x - base.0, y - base.1)
+                })
+                .collect()
+        })
+        .collect();
+    let area = chart.plotting_area().dim_in_pixel();
+    let corner = legend_corner(&pixel_lines, area, legend_size);
+    chart
+        .configure_series_labels()
+        .position(LEGEND_CORNERS[corner].clone())
+        .margin(margin)
+        .legend_area_size(key_width)
+        .label_font((FAMILY, LEGEND_SIZE))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.4))
+        .draw()
+}
+
+/// The width and height in pixels, on `root`, of the legend's entries `names`, one a line.
+fn legend_text_size<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    names: &[String],
+) -> Result<(u32, u32), DrawingAreaErrorKind<DB::ErrorType>> {
+    let legend_style = TextStyle::from((FAMILY, LEGEND_SIZE).into_font());
+    let mut width = 0;
+    for name in names {
+        let (w, _) = root.estimate_text_size(name, &legend_style)?;
+        width = width.max(w);
+    }
+    // Lines are spaced at 1.25 times the font size, as plotters lays them out.
+    let height = (names.len() as f64 * LEGEND_SIZE * 1.25).ceil() as u32;
+    Ok((width, height))
 }
 
 /// The colour of the guides: a bluish grey that stays behind the series (and that no text's
