@@ -12,7 +12,7 @@ use raytrace_core::points::PointCacheDesc;
 use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Needs, adapter_line};
 use raytrace_render::memory::{check_memory, memory_estimate, mib};
-use raytrace_scene::point_cache::{Depth, FrameSurvey, ShotPoints};
+use raytrace_scene::point_cache::{FrameSurvey, ShotPoints, SurveyDepth};
 use raytrace_scene::scene_file::Overrides;
 
 /// `raytrace check`: validates scenes, and what `raytrace render` of them would check before
@@ -28,7 +28,7 @@ pub(crate) fn check(args: &CheckArgs) -> Result<String, Error> {
         &overrides,
         &FramesArg::Every,
         None,
-        Depth::Values,
+        SurveyDepth::Values,
     )?;
     // The adapter a render on the GPU would take, found once.
     let gpu = Needs::of(shots.iter().map(|s| &s.scene))

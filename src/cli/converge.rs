@@ -222,7 +222,7 @@ fn measure(
             render_references(scene, variant, shot, frame, paths, args, &say)?
         }
     };
-    let plan = Plan::new(scene, args);
+    let plan = SeriesPlan::new(scene, args);
     let mut report = measure_points(&plan, variant, (shot, frame), &references, &say)?;
     for note in report.fit_times() {
         say(&note);
@@ -240,7 +240,7 @@ fn measure(
 
 /// What `converge` measures: the series, each one's settings step by step, the seeds of a
 /// point, how many times a point is rendered, and the seconds a series may take.
-struct Plan<'a> {
+struct SeriesPlan<'a> {
     kinds: Vec<SeriesKind>,
     /// The uniform series' samples per pixel, step by step.
     uniform: Vec<u32>,
@@ -255,16 +255,16 @@ struct Plan<'a> {
     budget: Option<f64>,
 }
 
-impl<'a> Plan<'a> {
+impl<'a> SeriesPlan<'a> {
     /// The plan `args` ask for, of `scene`.
-    fn new(scene: &Scene, args: &'a ConvergeArgs) -> Plan<'a> {
+    fn new(scene: &Scene, args: &'a ConvergeArgs) -> SeriesPlan<'a> {
         let max_samples = args.max_samples.unwrap_or(match args.budget {
             Some(_) => u32::MAX,
             None => scene.render.samples,
         });
         let seed_count = args.seeds.unwrap_or(DEFAULT_SEEDS) as usize;
         let most = (args.repeats.unwrap_or(DEFAULT_REPEATS) as usize).max(seed_count);
-        Plan {
+        SeriesPlan {
             kinds: series_kinds(args),
             uniform: schedule(max_samples),
             thresholds: &args.thresholds,
@@ -328,7 +328,7 @@ fn measured_seeds(scene: &Scene, count: usize) -> Vec<u64> {
 /// row per point; a series stops when its settings end, or when its next point would take
 /// it over the budget.
 fn measure_points(
-    plan: &Plan,
+    plan: &SeriesPlan,
     variant: &Variant,
     (shot, frame): (Shot, u32),
     references: &References,
@@ -374,7 +374,7 @@ fn measure_points(
 /// settle or it has been rendered the most times; each seed's figures are taken once.
 fn render_in_turns(
     runs: &mut [Run],
-    plan: &Plan,
+    plan: &SeriesPlan,
     (shot, frame): (Shot, u32),
     references: &References,
 ) -> Result<(), Error> {

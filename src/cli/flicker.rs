@@ -30,7 +30,7 @@ pub(crate) struct Variant {
     pub(crate) name: &'static str,
     /// The mean over the frames of the true relative error (less the reference's own).
     pub(crate) error: f64,
-    /// [`metrics::flicker`].
+    /// The flicker of the frames: [`FlickerSum::flicker`](raytrace_core::metrics::FlickerSum::flicker).
     pub(crate) flicker: f64,
     /// Wall seconds a frame, on average.
     pub(crate) seconds: f64,
@@ -145,7 +145,7 @@ impl<'a> Renders<'a> {
             scenes.temporal,
             Some(frames()),
             Some(frames()),
-            point_cache::Depth::Files,
+            point_cache::SurveyDepth::Files,
         )?;
         Ok(Renders {
             scenes,

@@ -6,7 +6,7 @@ use raytrace_core::error::{Error, elide_path};
 use raytrace_core::format::Format;
 use raytrace_core::path_pattern::{FramePattern, frame_path, pattern_has_frame_number};
 use raytrace_io as io;
-use raytrace_scene::fountain::{FPS, Fountain, write_frame};
+use raytrace_scene::fountain::{FPS, Fountain, write_points_frame};
 use raytrace_scene::scene_file::generate::{RandomScene, scene_text};
 
 /// Writes the scene to its `.toml` file, or the point cache's `.ply` files, atomically. The
@@ -49,7 +49,7 @@ fn point_cache(args: &GenerateArgs) -> Result<String, Error> {
     };
     let (mut least, mut most) = (usize::MAX, 0);
     for (k, path) in paths.iter().enumerate() {
-        let n = write_frame(&fountain, k as f64 / FPS, path, args.encoding.encoding())?;
+        let n = write_points_frame(&fountain, k as f64 / FPS, path, args.encoding.encoding())?;
         (least, most) = (least.min(n), most.max(n));
     }
     Ok(format!(

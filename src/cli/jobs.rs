@@ -11,7 +11,7 @@ use raytrace_core::path_pattern::{self, FramePattern};
 use raytrace_core::scene::Scene;
 use raytrace_io as io;
 use raytrace_render::devices::supported;
-use raytrace_scene::point_cache::{Depth, Frames, PointLoad, ShotPoints};
+use raytrace_scene::point_cache::{Frames, PointLoad, ShotPoints, SurveyDepth};
 use raytrace_scene::scene_file::Overrides;
 use raytrace_scene::scene_file::SceneFile;
 
@@ -92,7 +92,7 @@ fn survey_points(
     scene: &Scene,
     targets: &Targets,
     selected: &Selection,
-    depth: Depth,
+    depth: SurveyDepth,
 ) -> Result<ShotPoints, Error> {
     fn frames(s: &Selection) -> Option<Frames<'_>> {
         s.first().zip(s.last()).map(|(first, last)| Frames {
@@ -116,7 +116,7 @@ pub(crate) fn load_shots(
     overrides: &Overrides,
     frames: &FramesArg,
     chunk: Option<(u64, u64)>,
-    depth: Depth,
+    depth: SurveyDepth,
 ) -> Result<Vec<Job>, Error> {
     if paths.len() > 1 {
         for (flag, value) in [("--output", &overrides.output), ("--clip", &overrides.clip)] {

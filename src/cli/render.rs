@@ -19,7 +19,7 @@ use raytrace_render::devices::Devices;
 use raytrace_render::finish::Finishing;
 use raytrace_render::memory::{check_memory, mib, peak_memory_bytes};
 use raytrace_render::output;
-use raytrace_scene::point_cache::{Depth, ShotPoints};
+use raytrace_scene::point_cache::{ShotPoints, SurveyDepth};
 
 /// Age after which a temporary frame file of another machine (or of an earlier version, whose
 /// names record no machine) is removed when its writer is not running here.
@@ -51,7 +51,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
         &args.overrides(),
         &args.frames_arg(),
         chunk,
-        Depth::Files,
+        SurveyDepth::Files,
     )?;
     let mut estimate = 0;
     for shot in &shots {

@@ -21,21 +21,21 @@ use raytrace_io::linear_to_srgb8;
 use raytrace_render::output;
 
 /// One view of a frame: its name (`colour` or a pass's) and its PNG.
-pub(crate) struct View {
+pub(crate) struct EncodedView {
     pub(crate) name: &'static str,
     pub(crate) png: Vec<u8>,
 }
 
 /// Every view of `result`, a frame of `scene`: the colour first, then the scene's passes.
-pub(crate) fn encode_views(scene: &Scene, result: &FrameResult) -> Result<Vec<View>, Error> {
-    let mut views = vec![View {
+pub(crate) fn encode_views(scene: &Scene, result: &FrameResult) -> Result<Vec<EncodedView>, Error> {
+    let mut views = vec![EncodedView {
         name: "colour",
         png: output::frame_png(scene, result)?,
     }];
     let image = &result.image;
     for pass in scene.output.passes.iter() {
         let rgb = pass_picture(image, pass);
-        views.push(View {
+        views.push(EncodedView {
             name: pass.name(),
             png: encode_rgb(&rgb, image.width(), image.height(), scene)?,
         });

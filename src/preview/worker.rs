@@ -43,7 +43,7 @@ const LANES: usize = 2;
 /// few writes).
 const SETTLE: Duration = Duration::from_millis(20);
 
-/// The frames a shot shows: the first [`MAX_TIMELINE_FRAMES`] selected (in increasing order)
+/// The frames a shot shows: the first [`MAX_TIMELINE_FRAMES`](super::timeline::MAX_TIMELINE_FRAMES) selected (in increasing order)
 /// and how many are selected.
 pub(crate) type Frames = (Vec<u32>, u64);
 
@@ -308,7 +308,7 @@ fn read(
     let mut files = vec![setup.path.clone()];
     let span = || point_cache::frame_list(&frames);
     let caches =
-        point_cache::ShotPoints::survey(&scene, span(), span(), point_cache::Depth::Files)?;
+        point_cache::ShotPoints::survey(&scene, span(), span(), point_cache::SurveyDepth::Files)?;
     for &f in &frames {
         files.extend(caches.frame_files(&scene, f)?);
     }

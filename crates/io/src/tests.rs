@@ -35,7 +35,7 @@ fn info() -> FrameInfo {
 /// Writes an image of `width` x `height` whose colour is `rgb` (interleaved RGB; an image
 /// without a colour where `rgb` does not hold three values a pixel) to `path`, in the format
 /// its extension names ([`write_image`]).
-fn write_frame(
+fn write_test_image(
     path: &Path,
     width: u32,
     height: u32,
@@ -178,7 +178,7 @@ fn exr_round_trip() {
     let path = dir.path().join("f.0017.exr");
     let (w, h) = (7, 5);
     let rgb = pixels(w, h);
-    write_frame(&path, w, h, &rgb, &info()).unwrap();
+    write_test_image(&path, w, h, &rgb, &info()).unwrap();
     assert_eq!(dir_names(dir.path()), vec!["f.0017.exr"]);
 
     let meta = ::exr::meta::MetaData::read_from_file(&path, false).unwrap();
@@ -237,7 +237,7 @@ fn exr_shutter_attributes_only_when_the_shot_has_them() {
     let dir = tempfile::tempdir().unwrap();
     let read = |info: &FrameInfo, name: &str| {
         let path = dir.path().join(format!("{name}.exr"));
-        write_frame(&path, 1, 1, &[0.25, 0.5, 1.0], info).unwrap();
+        write_test_image(&path, 1, 1, &[0.25, 0.5, 1.0], info).unwrap();
         let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
         let a = image.layer_data[0].attributes.other.clone();
         (
@@ -264,7 +264,7 @@ fn exr_shutter_attributes_only_when_the_shot_has_them() {
         ..info()
     };
     let path = dir.path().join("taken.exr");
-    assert!(write_frame(&path, 1, 1, &[0.0; 3], &taken).is_err());
+    assert!(write_test_image(&path, 1, 1, &[0.0; 3], &taken).is_err());
 }
 
 #[test]
@@ -279,7 +279,7 @@ fn exr_large_numbers_become_doubles() {
         extra: vec![],
         ..info()
     };
-    write_frame(&path, 1, 1, &[0.25, 0.5, 1.0], &info).unwrap();
+    write_test_image(&path, 1, 1, &[0.25, 0.5, 1.0], &info).unwrap();
     let image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
     let a = &image.layer_data[0].attributes;
     assert_eq!(a.frames_per_second, Some((24, 1)));
@@ -310,7 +310,7 @@ fn bad_extra_attributes_are_rejected_before_writing() {
             extra: vec![(name.to_string(), 1.0)],
             ..info()
         };
-        let e = write_frame(&path, 2, 2, &rgb, &info).unwrap_err();
+        let e = write_test_image(&path, 2, 2, &rgb, &info).unwrap_err();
         assert!(matches!(e, Error::Output { .. }), "{e}");
         assert!(
             e.to_string().contains(why) && e.to_string().contains("x.exr"),
@@ -322,13 +322,13 @@ fn bad_extra_attributes_are_rejected_before_writing() {
         ..info()
     };
     assert!(
-        write_frame(&path, 2, 2, &rgb, &twice)
+        write_test_image(&path, 2, 2, &rgb, &twice)
             .unwrap_err()
             .to_string()
             .contains("twice")
     );
     let no_rate = FrameInfo { fps: 0.0, ..info() };
-    let e = write_frame(&path, 2, 2, &rgb, &no_rate).unwrap_err();
+    let e = write_test_image(&path, 2, 2, &rgb, &no_rate).unwrap_err();
     assert!(e.to_string().contains("frame rate"), "{e}");
     assert!(!dir.path().join("sub").exists(), "nothing created");
 }
@@ -343,7 +343,7 @@ fn png_round_trip() {
         0.0, 0.5, 1.0,   0.18, 2.0, -1.0,   0.0031308, 0.25, 0.75,
         1.0, 1.0, 1.0,   0.5, 0.5, 0.5,     0.01, 0.1, 0.9,
     ];
-    write_frame(&path, w, h, &rgb, &info()).unwrap();
+    write_test_image(&path, w, h, &rgb, &info()).unwrap();
     assert_eq!(dir_names(dir.path()), vec!["f.0001.PNG"]);
     let image = ::image::ImageReader::open(&path)
         .unwrap()
@@ -367,7 +367,7 @@ fn png_round_trip() {
 fn parent_folders_are_created() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a/b/c/f.0001.exr");
-    write_frame(&path, 2, 1, &pixels(2, 1), &info()).unwrap();
+    write_test_image(&path, 2, 1, &pixels(2, 1), &info()).unwrap();
     assert!(path.is_file());
     assert_eq!(dir_names(&dir.path().join("a/b/c")), vec!["f.0001.exr"]);
 }
@@ -384,8 +384,8 @@ fn relative_bare_file_name_works() {
 fn overwrite_replaces_and_leaves_only_the_frame() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("f.png");
-    write_frame(&path, 1, 1, &[0.0, 0.0, 0.0], &info()).unwrap();
-    write_frame(&path, 1, 1, &[1.0, 1.0, 1.0], &info()).unwrap();
+    write_test_image(&path, 1, 1, &[0.0, 0.0, 0.0], &info()).unwrap();
+    write_test_image(&path, 1, 1, &[1.0, 1.0, 1.0], &info()).unwrap();
     let image = ::image::open(&path).unwrap().to_rgb8();
     assert_eq!(image.as_raw(), &[255, 255, 255]);
     assert_eq!(dir_names(dir.path()), vec!["f.png"]);
@@ -397,14 +397,14 @@ fn invalid_input_fails_early_and_keeps_the_existing_frame() {
     let path = dir.path().join("f.exr");
     fs::write(&path, b"previous frame").unwrap();
     for (w, h, len) in [(2, 2, 11), (2, 2, 13), (0, 2, 0), (2, 0, 0)] {
-        let e = write_frame(&path, w, h, &vec![0.5; len], &info()).unwrap_err();
+        let e = write_test_image(&path, w, h, &vec![0.5; len], &info()).unwrap_err();
         assert!(
             matches!(&e, Error::Output { path: p, .. } if *p == path),
             "{e}"
         );
         assert!(e.to_string().contains("f.exr"));
     }
-    let e = write_frame(&dir.path().join("f.tif"), 1, 1, &[0.0; 3], &info()).unwrap_err();
+    let e = write_test_image(&dir.path().join("f.tif"), 1, 1, &[0.0; 3], &info()).unwrap_err();
     assert!(matches!(e, Error::Output { .. }) && e.to_string().contains(".exr or .png"));
     assert_eq!(e.to_string().matches("f.tif").count(), 1, "{e}");
     assert_eq!(fs::read(&path).unwrap(), b"previous frame");
@@ -419,7 +419,7 @@ fn failed_rename_keeps_nothing_behind() {
     let path = dir.path().join("f.exr");
     fs::create_dir(&path).unwrap();
     fs::write(path.join("keep"), b"x").unwrap();
-    let e = write_frame(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    let e = write_test_image(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
     assert!(matches!(&e, Error::Io { path: p, .. } if *p == path), "{e}");
     assert_eq!(dir_names(dir.path()), vec!["f.exr"]);
     assert_eq!(dir_names(&path), vec!["keep"]);
@@ -431,10 +431,10 @@ fn a_name_too_long_fails_cleanly_and_removes_the_folders_it_made() {
     // for it are removed again, and an existing frame beside it is untouched.
     let dir = tempfile::tempdir().unwrap();
     let keep = dir.path().join("a/f.0001.exr");
-    write_frame(&keep, 2, 2, &pixels(2, 2), &info()).unwrap();
+    write_test_image(&keep, 2, 2, &pixels(2, 2), &info()).unwrap();
     let before = fs::read(&keep).unwrap();
     let long = dir.path().join(format!("a/b/c/{}.exr", "x".repeat(300)));
-    let e = write_frame(&long, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    let e = write_test_image(&long, 2, 2, &pixels(2, 2), &info()).unwrap_err();
     assert!(matches!(&e, Error::Io { path: p, .. } if *p == long), "{e}");
     assert_eq!(dir_names(&dir.path().join("a")), vec!["f.0001.exr"]);
     assert_eq!(fs::read(&keep).unwrap(), before);
@@ -501,7 +501,7 @@ fn unusable_parent_fails_cleanly() {
     let blocker = dir.path().join("out");
     fs::write(&blocker, b"not a folder").unwrap();
     let path = blocker.join("f.0001.png");
-    let e = write_frame(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
+    let e = write_test_image(&path, 2, 2, &pixels(2, 2), &info()).unwrap_err();
     assert!(matches!(&e, Error::Io { path: p, .. } if *p == path), "{e}");
     assert!(e.to_string().contains("f.0001.png"), "{e}");
     assert_eq!(dir_names(dir.path()), vec!["out"]);
@@ -680,7 +680,7 @@ fn complete_frames_are_told_from_empty_and_truncated_ones() {
     let dir = tempfile::tempdir().unwrap();
     for (name, w, h) in [("f.exr", 7, 5), ("g.png", 7, 5), ("big.exr", 200, 150)] {
         let path = dir.path().join(name);
-        write_frame(&path, w, h, &pixels(w, h), &info()).unwrap();
+        write_test_image(&path, w, h, &pixels(w, h), &info()).unwrap();
         assert_eq!(check_frame_file(&path), Ok(()), "{name}");
         let bytes = fs::read(&path).unwrap();
         for cut in [1, 2, 9, bytes.len() / 2, bytes.len() - 40, bytes.len() - 1] {

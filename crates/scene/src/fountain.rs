@@ -163,7 +163,7 @@ const COLUMNS: [(&str, Scalar); 11] = [
 
 /// Writes the fountain's frame at time `t` to `path` in `encoding`, atomically. Returns the
 /// number of particles written.
-pub fn write_frame(
+pub fn write_points_frame(
     fountain: &Fountain,
     t: f64,
     path: &std::path::Path,

@@ -17,7 +17,7 @@ fn finite_or_dash(v: f64, format: impl Fn(f64) -> String) -> String {
 }
 
 /// A relative error in percent from a relative MSE (`-` when not positive).
-fn percent(rel_mse: f64) -> String {
+fn rel_mse_percent(rel_mse: f64) -> String {
     if rel_mse > 0.0 && rel_mse.is_finite() {
         format!("{:.3}%", 100.0 * rel_mse.sqrt())
     } else {
@@ -86,7 +86,7 @@ pub(crate) fn row(p: &Point) -> String {
         finite_or_dash(p.wall.spread, |v| format!("{v:.4}")),
         p.cpu.value,
         finite_or_dash(p.mse.value.max(0.0).sqrt(), |v| format!("{v:.4e}")),
-        percent(p.rel_mse.value),
+        rel_mse_percent(p.rel_mse.value),
         finite_or_dash(100.0 * rel.spread, |v| format!("{v:.3}%")),
         finite_or_dash(100.0 * est, |v| format!("{v:.3}%")),
         finite_or_dash(est / rel.value, |v| format!("{v:.3}")),

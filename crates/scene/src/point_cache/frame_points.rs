@@ -15,7 +15,7 @@ use super::message::{about, check_total, error};
 use super::motion::{Crossing, images, interpolate, sorted_ids};
 use super::read::cell_of;
 use super::read::{Read, Wanted, read_values};
-use super::survey::{CacheShot, Depth, ShotPoints, frame_range};
+use super::survey::{CacheShot, ShotPoints, SurveyDepth, frame_range};
 use super::table::{self, Rows, read_snapshot};
 use crate::sim::cell::Cell;
 use crate::sim::{ReadError, Snapshot};
@@ -387,7 +387,7 @@ pub fn read_frame(scene: &Scene, frame: u32) -> Result<FramePoints, Error> {
         scene,
         Some(frame_range(frame, frame)),
         Some(frame_range(frame, frame)),
-        Depth::Files,
+        SurveyDepth::Files,
     )?;
     shot.read_frame(scene, frame)
 }

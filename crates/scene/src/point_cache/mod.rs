@@ -24,4 +24,4 @@ mod table;
 
 pub use frame_points::read_frame;
 pub use load::PointLoad;
-pub use survey::{Depth, FrameSurvey, Frames, ShotPoints, frame_list};
+pub use survey::{FrameSurvey, Frames, ShotPoints, SurveyDepth, frame_list};

@@ -2,7 +2,7 @@
 //! command renders opened and indexed once (a file of many snapshots: where each begins), its
 //! columns checked against what the cache needs, the snapshots matched to frames, the colour
 //! range found where `color_range` is not given, and what a frame will hold counted for the
-//! memory estimate. `check` reads every value once here ([`Depth::Values`]); `render` reads a
+//! memory estimate. `check` reads every value once here ([`SurveyDepth::Values`]); `render` reads a
 //! frame's values when it renders it.
 
 use std::collections::BTreeMap;
@@ -42,7 +42,7 @@ pub fn frame_list(list: &[u32]) -> Option<Frames<'_>> {
 
 /// How much of each file a survey reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Depth {
+pub enum SurveyDepth {
     /// Headers and the layout of the text (every line of a text format, not parsed).
     Files,
     /// Every value the caches use, checked (`check`).
@@ -61,7 +61,7 @@ pub struct Frames<'a> {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Figures {
     pub(super) count: u64,
-    /// Points with a non-zero velocity (read at [`Depth::Values`]).
+    /// Points with a non-zero velocity (read at [`SurveyDepth::Values`]).
     pub(super) moving: Option<u64>,
     /// The least and greatest `color_by` values.
     pub(super) range: Option<[f64; 2]>,
@@ -133,7 +133,7 @@ impl ShotPoints {
         scene: &Scene,
         render: Option<Frames>,
         colour: Option<Frames>,
-        depth: Depth,
+        depth: SurveyDepth,
     ) -> Result<ShotPoints, Error> {
         let Some(mut render) = render else {
             return Ok(ShotPoints::none());
@@ -296,9 +296,9 @@ fn next_count(c: &CacheShot, desc: &PointCacheDesc, key: Key) -> u64 {
 }
 
 /// What to read of a snapshot surveyed at `depth`, with its colour values when `colour`.
-fn wanted(depth: Depth, colour: bool) -> Option<Wanted> {
+fn wanted(depth: SurveyDepth, colour: bool) -> Option<Wanted> {
     match depth {
-        Depth::Values => Some(Wanted {
+        SurveyDepth::Values => Some(Wanted {
             positions: true,
             velocities: true,
             looks: true,
@@ -306,11 +306,11 @@ fn wanted(depth: Depth, colour: bool) -> Option<Wanted> {
             images: true,
             values: true,
         }),
-        Depth::Files if colour => Some(Wanted {
+        SurveyDepth::Files if colour => Some(Wanted {
             values: true,
             ..Wanted::default()
         }),
-        Depth::Files => None,
+        SurveyDepth::Files => None,
     }
 }
 
@@ -373,7 +373,7 @@ fn survey_sequence(
     index: usize,
     frames: &[u32],
     colour_frames: &[u32],
-    depth: Depth,
+    depth: SurveyDepth,
 ) -> Result<CacheShot, Error> {
     let desc = &scene.points[index];
     let needs_range = desc.color_by.as_ref().is_some_and(|c| c.range.is_none());
@@ -421,7 +421,7 @@ fn survey_sequence(
     }
     if needs_range {
         for &frame in colour_frames {
-            survey(frame, wanted(Depth::Files, true), &mut cache)?;
+            survey(frame, wanted(SurveyDepth::Files, true), &mut cache)?;
         }
         cache.range = range_over(
             colour_frames
@@ -472,7 +472,7 @@ fn survey_snapshots(
     index: usize,
     span: (u32, u32),
     colour_span: (u32, u32),
-    depth: Depth,
+    depth: SurveyDepth,
 ) -> Result<CacheShot, Error> {
     let desc = &scene.points[index];
     let shot = &scene.shot;
@@ -495,11 +495,11 @@ fn survey_snapshots(
         }
     };
     let read = |k: usize, snap: &crate::sim::Snapshot| -> Option<Wanted> {
-        let for_values = depth == Depth::Values && within(k, snap, span);
+        let for_values = depth == SurveyDepth::Values && within(k, snap, span);
         let for_colour = needs_range && within(k, snap, colour_span);
         match (for_values, for_colour) {
-            (true, _) => wanted(Depth::Values, true),
-            (false, true) => wanted(Depth::Files, true),
+            (true, _) => wanted(SurveyDepth::Values, true),
+            (false, true) => wanted(SurveyDepth::Files, true),
             (false, false) => None,
         }
     };
