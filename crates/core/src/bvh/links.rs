@@ -21,22 +21,6 @@ pub(super) struct Links {
 }
 
 impl Links {
-    /// Calls `prefetch` with the node index of each child in `mask` (a bit per slot) that is
-    /// a node: a traversal asks for every node child entered at once, so that the loads of
-    /// their boxes overlap the sorting and pushing and the descent, where a hierarchy far
-    /// larger than the cache would wait for each (a fifth of a render of a million points).
-    #[inline(always)]
-    pub(super) fn prefetch_nodes(&self, mask: u32, mut prefetch: impl FnMut(usize)) {
-        let mut bits = mask;
-        while bits != 0 {
-            let w = self.child[bits.trailing_zeros() as usize];
-            bits &= bits - 1;
-            if w >> COUNT_SHIFT == 0 {
-                prefetch(w as usize);
-            }
-        }
-    }
-
     /// Slot `k`: a node index and count 0, or a leaf's first position and its count.
     #[inline]
     pub(super) fn slot(&self, k: usize) -> (u32, u32) {
@@ -51,30 +35,4 @@ impl Links {
 #[inline]
 pub(super) fn links_of(links: &[Links], w: u32) -> Links {
     links[if w >> COUNT_SHIFT == 0 { w as usize } else { 0 }]
-}
-
-/// The slots in `mask` (a bit per slot, at least one), sorted farthest first by `key` (an
-/// insertion sort of at most [`LANES`]), and how many: a traversal pushes all but the last
-/// and descends into the last, so that the nearest of those pushed is popped first.
-#[inline(always)]
-pub(super) fn farthest_first(mask: u32, key: impl Fn(usize) -> f32) -> ([usize; LANES], usize) {
-    let mut order = [0usize; LANES];
-    let mut keys = [0f32; LANES];
-    let mut n = 0;
-    let mut bits = mask;
-    while bits != 0 {
-        let k = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        let near = key(k);
-        let mut j = n;
-        while j > 0 && keys[j - 1] < near {
-            order[j] = order[j - 1];
-            keys[j] = keys[j - 1];
-            j -= 1;
-        }
-        order[j] = k;
-        keys[j] = near;
-        n += 1;
-    }
-    (order, n)
 }

@@ -2,7 +2,7 @@
 //! (`traverse`) and that of a packet's (`packet`), made once per thread of work.
 
 use super::build::MAX_SAH_DEPTH;
-use super::lanes::{LANES, Lanes};
+use super::lanes::LANES;
 use super::links::Links;
 
 /// The most rays in a packet.
@@ -60,49 +60,5 @@ impl Default for PacketStack {
             lanes: [0; STACK],
             near: [[0.0; PACKET]; STACK],
         }
-    }
-}
-
-impl PacketStack {
-    /// Pushes child slot `w` (its children `links`, when a node) at `sp`, entered by the
-    /// rays `lanes` at their distances `near[r][k]` (child `k` of the node).
-    #[inline(always)]
-    pub(super) fn push(
-        &mut self,
-        sp: &mut usize,
-        (w, links): (u32, Links),
-        lanes: u32,
-        near: &[[f32; LANES]; PACKET],
-        k: usize,
-    ) {
-        self.links[*sp] = links;
-        self.entry[*sp] = w;
-        self.lanes[*sp] = lanes;
-        // Only the rays that entered the child read their entry.
-        for (entry, near_r) in self.near[*sp].iter_mut().zip(near) {
-            *entry = near_r[k];
-        }
-        *sp += 1;
-    }
-
-    /// Pops, from the top `sp`, the nearest entry some of whose rays may still hit nearer
-    /// than their nearest hit so far (their distance at most their `limit`): its slot, its
-    /// children and those rays; `None` when none is left.
-    #[inline(always)]
-    pub(super) fn pop<M: Lanes>(
-        &self,
-        m: M,
-        sp: &mut usize,
-        limit: &[f32; PACKET],
-    ) -> Option<(u32, Links, u32)> {
-        while *sp > 0 {
-            *sp -= 1;
-            let still = m.le_mask(m.load(&self.near[*sp]), m.load(limit));
-            let lanes = self.lanes[*sp] & still;
-            if lanes != 0 {
-                return Some((self.entry[*sp], self.links[*sp], lanes));
-            }
-        }
-        None
     }
 }

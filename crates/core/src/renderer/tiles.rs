@@ -54,6 +54,10 @@ pub(super) struct CpuFrame<'a> {
 impl CpuFrame<'_> {
     /// Takes `tile`'s samples of this round (`plan`); returns the rays traced, the samples taken
     /// and those that were not finite.
+    ///
+    /// The camera rays of a packet are made in this loop, not in a function of their own:
+    /// split out (commit 1969e91), the same frames rendered about 1.3% slower (held-out
+    /// books' scene, 400x225, 100 spp, 2 cores, user time, median of 11 alternated pairs).
     fn sample_tile<S: Sampler>(
         &self,
         sampler: &mut S,
@@ -62,6 +66,7 @@ impl CpuFrame<'_> {
     ) -> RoundCounts {
         let req = &self.req;
         let prepared = &self.prepared;
+        let interval = prepared.interval();
         let uses = crate::sampler::CameraUse {
             lens: prepared.has_lens,
             time: prepared.sample_time,
@@ -86,7 +91,32 @@ impl CpuFrame<'_> {
                 // A pixel's camera rays go in packets of up to `PACKET` samples: coherent
                 // rays, one traversal (`radiance_packet`, the same values as one by one).
                 let n = (target - s).min(PACKET as u32);
-                let (rays, views) = self.camera_packet(sampler, (x, y, s), n, uses);
+                let mut rays = [Ray {
+                    origin: DVec3::ZERO,
+                    dir: DVec3::ZERO,
+                    time: 0.0,
+                }; PACKET];
+                let mut views = [prepared.fixed_view; PACKET];
+                for (k, (ray, view)) in rays.iter_mut().zip(&mut views).enumerate().take(n as usize)
+                {
+                    let s = s + k as u32;
+                    sampler.start_sample(x, y, s);
+                    // The pixel position, and the lens position and the time (one joint
+                    // sample) where used; the bounces' numbers do not depend on which are.
+                    let camera = sampler.camera(uses);
+                    let time = if prepared.sample_time {
+                        // The row of a rolling shutter: the sample's continuous y over the
+                        // height (0 at the top edge), as the camera places it.
+                        let row = (y as f64 + camera.pixel.1) / req.height as f64;
+                        prepared.times.time(camera.time, row)
+                    } else {
+                        interval.open
+                    };
+                    if prepared.camera_moves {
+                        *view = prepared.scene.camera.view_at(time, req.width, req.height);
+                    }
+                    *ray = view.ray(x, y, camera.pixel, camera.lens, time);
+                }
                 let rays = &rays[..n as usize];
                 let v = if observed {
                     self.observed_packet(rays, &views, (x, y, s), sampler, &mut stats, sums)
@@ -114,48 +144,6 @@ impl CpuFrame<'_> {
         }
         counts.rays = stats.rays;
         counts
-    }
-
-    /// The camera rays of samples `first..first + n` of pixel (`x`, `y`) (`(x, y, first)`),
-    /// each with the view it is seen through; `n` at most [`PACKET`].
-    #[inline(always)]
-    fn camera_packet<S: Sampler>(
-        &self,
-        sampler: &mut S,
-        (x, y, first): (u32, u32, u32),
-        n: u32,
-        uses: crate::sampler::CameraUse,
-    ) -> ([Ray; PACKET], [View; PACKET]) {
-        let prepared = &self.prepared;
-        let mut rays = [Ray {
-            origin: DVec3::ZERO,
-            dir: DVec3::ZERO,
-            time: 0.0,
-        }; PACKET];
-        let mut views = [prepared.fixed_view; PACKET];
-        for (k, (ray, view)) in rays.iter_mut().zip(&mut views).enumerate().take(n as usize) {
-            let s = first + k as u32;
-            sampler.start_sample(x, y, s);
-            // The pixel position, and the lens position and the time (one joint sample)
-            // where used; the bounces' numbers do not depend on which are.
-            let camera = sampler.camera(uses);
-            let time = if prepared.sample_time {
-                // The row of a rolling shutter: the sample's continuous y over the height (0
-                // at the top edge), as the camera places it.
-                let row = (y as f64 + camera.pixel.1) / self.req.height as f64;
-                prepared.times.time(camera.time, row)
-            } else {
-                prepared.interval().open
-            };
-            if prepared.camera_moves {
-                *view = prepared
-                    .scene
-                    .camera
-                    .view_at(time, self.req.width, self.req.height);
-            }
-            *ray = view.ray(x, y, camera.pixel, camera.lens, time);
-        }
-        (rays, views)
     }
 
     /// The camera samples `first..first + rays.len()` of pixel (`x`, `y`) of a frame with
