@@ -32,14 +32,14 @@ use raytrace_scene::scene_file::Overrides;
 
 Scene format: docs/scene-format.md. Farm rendering: docs/farm.md."
 )]
-pub struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     pub command: Command,
 }
 
 /// The commands.
 #[derive(Subcommand, Debug)]
-pub enum Command {
+pub(crate) enum Command {
     /// Render frames of one or more scenes to EXR or PNG files.
     #[command(after_help = "Examples:
   raytrace render scenes/quick.toml
@@ -120,7 +120,7 @@ be had."
 
 /// Scene settings that `render` and `converge` can replace, and the thread count.
 #[derive(Args, Clone, Debug, Default)]
-pub struct SceneArgs {
+pub(crate) struct SceneArgs {
     /// Image width in pixels.
     #[arg(long, allow_negative_numbers = true)]
     pub width: Option<u32>,
@@ -145,7 +145,7 @@ pub struct SceneArgs {
 
 /// Arguments of `raytrace render`.
 #[derive(Args, Clone, Debug, Default)]
-pub struct RenderArgs {
+pub(crate) struct RenderArgs {
     /// The scene files (TOML), rendered one after another as one run.
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
@@ -225,7 +225,7 @@ fn denoise_quality(text: &str) -> Result<DenoiseQuality, String> {
 
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct PassList(pub Vec<raytrace_core::pass::Pass>);
+pub(crate) struct PassList(pub Vec<raytrace_core::pass::Pass>);
 
 /// Clap's value parser of `--passes`: pass names separated by commas.
 fn pass_list(text: &str) -> Result<PassList, String> {
@@ -252,7 +252,7 @@ fn pass_list(text: &str) -> Result<PassList, String> {
 #[derive(Args, Clone, Debug, Default)]
 #[group(skip)]
 #[command(group(clap::ArgGroup::new("limit").args(["time_limit", "noise_threshold"]).multiple(true)))]
-pub struct BudgetArgs {
+pub(crate) struct BudgetArgs {
     /// Seconds per frame: sample in passes and stop before this time is exceeded.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true, value_parser = positive)]
     pub time_limit: Option<f64>,
@@ -269,7 +269,7 @@ pub struct BudgetArgs {
 
 /// Arguments of `raytrace converge`.
 #[derive(Args, Clone, Debug, Default)]
-pub struct ConvergeArgs {
+pub(crate) struct ConvergeArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// The frame to measure (default: the shot's first).
@@ -337,7 +337,7 @@ pub struct ConvergeArgs {
 
 /// Arguments of `raytrace check`.
 #[derive(Args, Clone, Debug, Default)]
-pub struct CheckArgs {
+pub(crate) struct CheckArgs {
     /// The scene files (TOML).
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
@@ -353,7 +353,7 @@ pub struct CheckArgs {
 
 /// Arguments of `raytrace preview`.
 #[derive(Args, Clone, Debug)]
-pub struct PreviewArgs {
+pub(crate) struct PreviewArgs {
     /// The scene file (TOML), watched: saving it renders again.
     #[arg(value_name = "SCENE")]
     pub scene: PathBuf,
@@ -375,7 +375,7 @@ pub struct PreviewArgs {
 
 /// Arguments of `raytrace clip`.
 #[derive(Args, Clone, Debug, Default)]
-pub struct ClipArgs {
+pub(crate) struct ClipArgs {
     /// The scene file (TOML) whose frames make the clip.
     pub scene: PathBuf,
     /// The clip to write: `.mp4`, `.gif`, `.apng` or `.png` (a contact sheet); `{scene}`
@@ -403,7 +403,7 @@ pub struct ClipArgs {
 /// Arguments of `raytrace generate`: a random scene (`.toml`), or a fountain's point cache
 /// (`.ply`, a file per frame).
 #[derive(Args, Clone, Debug)]
-pub struct GenerateArgs {
+pub(crate) struct GenerateArgs {
     /// Number of spheres (of a .toml scene).
     #[arg(long, default_value_t = 10000, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u64).range(1..=raytrace_scene::scene_file::generate::MAX_SPHERES))]
@@ -433,7 +433,7 @@ pub struct GenerateArgs {
 
 /// How a PLY file is written.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PlyEncoding {
+pub(crate) enum PlyEncoding {
     Ascii,
     BinaryLittleEndian,
     BinaryBigEndian,
@@ -441,7 +441,7 @@ pub enum PlyEncoding {
 
 impl PlyEncoding {
     /// The PLY encoding.
-    pub fn encoding(self) -> raytrace_scene::ply::Encoding {
+    pub(crate) fn encoding(self) -> raytrace_scene::ply::Encoding {
         match self {
             PlyEncoding::Ascii => raytrace_scene::ply::Encoding::Ascii,
             PlyEncoding::BinaryLittleEndian => raytrace_scene::ply::Encoding::BinaryLittleEndian,
@@ -452,7 +452,7 @@ impl PlyEncoding {
 
 impl SceneArgs {
     /// The scene values these arguments replace.
-    pub fn overrides(&self) -> Overrides {
+    pub(crate) fn overrides(&self) -> Overrides {
         Overrides {
             width: self.width,
             height: self.height,
@@ -493,7 +493,7 @@ impl RenderArgs {
     }
 
     /// The scene values these arguments replace.
-    pub fn overrides(&self) -> Overrides {
+    pub(crate) fn overrides(&self) -> Overrides {
         Overrides {
             output: self.output.clone(),
             samples: self.samples,
@@ -524,15 +524,15 @@ impl ClipArgs {
 
 /// The samples per pixel a frame takes at most under `--noise-threshold` without
 /// `--max-samples`: a threshold the frame never reaches (`1e-300`) still ends.
-pub const DEFAULT_MAX_SAMPLES_FOR_THRESHOLD: u32 = 65536;
+pub(super) const DEFAULT_MAX_SAMPLES_FOR_THRESHOLD: u32 = 65536;
 
 /// The most worker threads `--threads` takes.
-pub const MAX_THREADS: u16 = 1024;
+pub(super) const MAX_THREADS: u16 = 1024;
 
 impl BudgetArgs {
     /// The budget these arguments give: a noise threshold without `--max-samples` stops at
     /// [`DEFAULT_MAX_SAMPLES_FOR_THRESHOLD`].
-    pub fn budget(&self) -> Budget {
+    pub(crate) fn budget(&self) -> Budget {
         let default_cap = self
             .noise_threshold
             .map(|_| DEFAULT_MAX_SAMPLES_FOR_THRESHOLD);

@@ -22,12 +22,12 @@ mod progress;
 mod render;
 mod threads;
 
-pub use args::{Cli, Command};
+pub(crate) use args::{Cli, Command};
 
 use raytrace_core::error::Error;
 
 /// Runs a parsed command line. SIGINT and SIGTERM stop it (see [`interrupt`]).
-pub fn run(cli: &Cli) -> Result<(), Error> {
+pub(crate) fn run(cli: &Cli) -> Result<(), Error> {
     interrupt::install()?;
     match &cli.command {
         Command::Render(args) => render::render(args).map(|_| ()),

@@ -5,16 +5,16 @@ use std::path::Path;
 use std::process::Output;
 
 /// Each run's limit in seconds and in address space (`ulimit -v`, KiB).
-pub const SECONDS: u64 = 5;
-pub const MEMORY_KIB: u64 = 1 << 20;
+pub(crate) const SECONDS: u64 = 5;
+pub(crate) const MEMORY_KIB: u64 = 1 << 20;
 
 /// Runs the binary in `dir` under [`SECONDS`] and [`MEMORY_KIB`].
-pub fn run(dir: &Path, args: &[&str]) -> Output {
+pub(crate) fn run(dir: &Path, args: &[&str]) -> Output {
     super::run_limited(dir, args, SECONDS, MEMORY_KIB)
 }
 
 /// The names in `dir`, sorted.
-pub fn names(dir: &Path) -> Vec<String> {
+pub(crate) fn names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -25,7 +25,7 @@ pub fn names(dir: &Path) -> Vec<String> {
 
 /// Runs `args` in `dir` and asserts exit status 2, every one of `want` in the message, no
 /// panic, and nothing in `dir` but `kept` afterwards. Returns what the run printed.
-pub fn refused(dir: &Path, args: &[&str], want: &[&str], kept: &[&str]) -> String {
+pub(crate) fn refused(dir: &Path, args: &[&str], want: &[&str], kept: &[&str]) -> String {
     let o = run(dir, args);
     let t = super::text(&o);
     let shown = super::shorten(&t);
@@ -49,7 +49,7 @@ fn shorten_long(t: &str) -> String {
 }
 
 /// A shot of two 8x6 frames of one sphere written to `output`, with `extra` (tables) after.
-pub fn scene(output: &str, extra: &str) -> String {
+pub(crate) fn scene(output: &str, extra: &str) -> String {
     format!(
         "[shot]\nframes = 2\n[output]\npath = \"{output}\"\nwidth = 8\nheight = 6\n\
          [render]\nsamples = 1\n[camera]\nlook_from = [0.0, 0.0, 5.0]\n\
@@ -59,7 +59,7 @@ pub fn scene(output: &str, extra: &str) -> String {
 }
 
 /// A `[[points]]` table reading `file` (TOML's escapes allowed), radius 0.1, and `more` keys.
-pub fn points(file: &str, more: &str) -> String {
+pub(crate) fn points(file: &str, more: &str) -> String {
     format!(
         "[[points]]\nfile = \"{file}\"\nradius = 0.1\n\
          material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}\n{more}"
@@ -67,7 +67,7 @@ pub fn points(file: &str, more: &str) -> String {
 }
 
 /// A folder holding `shot.toml` with `text`, and `files` (name, bytes).
-pub fn setup(text: &str, files: &[(&str, &[u8])]) -> tempfile::TempDir {
+pub(crate) fn setup(text: &str, files: &[(&str, &[u8])]) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("shot.toml"), text).unwrap();
     for (name, bytes) in files {

@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-pub mod hostile;
-pub mod moved;
+pub(crate) mod hostile;
+pub(crate) mod moved;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -15,18 +15,18 @@ use raytrace_core::scene::Scene;
 use raytrace_scene::scene_file::SceneFile;
 
 /// Parses a scene from TOML text, panicking with the error message if it is invalid.
-pub fn scene(toml: &str) -> Scene {
+pub(crate) fn scene(toml: &str) -> Scene {
     Scene::parse(toml, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}\n{toml}"))
 }
 
 /// Renders frame `frame` of `scene` with its own settings.
-pub fn render(scene: &Scene, frame: u32) -> Film {
+pub(crate) fn render(scene: &Scene, frame: u32) -> Film {
     let statics = CpuShot::new(scene);
     FrameJob::new(scene, frame).sample(&statics).unwrap().film
 }
 
 /// Renders with a given seed and sample count.
-pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
+pub(crate) fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
     let mut scene = scene.clone();
     scene.render.samples = samples;
     scene.render.seed = seed;
@@ -36,7 +36,7 @@ pub fn render_with(scene: &Scene, frame: u32, samples: u32, seed: u64) -> Film {
 /// The GPU (wgpu's adapter: Mesa's lavapipe where CI runs), opened once per test binary.
 /// `None` where there is none, and the GPU test returns, except under `CI=true`, where a
 /// missing adapter fails the test instead (`.ci/run` installs lavapipe).
-pub fn gpu() -> Option<&'static raytrace_gpu::Gpu> {
+pub(crate) fn gpu() -> Option<&'static raytrace_gpu::Gpu> {
     static GPU: std::sync::OnceLock<Option<raytrace_gpu::Gpu>> = std::sync::OnceLock::new();
     GPU.get_or_init(|| match raytrace_gpu::Gpu::new() {
         Ok(g) => Some(g),
@@ -53,7 +53,7 @@ pub fn gpu() -> Option<&'static raytrace_gpu::Gpu> {
 }
 
 /// Renders frame `frame` of `scene` (whatever its `[render] device`) on `gpu`.
-pub fn render_gpu_frame(
+pub(crate) fn render_gpu_frame(
     gpu: &raytrace_gpu::Gpu,
     scene: &Scene,
     frame: u32,
@@ -69,12 +69,12 @@ pub fn render_gpu_frame(
 }
 
 /// Renders frame `frame` of `scene` on `gpu`, its film.
-pub fn render_gpu(gpu: &raytrace_gpu::Gpu, scene: &Scene, frame: u32) -> Film {
+pub(crate) fn render_gpu(gpu: &raytrace_gpu::Gpu, scene: &Scene, frame: u32) -> Film {
     render_gpu_frame(gpu, scene, frame, &Budget::default()).film
 }
 
 /// Means over square blocks of `block` x `block` pixels (partial blocks dropped).
-pub fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
+pub(crate) fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
     let mut out = Vec::new();
     for by in 0..film.height / block {
         for bx in 0..film.width / block {
@@ -91,22 +91,22 @@ pub fn block_means(film: &Film, block: u32) -> Vec<DVec3> {
 }
 
 /// The image's mean.
-pub fn mean(film: &Film) -> DVec3 {
+pub(crate) fn mean(film: &Film) -> DVec3 {
     film.means().iter().copied().sum::<DVec3>() / film.means().len() as f64
 }
 
 /// Formats a float for TOML so that it parses back to the same bits.
-pub fn f(x: f64) -> String {
+pub(crate) fn f(x: f64) -> String {
     format!("{x:?}")
 }
 
 /// A TOML array of a vector, exact.
-pub fn v(p: DVec3) -> String {
+pub(crate) fn v(p: DVec3) -> String {
     format!("[{}, {}, {}]", f(p.x), f(p.y), f(p.z))
 }
 
 /// Runs the `raytrace` binary in `dir` with `args`, whatever its status.
-pub fn run(dir: &Path, args: &[&str]) -> Output {
+pub(crate) fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_raytrace"))
         .args(args)
         .current_dir(dir)
@@ -117,7 +117,7 @@ pub fn run(dir: &Path, args: &[&str]) -> Output {
 /// Runs the `raytrace` binary in `dir` with `args` under a limit of `memory_kib` KiB of
 /// address space (`ulimit -v`, so an allocation proportional to a hostile count fails) and no
 /// standard input; panics if it runs longer than `seconds`.
-pub fn run_limited(dir: &Path, args: &[&str], seconds: u64, memory_kib: u64) -> Output {
+pub(crate) fn run_limited(dir: &Path, args: &[&str], seconds: u64, memory_kib: u64) -> Output {
     let mut cmd = Command::new("sh");
     cmd.arg("-c")
         .arg(format!("ulimit -v {memory_kib} && exec \"$0\" \"$@\""))
@@ -151,7 +151,7 @@ pub fn run_limited(dir: &Path, args: &[&str], seconds: u64, memory_kib: u64) -> 
 }
 
 /// An argument as messages quote it: a long one cut, with its length.
-pub fn shorten(a: &str) -> String {
+pub(crate) fn shorten(a: &str) -> String {
     if a.len() > 60 {
         format!("{}… ({} bytes)", &a[..40], a.len())
     } else {
@@ -160,7 +160,7 @@ pub fn shorten(a: &str) -> String {
 }
 
 /// What a run printed: its standard output, then its standard error.
-pub fn text(o: &Output) -> String {
+pub(crate) fn text(o: &Output) -> String {
     format!(
         "{}{}",
         String::from_utf8_lossy(&o.stdout),
@@ -169,7 +169,7 @@ pub fn text(o: &Output) -> String {
 }
 
 /// Runs the `raytrace` binary in `dir` and asserts that it succeeds.
-pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
+pub(crate) fn run_ok(dir: &Path, args: &[&str]) -> Output {
     let o = run(dir, args);
     assert!(o.status.success(), "{args:?}: {}", text(&o));
     o
@@ -177,12 +177,12 @@ pub fn run_ok(dir: &Path, args: &[&str]) -> Output {
 
 /// Runs the `raytrace` binary in `dir`, asserts that it succeeds and returns its standard
 /// output.
-pub fn ok(dir: &Path, args: &[&str]) -> String {
+pub(crate) fn ok(dir: &Path, args: &[&str]) -> String {
     String::from_utf8_lossy(&run_ok(dir, args).stdout).into_owned()
 }
 
 /// An EXR frame's float channels by name.
-pub fn exr_channels(path: &Path) -> std::collections::HashMap<String, Vec<f32>> {
+pub(crate) fn exr_channels(path: &Path) -> std::collections::HashMap<String, Vec<f32>> {
     let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
     let layer = &image.layer_data[0];
     let mut out = std::collections::HashMap::new();
@@ -198,7 +198,7 @@ pub fn exr_channels(path: &Path) -> std::collections::HashMap<String, Vec<f32>> 
 /// against plain renders: for each sample count a pixel took, `plain(n)` renders the frame
 /// with exactly `n` samples and returns its channels, and every pixel that took `n` samples
 /// must have the same colour bits. Returns the distinct counts, smallest first.
-pub fn matches_plain_renders(
+pub(crate) fn matches_plain_renders(
     adaptive: &std::collections::HashMap<String, Vec<f32>>,
     mut plain: impl FnMut(u32) -> std::collections::HashMap<String, Vec<f32>>,
 ) -> Vec<u32> {
@@ -224,7 +224,9 @@ pub fn matches_plain_renders(
 }
 
 /// The pixels (as bits, every float channel in turn) and the attributes of an EXR frame.
-pub fn exr_bits_and_attributes(path: &Path) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
+pub(crate) fn exr_bits_and_attributes(
+    path: &Path,
+) -> (Vec<u32>, exr::meta::header::LayerAttributes) {
     let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
     let layer = &image.layer_data[0];
     let mut bits = Vec::new();
@@ -237,7 +239,7 @@ pub fn exr_bits_and_attributes(path: &Path) -> (Vec<u32>, exr::meta::header::Lay
 }
 
 /// The custom attribute `name` of an EXR frame's attributes `a`, if it has it.
-pub fn exr_attribute(
+pub(crate) fn exr_attribute(
     a: &exr::meta::header::LayerAttributes,
     name: &str,
 ) -> Option<exr::meta::attribute::AttributeValue> {
@@ -248,7 +250,7 @@ pub fn exr_attribute(
 
 /// The numeric (int or double) custom attribute `name` of `a`, as an `f64`; panics if it is
 /// missing or not a number.
-pub fn exr_number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
+pub(crate) fn exr_number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
     use exr::meta::attribute::AttributeValue;
     match exr_attribute(a, name) {
         Some(AttributeValue::F64(x)) => x,
@@ -258,11 +260,15 @@ pub fn exr_number(a: &exr::meta::header::LayerAttributes, name: &str) -> f64 {
 }
 
 /// A frame's channels by name, each as bits.
-pub type Bits = std::collections::HashMap<String, Vec<u32>>;
+pub(crate) type Bits = std::collections::HashMap<String, Vec<u32>>;
 
 /// Renders frames `frames` of the scene file `scene` in `dir` to EXR (`NAME_####.exr`
 /// beside it); each frame's channels as bits.
-pub fn render_bits(dir: &Path, scene: &str, frames: std::ops::RangeInclusive<u32>) -> Vec<Bits> {
+pub(crate) fn render_bits(
+    dir: &Path,
+    scene: &str,
+    frames: std::ops::RangeInclusive<u32>,
+) -> Vec<Bits> {
     let name = scene.trim_end_matches(".toml");
     let out = format!("{name}_####.exr");
     let spec = format!("{}-{}", frames.start(), frames.end());
@@ -292,7 +298,7 @@ pub fn render_bits(dir: &Path, scene: &str, frames: std::ops::RangeInclusive<u32
 
 /// Asserts two renders have the same channels, each the same bits, and that something was
 /// hit (the colour is not one value everywhere).
-pub fn assert_same_bits(a: &[Bits], b: &[Bits]) {
+pub(crate) fn assert_same_bits(a: &[Bits], b: &[Bits]) {
     assert_eq!(a.len(), b.len());
     for (k, (x, y)) in a.iter().zip(b).enumerate() {
         let mut names: Vec<&String> = x.keys().collect();
@@ -309,7 +315,7 @@ pub fn assert_same_bits(a: &[Bits], b: &[Bits]) {
 
 /// Whether LAMMPS's `lmp` runs (`.ci/run` installs Debian's `lammps`); without it a test that
 /// needs it is skipped with a note, except under CI=true, where it fails.
-pub fn have_lammps() -> bool {
+pub(crate) fn have_lammps() -> bool {
     if Command::new("lmp")
         .arg("-h")
         .output()
@@ -327,7 +333,7 @@ pub fn have_lammps() -> bool {
 
 /// Runs LAMMPS's `lmp` on the input script `input` in `dir` (its dumps are written there, as
 /// the script names them), with no log or screen output; panics with its messages if it fails.
-pub fn run_lammps(input: &Path, dir: &Path) {
+pub(crate) fn run_lammps(input: &Path, dir: &Path) {
     let o = Command::new("lmp")
         .arg("-in")
         .arg(input)

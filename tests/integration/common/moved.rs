@@ -4,21 +4,21 @@
 use std::path::{Path, PathBuf};
 
 /// The folder the build provided Intel Open Image Denoise in (the denoise crate's build.rs).
-pub const BUILD_FOLDER: &str = match raytrace_denoise::library::BUILD_FOLDER {
+pub(crate) const BUILD_FOLDER: &str = match raytrace_denoise::library::BUILD_FOLDER {
     Some(folder) => folder,
     None => panic!("the build names the folder it provided the library in"),
 };
 
 /// Whether that folder is the project's own `.oidn/lib` (the library fetched for the build),
 /// rather than a system folder, where the system's loader finds it anyway.
-pub fn provided_by_the_build() -> bool {
+pub(crate) fn provided_by_the_build() -> bool {
     Path::new(BUILD_FOLDER).ends_with(".oidn/lib")
 }
 
 /// Copies the binary to `dir/raytrace` with the build's folder, compiled into it, replaced
 /// by a path of the same length that does not exist (`/xxx…`): what a copy on a machine
 /// without that folder sees. Returns the copy.
-pub fn moved_binary(dir: &Path) -> PathBuf {
+pub(crate) fn moved_binary(dir: &Path) -> PathBuf {
     let mut bytes = std::fs::read(env!("CARGO_BIN_EXE_raytrace")).unwrap();
     let from = BUILD_FOLDER.as_bytes();
     let to: Vec<u8> = std::iter::once(b'/')
@@ -42,7 +42,7 @@ pub fn moved_binary(dir: &Path) -> PathBuf {
 
 /// Copies the build's OIDN libraries whose names `keep` accepts into `dir`; returns how
 /// many.
-pub fn copy_libraries(dir: &Path, keep: impl Fn(&str) -> bool) -> usize {
+pub(crate) fn copy_libraries(dir: &Path, keep: impl Fn(&str) -> bool) -> usize {
     let mut copied = 0;
     for entry in std::fs::read_dir(BUILD_FOLDER).unwrap() {
         let path = entry.unwrap().path();
