@@ -19,6 +19,7 @@ mod denoise;
 mod denoise_estimate;
 mod flicker;
 mod gpu;
+mod gpu_check;
 mod hostile;
 mod hostile_gpu_memory;
 mod hostile_messages;
