@@ -30,7 +30,7 @@ pub(crate) fn clip(args: &ClipArgs) -> Result<(), Error> {
         }
         None => scene.output.path.clone(),
     };
-    let selected = select_frames(&scene, &args.frames_arg(), None)?;
+    let selected = select_frames(&scene, &args.frames_arg())?;
     if selected.len() > 1 && !path_pattern::pattern_has_frame_number(&pattern) {
         return Err(Error::Usage(format!(
             "frame path \"{}\" has no '#' for the frame number, so it names one file for {} frames",

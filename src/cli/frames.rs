@@ -157,26 +157,13 @@ impl Selection {
         }
         b.finish()
     }
-
-    /// The `index`-th (from 0) chunk of `chunk_size` consecutive frames of the selection; the
-    /// last chunk may be shorter. Errors on a chunk size of 0 and on an index past the last
-    /// chunk (the message says how many chunks there are).
-    pub(crate) fn chunk(&self, chunk_size: u64, index: u64) -> Result<Selection, String> {
-        if chunk_size == 0 {
-            return Err("the chunk size must be at least 1".to_string());
-        }
-        if index >= chunk_count(self.len, chunk_size) {
-            return Err(past_end(self.len, chunk_size, index));
-        }
-        // index < count = ceil(len / size), so index * size < len: no overflow.
-        Ok(self.slice(index * chunk_size, chunk_size))
-    }
 }
 
 /// The `index`-th (from 0) chunk of `chunk_size` consecutive frames of a batch of shots,
 /// counted over the frames of every selection in the order given: for each selection, the
-/// part of it inside the chunk (empty for the shots the chunk does not reach). Errors as
-/// [`Selection::chunk`] does, counting every frame of the batch.
+/// part of it inside the chunk (empty for the shots the chunk does not reach); the last chunk
+/// may be shorter. Errors on a chunk size of 0 and on an index past the last chunk (the
+/// message says how many chunks there are, counting every frame of the batch).
 pub(crate) fn batch_chunk(
     selections: &[Selection],
     chunk_size: u64,
@@ -453,6 +440,11 @@ fn parse_number(text: &str, what: &str) -> Result<u32, String> {
 mod tests {
     use super::*;
 
+    /// The chunk of one selection: a batch of one shot.
+    fn chunk_of(s: &Selection, size: u64, index: u64) -> Result<Selection, String> {
+        batch_chunk(std::slice::from_ref(s), size, index).map(|mut parts| parts.remove(0))
+    }
+
     fn p(spec: &str) -> Result<Vec<u32>, String> {
         Selection::parse(spec, 1, 48).map(|s| s.iter().collect())
     }
@@ -510,14 +502,6 @@ mod tests {
                 "{e}"
             );
         }
-        // One shot: the same chunks and messages as the shot's own.
-        let one = [shots[2].clone()];
-        for index in 0..5 {
-            assert_eq!(
-                batch_chunk(&one, 3, index).map(|mut v| v.remove(0)),
-                shots[2].chunk(3, index)
-            );
-        }
     }
 
     #[test]
@@ -568,7 +552,7 @@ mod tests {
             assert_eq!(sel.last(), want.last().copied(), "{spec}");
             for size in 1..=7 {
                 let chunks: Vec<u32> = (0..chunk_count(sel.len(), size))
-                    .flat_map(|i| sel.chunk(size, i).unwrap().iter().collect::<Vec<_>>())
+                    .flat_map(|i| chunk_of(&sel, size, i).unwrap().iter().collect::<Vec<_>>())
                     .collect();
                 assert_eq!(chunks, want, "{spec} in chunks of {size}");
             }
@@ -581,16 +565,16 @@ mod tests {
         let sel = Selection::parse("1-1000000000", 1, 1_000_000_000).unwrap();
         assert_eq!(sel.len(), 1_000_000_000);
         assert_eq!(sel.runs.len(), 1);
-        let last = sel.chunk(1, 999_999_999).unwrap();
+        let last = chunk_of(&sel, 1, 999_999_999).unwrap();
         assert_eq!(last.iter().collect::<Vec<_>>(), vec![1_000_000_000]);
         let all = Selection::range(0, u32::MAX);
         assert_eq!(all.len(), 1 << 32);
         assert_eq!(
-            all.chunk(1000, (1 << 32) / 1000).unwrap().len(),
+            chunk_of(&all, 1000, (1 << 32) / 1000).unwrap().len(),
             (1u64 << 32) % 1000
         );
         assert_eq!(
-            all.chunk(3, 5).unwrap().iter().collect::<Vec<_>>(),
+            chunk_of(&all, 3, 5).unwrap().iter().collect::<Vec<_>>(),
             vec![15, 16, 17]
         );
         // Overlaps held by one part merge arithmetically however long they are.
@@ -603,7 +587,7 @@ mod tests {
         assert_eq!(big.len(), (1 << 31) + 2);
         assert!(big.runs.len() <= 4, "{:?}", big.runs);
         assert_eq!(
-            big.chunk(4, 0).unwrap().iter().collect::<Vec<_>>(),
+            chunk_of(&big, 4, 0).unwrap().iter().collect::<Vec<_>>(),
             vec![0, 2, 4, 6]
         );
         assert_eq!(
@@ -719,7 +703,7 @@ mod tests {
     #[test]
     fn chunks_split_the_selection() {
         let frames = Selection::range(1, 12);
-        let chunk = |size, i| -> Vec<u32> { frames.chunk(size, i).unwrap().iter().collect() };
+        let chunk = |size, i| -> Vec<u32> { chunk_of(&frames, size, i).unwrap().iter().collect() };
         assert_eq!(chunk_count(12, 5), 3);
         assert_eq!(chunk_count(10, 5), 2);
         assert_eq!(chunk_count(0, 5), 0);
@@ -730,7 +714,10 @@ mod tests {
         assert_eq!(chunk(12, 0), (1..=12).collect::<Vec<_>>());
         assert_eq!(chunk(100, 0), (1..=12).collect::<Vec<_>>());
         let sparse = Selection::parse("1,5,9,13", 1, 48).unwrap();
-        assert_eq!(sparse.chunk(3, 1).unwrap().iter().collect::<Vec<_>>(), [13]);
+        assert_eq!(
+            chunk_of(&sparse, 3, 1).unwrap().iter().collect::<Vec<_>>(),
+            [13]
+        );
         // Every frame is in exactly one chunk.
         let all: Vec<u32> = (0..chunk_count(12, 5)).flat_map(|i| chunk(5, i)).collect();
         assert_eq!(all, (1..=12).collect::<Vec<_>>());
@@ -740,30 +727,27 @@ mod tests {
     fn chunk_errors() {
         let frames = Selection::range(1, 12);
         assert_eq!(
-            frames.chunk(5, 5).unwrap_err(),
+            chunk_of(&frames, 5, 5).unwrap_err(),
             "chunk 5 is past the end: 12 frames in chunks of 5 make 3 chunks (0-2)"
         );
         assert_eq!(
-            frames.chunk(5, 3).unwrap_err(),
+            chunk_of(&frames, 5, 3).unwrap_err(),
             "chunk 3 is past the end: 12 frames in chunks of 5 make 3 chunks (0-2)"
         );
         assert_eq!(
-            Selection::range(7, 7).chunk(5, 1).unwrap_err(),
+            chunk_of(&Selection::range(7, 7), 5, 1).unwrap_err(),
             "chunk 1 is past the end: 1 frame in chunks of 5 makes 1 chunk (0)"
         );
         assert_eq!(
-            Selection::range(1, 0).chunk(5, 0).unwrap_err(),
+            chunk_of(&Selection::range(1, 0), 5, 0).unwrap_err(),
             "chunk 0 is past the end: 0 frames in chunks of 5 make no chunks"
         );
         assert!(
-            frames
-                .chunk(0, 0)
+            chunk_of(&frames, 0, 0)
                 .unwrap_err()
                 .contains("chunk size must be at least 1")
         );
-        let e = Selection::range(0, u32::MAX)
-            .chunk(1, u64::MAX)
-            .unwrap_err();
+        let e = chunk_of(&Selection::range(0, u32::MAX), 1, u64::MAX).unwrap_err();
         assert!(
             e.contains("4294967296 frames") && e.contains("(0-4294967295)"),
             "{e}"

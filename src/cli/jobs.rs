@@ -15,22 +15,15 @@ use raytrace_scene::point_cache::{Frames, PointLoad, ShotPoints, SurveyDepth};
 use raytrace_scene::scene_file::Overrides;
 use raytrace_scene::scene_file::SceneFile;
 
-/// The frames a run renders: those `frames` asks for (every frame: the whole shot), then the
-/// chunk. Ranges, never a list: any shot length costs the same.
-pub(crate) fn select_frames(
-    scene: &Scene,
-    frames: &FramesArg,
-    chunk: Option<(u64, u64)>,
-) -> Result<Selection, Error> {
+/// The frames of `scene` that `frames` asks for (every frame: the whole shot), before a run's
+/// chunk is taken ([`batch_chunk`]). Ranges, never a list: any shot length costs the same.
+pub(crate) fn select_frames(scene: &Scene, frames: &FramesArg) -> Result<Selection, Error> {
     let (first, last) = (scene.shot.first_frame, scene.shot.last_frame());
-    let all = match frames {
-        FramesArg::Every => Selection::range(first, last),
-        FramesArg::Spec(spec) => Selection::parse(spec, first, last)
-            .map_err(|e| Error::Usage(format!("--frames: {e}")))?,
-    };
-    match chunk {
-        None => Ok(all),
-        Some((size, index)) => all.chunk(size, index).map_err(Error::Usage),
+    match frames {
+        FramesArg::Every => Ok(Selection::range(first, last)),
+        FramesArg::Spec(spec) => {
+            Selection::parse(spec, first, last).map_err(|e| Error::Usage(format!("--frames: {e}")))
+        }
     }
 }
 
@@ -50,16 +43,17 @@ impl Targets {
     }
 }
 
-/// The files of the frames `selected` of `scene`, checked before anything is rendered: one
-/// file per frame, and file names the system can take (the longest is the last frame's).
-/// `check` runs the same checks.
-pub(crate) fn targets_of(scene: &Scene, selected: Selection) -> Result<Targets, Error> {
+/// The files of the frames `selected` of `scene` (this run's chunk of `whole`, the frames
+/// asked for), checked before anything is rendered: one file per frame of `whole`, which the
+/// chunks of a farm write between them, and file names the system can take (the longest is
+/// the last frame's). `check`, which takes no chunk, runs the same checks.
+fn targets_of(scene: &Scene, selected: Selection, whole: &Selection) -> Result<Targets, Error> {
     let pattern = &scene.output.path;
-    if selected.len() > 1 && !path_pattern::pattern_has_frame_number(pattern) {
+    if whole.len() > 1 && !path_pattern::pattern_has_frame_number(pattern) {
         return Err(Error::Usage(format!(
             "output path \"{}\" has no '#' for the frame number, so {} frames would overwrite one file",
             raytrace_core::error::elide(pattern),
-            selected.len()
+            whole.len()
         )));
     }
     for frame in [selected.first(), selected.last()].into_iter().flatten() {
@@ -136,7 +130,7 @@ pub(crate) fn load_shots(
     let mut selections = Vec::with_capacity(paths.len());
     for path in paths {
         let scene = supported(Scene::load_with(path, overrides)?, overrides)?;
-        selections.push(select_frames(&scene, frames, None)?);
+        selections.push(select_frames(&scene, frames)?);
         scenes.push(scene);
     }
     let whole = selections.clone();
@@ -145,7 +139,7 @@ pub(crate) fn load_shots(
     }
     let mut shots = Vec::with_capacity(paths.len());
     for (((path, scene), selected), whole) in paths.iter().zip(scenes).zip(selections).zip(&whole) {
-        let targets = targets_of(&scene, selected)?;
+        let targets = targets_of(&scene, selected, whole)?;
         let caches = survey_points(&scene, &targets, whole, depth)?;
         shots.push(Job {
             path: path.clone(),

@@ -25,11 +25,11 @@ pub(crate) fn preview(args: &PreviewArgs) -> Result<(), Error> {
         .scene(&overrides)
         .and_then(|s| supported(s, &overrides))
     {
-        select_frames(&scene, &args.frames_arg(), None)?;
+        select_frames(&scene, &args.frames_arg())?;
     }
     let frames = args.frames_arg();
     let select = move |scene: &Scene| -> Result<Frames, Error> {
-        let selected = select_frames(scene, &frames, None)?;
+        let selected = select_frames(scene, &frames)?;
         let shown = selected.iter().take(MAX_TIMELINE_FRAMES).collect();
         Ok((shown, selected.len()))
     };

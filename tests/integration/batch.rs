@@ -270,3 +270,24 @@ fn chunks_count_over_every_frame_of_the_batch_in_order() {
     );
     assert!(!d.path().join("x").exists());
 }
+
+#[test]
+fn a_chunk_of_a_shot_written_to_one_file_is_refused_as_check_refuses_the_shot() {
+    // Each chunk of one frame would pass alone, and every chunk would overwrite one.png: the
+    // rule counts the frames the chunks write between them, in `render` as in `check`.
+    let d = setup(&[("one.toml", scene(4, "one.png"))]);
+    let message = "output path \"one.png\" has no '#' for the frame number, so 4 frames would overwrite one file";
+    refused(
+        d.path(),
+        &["check", "one.toml", "--chunk-size", "1"],
+        message,
+    );
+    for index in ["0", "3"] {
+        let args = ["render", "one.toml", "--chunk-size", "1", "--chunk", index];
+        refused(d.path(), &args, message);
+    }
+    assert!(!d.path().join("one.png").exists());
+    // One frame asked for is one file: rendered.
+    ok(d.path(), &["render", "one.toml", "--frames", "2"]);
+    assert!(d.path().join("one.png").is_file());
+}
