@@ -67,13 +67,18 @@ pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
             scene.shot.last_frame()
         )));
     }
+    // Every file the run writes is checked before anything is rendered or written: the
+    // plot, the CSV and the levels' CSV beside it, and the references.
     if let Some(path) = &args.plot {
         plot::check_path(path).map_err(Error::Usage)?;
+        io::check_target(path).map_err(Error::Usage)?;
     }
     if let Some(path) = &args.csv {
         Format::of(path, &[Format::Csv], "measurements").map_err(Error::Usage)?;
+        for target in [path.clone(), levels_csv_path(path)] {
+            io::check_target(&target).map_err(Error::Usage)?;
+        }
     }
-    // Everything about the references is checked before anything is rendered or written.
     let references = match args.reference.as_slice() {
         [] => ReferenceSource::Render(reference_paths(&scene, frame, args)?),
         paths => ReferenceSource::Read(checked_pair(paths, "--reference", check_readable)?),

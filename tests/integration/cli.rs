@@ -470,17 +470,19 @@ fn bad_input_exits_2_with_a_located_message_and_writes_nothing() {
 }
 
 #[test]
-fn unwritable_output_exits_1_naming_the_path() {
+fn unwritable_output_exits_2_naming_the_path_before_rendering() {
     let d = setup(SMALL);
-    // A regular file where the output folder should be: fails even as root.
+    // A regular file where the output folder should be: fails even as root, and is found
+    // before the frame is rendered.
     std::fs::write(d.path().join("out"), b"not a folder").unwrap();
     let o = run(d.path(), &["render", "shot.toml", "--frames", "1"]);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
-        text(&o).contains("out/f_0001.exr: out is not a folder"),
+        text(&o).contains("out/f_0001.exr cannot be written: out is not a folder"),
         "{}",
         text(&o)
     );
+    assert!(!text(&o).contains("frame 1:"), "{}", text(&o));
     assert_eq!(files(d.path()), ["out", "shot.toml"].map(PathBuf::from));
 }
 
@@ -635,5 +637,24 @@ fn a_frame_too_large_for_memory_exits_2_and_writes_nothing() {
     let t = text(&o);
     assert!(t.contains("65536x65536") && t.contains("MiB"), "{t}");
     assert!(t.contains("--width/--height"), "{t}");
+    assert_eq!(files(d.path()), vec![PathBuf::from("shot.toml")]);
+}
+
+// procfs refuses a new folder to root too.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_output_folder_that_cannot_be_made_is_refused_before_rendering() {
+    let d = setup(SMALL);
+    let o = run(
+        d.path(),
+        &["render", "shot.toml", "-o", "/proc/nope/f_####.exr"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("/proc/nope/f_0001.exr cannot be written: "),
+        "{t}"
+    );
+    assert!(!t.contains("frame 1:"), "rendered: {t}");
     assert_eq!(files(d.path()), vec![PathBuf::from("shot.toml")]);
 }

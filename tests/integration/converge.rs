@@ -358,6 +358,14 @@ fn bad_converge_arguments_exit_2_and_write_nothing() {
         &["--thresholds", "0.05,1.5"],
         &["--thresholds", "0"],
         &["--reference", "r.exr", "s.exr", "--reference-samples", "4"],
+        // Output files in a folder that cannot be made (procfs refuses it to root too):
+        // refused before the references are rendered, not after.
+        #[cfg(target_os = "linux")]
+        &["--csv", "/proc/nope/x.csv"],
+        #[cfg(target_os = "linux")]
+        &["--plot", "/proc/nope/p.svg"],
+        #[cfg(target_os = "linux")]
+        &["--write-reference", "/proc/nope/a.exr", "b.exr"],
     ];
     for args in cases {
         let dir = tempfile::tempdir().unwrap();
@@ -372,6 +380,10 @@ fn bad_converge_arguments_exit_2_and_write_nothing() {
         let msg = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {msg}");
         assert!(!msg.contains("panicked"), "{msg}");
+        assert!(
+            !String::from_utf8_lossy(&o.stdout).contains("reference A"),
+            "{args:?}: rendered"
+        );
         let n = std::fs::read_dir(dir.path()).unwrap().count();
         assert_eq!(n, 1, "{args:?} wrote files");
     }

@@ -103,9 +103,11 @@ const MAX_PATH_BYTES: usize = 4095;
 /// The longest file or folder name, in bytes (`NAME_MAX` of nearly every file system).
 const MAX_NAME_BYTES: usize = 255;
 
-/// Why `path` cannot be written by [`write_with`], as far as its length tells, without
-/// touching the disk: the path, one of its names, or its temporary file's name or path is
-/// longer than the system allows. Lets a command refuse such a path before it starts work.
+/// Why `path` cannot be written by [`write_with`], found before a command starts work: the
+/// path, one of its names, or its temporary file's name or path is longer than the system
+/// allows; or no file can be made where it goes (a missing or read-only mount, a folder of
+/// someone else's, a file where a folder must be): see `probe_folder`, which leaves the disk
+/// as it was.
 pub fn check_target(path: &Path) -> Result<(), String> {
     let shown = elide_path(path);
     let bytes = path.as_os_str().len();
@@ -140,7 +142,32 @@ pub fn check_target(path: &Path) -> Result<(), String> {
              stay within {MAX_PATH_BYTES} bytes"
         ));
     }
-    Ok(())
+    probe_folder(&dir, file_name).map_err(|e| format!("{shown} cannot be written: {e}"))
+}
+
+/// Whether a write of `file_name` into `dir` can start: the nearest folder of `dir` that
+/// exists (`dir` itself, or the one its missing folders will be made in) is a folder, and a
+/// temporary file made in it is removed at once. No folder is made: chunks of a farm starting
+/// together into a new folder must not remove one another's (a folder made by a check and
+/// removed again could vanish under another process's write).
+fn probe_folder(dir: &Path, file_name: &OsStr) -> io::Result<()> {
+    let existing = dir
+        .ancestors()
+        .map(|a| match a.as_os_str().is_empty() {
+            true => Path::new("."),
+            false => a,
+        })
+        .find(|a| fs::metadata(a).is_ok())
+        .unwrap_or(Path::new("."));
+    if !existing.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::NotADirectory,
+            format!("{} is not a folder", elide_path(existing)),
+        ));
+    }
+    Pending::default()
+        .create_temp(existing, file_name)
+        .map(drop)
 }
 
 /// Makes a rename in `dir` durable. Best effort: some file systems refuse to sync folders.

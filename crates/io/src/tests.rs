@@ -475,7 +475,8 @@ fn a_failed_write_removes_its_temporary_file_and_new_folders() {
 
 #[test]
 fn paths_too_long_for_the_system_are_refused_before_writing() {
-    assert_eq!(check_target(Path::new("out/f.0001.exr")), Ok(()));
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(check_target(&dir.path().join("out/f.0001.exr")), Ok(()));
     let e = check_target(Path::new(&format!("{}/f.exr", "d/".repeat(2100)))).unwrap_err();
     assert!(
         e.contains("the path is 4206 bytes long") && e.contains("4095"),
@@ -492,6 +493,25 @@ fn paths_too_long_for_the_system_are_refused_before_writing() {
     );
     let e = check_target(Path::new("out/..")).unwrap_err();
     assert!(e.contains("no file name"), "{e}");
+}
+
+#[test]
+fn a_folder_that_cannot_be_written_is_refused_before_writing_and_the_disk_is_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    // A writable folder: its missing folders and the temporary file are made and removed.
+    assert_eq!(check_target(&dir.path().join("a/b/f.0001.exr")), Ok(()));
+    assert!(dir_names(dir.path()).is_empty());
+    // A file where a folder must be, and a folder the system will not make (procfs refuses
+    // a new folder to root too): refused, naming the path.
+    fs::write(dir.path().join("file"), b"x").unwrap();
+    let e = check_target(&dir.path().join("file/f.exr")).unwrap_err();
+    assert!(e.contains("file/f.exr cannot be written: "), "{e}");
+    #[cfg(target_os = "linux")]
+    {
+        let e = check_target(Path::new("/proc/nope/x.csv")).unwrap_err();
+        assert!(e.starts_with("/proc/nope/x.csv cannot be written: "), "{e}");
+    }
+    assert_eq!(dir_names(dir.path()), vec!["file"]);
 }
 
 #[test]
