@@ -28,7 +28,9 @@ fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
     Err(ReadError::Bad(format!("line {line}: {what}")))
 }
 
-/// The `key=value` pairs of a comment line (keys lower-cased; a bare word is `key=T`).
+/// The `key=value` pairs of a comment line (keys lower-cased). A bare word is a flag in
+/// extended XYZ, and none of the keys read here is one: it is left out, so that a plain XYZ
+/// comment (`fcc lattice of argon`) does not give `lattice` a value.
 fn pairs(comment: &str) -> Result<HashMap<String, String>, String> {
     let mut out = HashMap::new();
     let mut chars = comment.chars().peekable();
@@ -41,9 +43,9 @@ fn pairs(comment: &str) -> Result<HashMap<String, String>, String> {
         while let Some(c) = chars.next_if(|c| !c.is_whitespace() && *c != '=') {
             key.push(c);
         }
-        let mut value = String::from("T");
-        if chars.next_if_eq(&'=').is_some() {
-            value.clear();
+        let mut value = String::new();
+        let pair = chars.next_if_eq(&'=').is_some();
+        if pair {
             match chars.peek() {
                 Some('"') => {
                     chars.next();
@@ -73,8 +75,19 @@ fn pairs(comment: &str) -> Result<HashMap<String, String>, String> {
                 }
             }
         }
-        out.insert(key.to_ascii_lowercase(), value);
+        if pair {
+            out.insert(key.to_ascii_lowercase(), value);
+        }
     }
+}
+
+/// Whether a comment line gives one of the keys this reader reads (`Properties=`,
+/// `Lattice=`, `Origin=`, `pbc=`, in any case): then it is extended XYZ, and must parse.
+fn gives_a_key(comment: &str) -> bool {
+    let lower = comment.to_ascii_lowercase();
+    ["properties=", "lattice=", "origin=", "pbc="]
+        .iter()
+        .any(|k| lower.contains(k))
 }
 
 /// The columns a `Properties=` value declares.
@@ -143,7 +156,13 @@ pub(crate) fn next_snapshot(
             "the file ends before the frame's comment line (truncated)",
         );
     };
-    let keys = pairs(comment).or_else(|m| bad(comment_line, m))?;
+    let keys = match pairs(comment) {
+        Ok(keys) => keys,
+        // A comment that gives none of the keys read is free text (plain XYZ): its quotes and
+        // braces are not extended XYZ's.
+        Err(_) if !gives_a_key(comment) => HashMap::new(),
+        Err(m) => return bad(comment_line, m),
+    };
     let columns: Vec<Column> = match keys.get("properties") {
         Some(spec) => properties(spec).or_else(|m| bad(comment_line, m))?,
         None => properties("species:S:1:pos:R:3").expect("the default"),
@@ -216,6 +235,9 @@ fn numbers(text: &str, n: usize, key: &str, line: u64) -> Result<Vec<f64>, ReadE
                 format_args!("{key}= holds a field that is not a number"),
             )
         })?;
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return bad(line, format_args!("{key}= holds {x}, not a finite number"));
+    }
     if v.len() != n {
         return bad(
             line,
@@ -377,7 +399,10 @@ mod tests {
         let p = pairs(r#"Lattice="4 0 0 0 4 0 0 0 4" Properties=species:S:1:pos:R:3 pbc="T F T" flag energy=-1.5 note={a b}"#).unwrap();
         assert_eq!(p["lattice"], "4 0 0 0 4 0 0 0 4");
         assert_eq!(p["pbc"], "T F T");
-        assert_eq!(p["flag"], "T");
+        assert!(
+            !p.contains_key("flag"),
+            "a bare word is a flag, not a key with a value"
+        );
         assert_eq!(p["energy"], "-1.5");
         assert_eq!(p["note"], "a b");
         let c = properties("species:S:1:pos:R:3:id:I:1").unwrap();
@@ -413,6 +438,54 @@ mod tests {
         assert!(b.cell.is_none());
         skip_rows(&mut l, &b).unwrap();
         assert!(next_snapshot(&mut l, None).unwrap().is_none());
+    }
+
+    #[test]
+    fn a_plain_comment_is_free_text_and_an_origin_not_finite_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.xyz");
+        // Words that name keys, and a quote and a brace left open: a plain XYZ's comment.
+        for comment in [
+            "fcc lattice of argon, 300 K",
+            "properties: argon's {first frame",
+            "PBC lattice \"origin",
+        ] {
+            std::fs::write(&path, format!("1\n{comment}\nAr 1 2 3\n")).unwrap();
+            let mut l = Lines::open(&path, "xyz").unwrap();
+            let a = next_snapshot(&mut l, None).unwrap().unwrap();
+            assert!(a.cell.is_none(), "{comment}");
+            let mut rows = Vec::new();
+            read_rows(&mut l, &a, &[1, 2, 3], |_, v| {
+                rows.push(v.to_vec());
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(rows, vec![vec![1.0, 2.0, 3.0]], "{comment}");
+        }
+        // A key given and malformed is still an error, and a number that is not finite is
+        // named with its own key.
+        for (comment, message) in [
+            (
+                "Lattice=\"4 0 0",
+                "line 2: the value of Lattice has no closing quote",
+            ),
+            (
+                "Lattice=\"4 0 0 0 4 0 0 0 4\" Origin=\"nan 0 0\"",
+                "line 2: Origin= holds NaN, not a finite number",
+            ),
+            (
+                "Lattice=\"4 0 0 0 inf 0 0 0 4\"",
+                "line 2: Lattice= holds inf, not a finite number",
+            ),
+        ] {
+            std::fs::write(&path, format!("1\n{comment}\nAr 1 2 3\n")).unwrap();
+            let mut l = Lines::open(&path, "xyz").unwrap();
+            let e = next_snapshot(&mut l, None).unwrap_err();
+            assert!(
+                matches!(&e, ReadError::Bad(m) if m == message),
+                "{comment}: {e:?}"
+            );
+        }
     }
 
     #[test]
