@@ -151,7 +151,7 @@ fn ids_beyond_64_bit_integers_are_out_of_range_not_duplicates() {
     );
     both_refuse(
         d.path(),
-        &["s_1.ply", "point 0: id is 1e30", "beyond the 2^53"],
+        &["s_1.ply", "point 0: id is 1e30", "not below the 2^53"],
     );
     let t = refused(
         d.path(),
@@ -160,15 +160,30 @@ fn ids_beyond_64_bit_integers_are_out_of_range_not_duplicates() {
         &["s_1.ply", "s_2.ply", "shot.toml"],
     );
     assert!(!t.contains("held by two points"), "{t}");
-    // The largest ids an f64 holds exactly, -2^53 and 2^53, are kept apart.
+    // The largest ids told apart from every other, -(2^53 - 1) and 2^53 - 1, are kept apart;
+    // 2^53 is refused, as 2^53 + 1 reads as it.
     let d = setup(
         &scene("f_####.png", &interpolated),
         &[
-            ("s_1.ply", &file(&[-(2f64.powi(53)), 2f64.powi(53), 3.0])),
+            (
+                "s_1.ply",
+                &file(&[-(2f64.powi(53) - 1.0), 2f64.powi(53) - 1.0, 3.0]),
+            ),
             ("s_2.ply", &file(&[1.0, 2.0, 3.0])),
         ],
     );
     accepted(d.path());
+    let d = setup(
+        &scene("f_####.png", &interpolated),
+        &[
+            ("s_1.ply", &file(&[1.0, 2f64.powi(53), 3.0])),
+            ("s_2.ply", &file(&[1.0, 2.0, 3.0])),
+        ],
+    );
+    both_refuse(
+        d.path(),
+        &["s_1.ply", "point 1: id is 9.007199254740992e15", "2^53"],
+    );
 }
 
 /// A binary PLY header: `extra` lines before a vertex element of `rows` rows of float x, y,

@@ -15,9 +15,9 @@ use raytrace_core::points::PointCacheDesc;
 /// frames are stored in, as for the scene file's numbers.
 pub(super) const MAX_VALUE: f64 = f32::MAX as f64;
 
-/// Largest magnitude of an id: whole numbers beyond 2^53 are not all exact as the `f64`
-/// values ids are read through.
-const MAX_ID: f64 = (1u64 << 53) as f64;
+/// The magnitude ids stay below: 2^53. Every whole number below it is exact as the `f64`
+/// values ids are read through, and 2^53 itself is not told apart, as 2^53 + 1 reads as it.
+const ID_BOUND: f64 = (1u64 << 53) as f64;
 
 /// What to read of a snapshot.
 #[derive(Clone, Copy, Debug, Default)]
@@ -379,14 +379,15 @@ impl Points<'_> {
     }
 }
 
-/// Point `i`'s id `x` as a whole number, told apart from others (within 2^53).
+/// Point `i`'s id `x` as a whole number, told apart from others (below 2^53 in magnitude).
 fn whole_id(i: u64, x: f64) -> Result<i64, String> {
     if x.fract() != 0.0 || !x.is_finite() {
         return Err(format!("point {i}: id is {x}, not a whole number"));
     }
-    if x.abs() > MAX_ID {
+    if x.abs() >= ID_BOUND {
         return Err(format!(
-            "point {i}: id is {x:e}, beyond the 2^53 that ids are told apart to"
+            "point {i}: id is {x:e}, not below the 2^53 that ids are told apart to (2^53 + 1 \
+             reads as 2^53)"
         ));
     }
     Ok(x as i64)
@@ -419,6 +420,23 @@ fn kinds_of(values: &[f64], labels: &[String]) -> (Vec<u32>, Vec<String>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ids_are_told_apart_below_2_to_the_53() {
+        let id = |text: &str| whole_id(7, text.parse().unwrap());
+        assert_eq!(id("9007199254740991"), Ok((1 << 53) - 1));
+        assert_eq!(id("-9007199254740991"), Ok(1 - (1 << 53)));
+        // 2^53 + 1 reads as 2^53: neither is told apart from the other, so both are refused,
+        // not taken for one id held twice.
+        for text in ["9007199254740992", "9007199254740993", "-9007199254740993"] {
+            let e = id(text).unwrap_err();
+            assert!(
+                e.starts_with("point 7: id is ") && e.contains("2^53"),
+                "{e}"
+            );
+        }
+        assert!(id("1.5").unwrap_err().contains("not a whole number"));
+    }
 
     #[test]
     fn types_are_named_as_scene_files_write_them() {
