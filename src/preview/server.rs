@@ -93,12 +93,12 @@ pub(crate) fn serve(listener: TcpListener, board: Arc<Board>) -> Result<(), Erro
 struct Hosts(IpAddr);
 
 impl Hosts {
-    /// Whether `host` (a `Host` header: a name or address, and maybe a port) names the
-    /// bound address. The port is not compared: a tunnel (`ssh -L`) may forward another.
+    /// Whether `host` (a `Host` header, or an absolute-form target's authority: a name or
+    /// address, and maybe a port) names the bound address. The port is not compared: a
+    /// tunnel (`ssh -L`) may forward another. One authority or nothing ([`host_name`]).
     fn allows(&self, host: &str) -> bool {
-        let name = match host.strip_prefix('[') {
-            Some(rest) => rest.split(']').next().unwrap_or(""),
-            None => host.rsplit_once(':').map_or(host, |(name, _)| name),
+        let Some(name) = host_name(host) else {
+            return false;
         };
         let bound = self.0;
         if name.eq_ignore_ascii_case("localhost") {
@@ -113,14 +113,41 @@ impl Hosts {
     }
 }
 
+/// The host of an authority `host[:port]` (RFC 3986, 3.2: an IPv6 address in brackets), or
+/// `None` where `authority` is not one: user-info (`127.0.0.1:1@evil.example`), a port that
+/// is not digits, anything after an address's closing bracket (`[::1]evil.example`).
+fn host_name(authority: &str) -> Option<&str> {
+    let (name, port) = match authority.strip_prefix('[') {
+        Some(rest) => {
+            let (address, after) = rest.split_once(']')?;
+            match after {
+                "" => (address, ""),
+                _ => (address, after.strip_prefix(':')?),
+            }
+        }
+        None => authority.rsplit_once(':').unwrap_or((authority, "")),
+    };
+    let plain = |c: char| c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | ':');
+    (!name.is_empty() && name.chars().all(plain) && port.bytes().all(|b| b.is_ascii_digit()))
+        .then_some(name)
+}
+
+/// The request's one `Host` header (`""` where it gives none or several: a second one could
+/// name another host behind the first), and the authority of an absolute-form target
+/// (`GET http://evil.example/`), which names the host in its place (RFC 9112, 3.2.2).
+fn hosts_named(request: &Request<Incoming>) -> (&str, Option<&str>) {
+    let mut given = request.headers().get_all(header::HOST).iter();
+    let host = match (given.next(), given.next()) {
+        (Some(h), None) => h.to_str().unwrap_or(""),
+        _ => "",
+    };
+    (host, request.uri().authority().map(|a| a.as_str()))
+}
+
 /// The answer to `request`.
 fn answer(request: &Request<Incoming>, board: &Arc<Board>, hosts: &Hosts) -> Response<Body> {
-    let host = request
-        .headers()
-        .get(header::HOST)
-        .and_then(|h| h.to_str().ok())
-        .unwrap_or("");
-    if !hosts.allows(host) {
+    let (host, target) = hosts_named(request);
+    if !hosts.allows(host) || target.is_some_and(|t| !hosts.allows(t)) {
         return text(
             StatusCode::FORBIDDEN,
             "refused: the Host header does not name this server's address\n",
@@ -317,6 +344,20 @@ mod tests {
         ] {
             assert!(!loopback.allows(refused), "{refused}");
         }
+        // One authority, or nothing: text after the brackets, user-info, a port that is not
+        // digits, an IPv6 address without brackets.
+        for refused in [
+            "[::1]evil.example",
+            "[::1]:80x",
+            "[::1",
+            "127.0.0.1:1@evil.example",
+            "user@127.0.0.1",
+            "127.0.0.1:evil",
+            "127.0.0.1 evil.example",
+            "::1",
+        ] {
+            assert!(!loopback.allows(refused), "{refused}");
+        }
         let one = Hosts("10.1.2.3".parse().unwrap());
         assert!(one.allows("10.1.2.3:80"));
         assert!(!one.allows("localhost:80"));
@@ -324,6 +365,7 @@ mod tests {
         let all = Hosts("0.0.0.0".parse().unwrap());
         assert!(all.allows("10.1.2.4:80") && all.allows("[fe80::1]:80"));
         assert!(!all.allows("node.example:80"));
+        assert!(!all.allows("127.0.0.1:1@evil.example"));
     }
 
     #[test]

@@ -143,6 +143,22 @@ fn serves_its_page_only_to_its_own_host_and_origin_and_nothing_from_disk() {
     assert_eq!(status, 403, "{answer}");
     let (status, _) = http(a, "GET / HTTP/1.1");
     assert_eq!(status, 403, "no Host");
+    // One authority, named once, and the target's where it gives one: a foreign host after
+    // the address's brackets, behind user-info, in a second Host header or in an
+    // absolute-form target is refused.
+    let port = a.rsplit_once(':').unwrap().1;
+    for request in [
+        format!("GET / HTTP/1.1\r\nHost: [::1]evil.example:{port}"),
+        "GET / HTTP/1.1\r\nHost: 127.0.0.1:1@evil.example".to_string(),
+        format!("GET / HTTP/1.1\r\nHost: {a}\r\nHost: evil.example"),
+        format!("GET http://evil.example/ HTTP/1.1\r\nHost: {a}"),
+    ] {
+        let (status, answer) = http(a, &request);
+        assert!(status == 403 || status == 400, "{request}: {answer}");
+        assert!(!answer.contains("EventSource"), "{request}: {answer}");
+    }
+    let (status, answer) = http(a, &format!("GET http://{a}/ HTTP/1.1\r\nHost: {a}"));
+    assert_eq!(status, 200, "its own host in absolute form: {answer}");
     // Another site's page: its stream, or its choice, refused.
     for request in ["GET /events", "POST /view?frame=2"] {
         let (status, answer) = http(
