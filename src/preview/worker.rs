@@ -30,7 +30,8 @@ use raytrace_core::error::{Error, elide_path};
 use raytrace_core::renderer::{FrameResult, ShotTracer};
 use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Devices, supported};
-use raytrace_scene::point_cache;
+use raytrace_render::memory::check_memory;
+use raytrace_scene::point_cache::{self, PointLoad};
 use raytrace_scene::scene_file::{Overrides, SceneSource};
 
 /// The samples per pixel of a frame other than the chosen one, before it takes the scene's.
@@ -72,6 +73,8 @@ struct Loaded {
     total: u64,
     /// The size rendered (the scene's, or smaller to fit the pages).
     size: (u32, u32),
+    /// The most points a frame of the shot holds (with the next snapshots read beside them).
+    points: PointLoad,
     generation: u64,
     /// The shot on its device.
     tracer: Box<dyn ShotTracer>,
@@ -176,7 +179,7 @@ fn work(board: &Arc<Board>, setup: &Setup, lanes: &Lanes, watch: &mut Watch) {
                     old.scene.clone(),
                     &old.overrides,
                     (Arc::clone(&old.frames), old.total),
-                    size,
+                    (size, old.points),
                     generation,
                     &devices,
                 );
@@ -319,20 +322,21 @@ fn read(
         scene,
         &setup.overrides,
         (frames.into(), total),
-        size,
+        (size, caches.most()),
         generation,
         devices,
     )?;
     Ok((loaded, files))
 }
 
-/// The shot of `source` (validated as `scene`) ready to render at `size`, as `generation`.
+/// The shot of `source` (validated as `scene`, its frames of at most `points`) ready to
+/// render at `size`, as `generation`.
 fn at_size(
     source: SceneSource,
     scene: Scene,
     overrides: &Overrides,
     (frames, total): (Arc<[u32]>, u64),
-    size: (u32, u32),
+    (size, points): ((u32, u32), PointLoad),
     generation: u64,
     devices: &Devices,
 ) -> Result<Loaded, Error> {
@@ -349,6 +353,7 @@ fn at_size(
         frames,
         total,
         size,
+        points,
         generation,
         devices: devices.clone(),
     })
@@ -367,9 +372,12 @@ fn publish_shot(s: &mut State, l: &Loaded) {
     );
 }
 
-/// Renders one pass and encodes its views as `image` events.
+/// Renders one pass and encodes its views as `image` events. A frame that would not fit in
+/// the memory available at the size rendered is refused before anything of it is allocated,
+/// as `check` and `render` refuse it ([`check_memory`]); the page shows why.
 fn pass(l: &Loaded, job: Running) -> Result<FrameImages, Error> {
     let scene = l.scene_at(job.samples)?;
+    check_memory(&scene, l.points)?;
     let result = render_frame(&scene, &l.devices, l.tracer.as_ref(), job.frame)?;
     let views = encode_views(&scene, &result)?;
     let figures = figures(&result, l.scene.render.samples);

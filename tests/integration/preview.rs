@@ -223,6 +223,64 @@ fn open_stream(address: &str) -> BufReader<TcpStream> {
     BufReader::new(s)
 }
 
+/// The peak resident memory of process `pid` in MiB, from /proc.
+fn peak_mib(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let kb: f64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap();
+    kb / 1024.0
+}
+
+#[test]
+fn a_frame_too_large_for_memory_is_refused_on_the_page_before_it_is_allocated() {
+    // 65536 x 65536 with its passes, denoised: hundreds of GiB a frame, which no machine this
+    // runs on has.
+    let dir = tempfile::tempdir().unwrap();
+    let huge = SMALL
+        .replace("width = 48", "width = 65536")
+        .replace("height = 27", "height = 65536")
+        .replace(
+            "path = \"renders/small_####.png\"",
+            "path = \"renders/small_####.exr\"\npasses = [\"alpha\", \"depth\", \"normal\", \"motion\"]\ndenoise = true",
+        );
+    std::fs::write(dir.path().join("huge.toml"), huge).unwrap();
+    let p = Preview::start(dir.path(), "huge.toml", &[]);
+    let a = &p.address;
+    // A page as large as the frame: it is rendered at the largest size a page is given
+    // (16384 a side), still about 130 GiB.
+    let mut s = TcpStream::connect(a).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    write!(
+        s,
+        "GET /events?w=65536&h=65536 HTTP/1.1\r\nHost: {a}\r\nAccept: text/event-stream\r\n\r\n"
+    )
+    .unwrap();
+    let events = read_events(&mut BufReader::new(s), |name, v| {
+        name == "problem" && v["message"].is_string()
+    });
+    let message = events.last().unwrap().1["message"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(
+        message.starts_with("huge.toml: a frame of ") && message.contains("needs about"),
+        "{message}"
+    );
+    assert!(
+        !events.iter().any(|(name, _)| name == "image"),
+        "{events:?}"
+    );
+    let peak = peak_mib(p.child.id());
+    assert!(peak < 1024.0, "peak {peak} MiB");
+    // The server keeps serving.
+    let (status, _) = http(a, &format!("GET / HTTP/1.1\r\nHost: {a}"));
+    assert_eq!(status, 200);
+}
+
 #[test]
 fn renders_while_a_page_is_open_and_stops_when_none_is() {
     let dir = tempfile::tempdir().unwrap();
