@@ -277,7 +277,8 @@ fn choose(board: &Board, query: &str) -> Response<Body> {
     }
 }
 
-/// A plain-text answer.
+/// A plain-text answer. A refusal (4xx, 5xx) closes its connection: a client refused,
+/// a page beyond the most that may be open, say, does not keep a connection's slot.
 fn text(status: StatusCode, message: &str) -> Response<Body> {
     let mut r = Response::new(Body::Full(Some(Bytes::from(message.to_string()))));
     *r.status_mut() = status;
@@ -285,6 +286,10 @@ fn text(status: StatusCode, message: &str) -> Response<Body> {
         header::CONTENT_TYPE,
         HeaderValue::from_static("text/plain; charset=utf-8"),
     );
+    if status.is_client_error() || status.is_server_error() {
+        r.headers_mut()
+            .insert(header::CONNECTION, HeaderValue::from_static("close"));
+    }
     r
 }
 

@@ -159,6 +159,21 @@ fn serves_its_page_only_to_its_own_host_and_origin_and_nothing_from_disk() {
     }
     let (status, answer) = http(a, &format!("GET http://{a}/ HTTP/1.1\r\nHost: {a}"));
     assert_eq!(status, 200, "its own host in absolute form: {answer}");
+    // A refusal closes its connection, though the client asked to keep it.
+    let mut s = TcpStream::connect(a.as_str()).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(
+        s,
+        "GET / HTTP/1.1\r\nHost: evil.example\r\nConnection: keep-alive\r\n\r\n"
+    )
+    .unwrap();
+    let mut answer = String::new();
+    s.read_to_string(&mut answer).unwrap();
+    assert!(
+        answer.starts_with("HTTP/1.1 403")
+            && answer.to_ascii_lowercase().contains("connection: close"),
+        "{answer}"
+    );
     // Another site's page: its stream, or its choice, refused.
     for request in ["GET /events", "POST /view?frame=2"] {
         let (status, answer) = http(
