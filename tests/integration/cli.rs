@@ -514,43 +514,61 @@ fn mib_after(text: &str, label: &str) -> f64 {
     rest.split_whitespace().next().unwrap().parse().unwrap()
 }
 
+/// `render scenes/quick.toml --stats ARGS` into a new folder, written as `out` (a frame
+/// pattern): the memory it estimates and the largest peak it prints, in MiB.
+#[cfg(target_os = "linux")]
+fn estimate_and_peak(out: &str, args: &[&str]) -> (f64, f64) {
+    let d = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
+    let out = d.path().join(out);
+    let mut all = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--stats",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    all.extend(args);
+    let o = run(d.path(), &all);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    let peak = t
+        .split("peak memory ")
+        .skip(1)
+        .map(|rest| {
+            rest.split_whitespace()
+                .next()
+                .unwrap()
+                .parse::<f64>()
+                .unwrap()
+        })
+        .fold(0.0, f64::max);
+    (mib_after(&t, "memory: about "), peak)
+}
+
 // Peak and available memory are read from /proc.
 #[cfg(target_os = "linux")]
 #[test]
 fn memory_estimate_is_within_a_quarter_of_the_peak() {
     // Raw, and finished: the denoiser's scratch and the written frame's terms are most of
     // what a denoised frame holds, and history's frames add to them (a third frame's, whose
-    // history is full: the first two are rendered for it, not written).
+    // history is full: the first two are rendered for it, not written). PNG frames, as the
+    // scene writes them.
     for finish in [
         &[][..],
         &["--denoise"],
         &["--denoise", "--temporal", "--frames", "3"],
     ] {
-        let d = tempfile::tempdir().unwrap();
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
-        // PNG frames, as the scene writes them.
-        let out = d.path().join("f_####.png");
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "--samples",
-            "2",
-            "--stats",
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        args.extend(finish);
-        let o = run(d.path(), &args);
-        assert!(o.status.success(), "{}", text(&o));
-        let out = text(&o);
-        let estimate = mib_after(&out, "memory: about ");
-        let peak = mib_after(&out, "peak memory ");
+        let args = [&["--samples", "2"][..], finish].concat();
+        let (estimate, peak) = estimate_and_peak("f_####.png", &args);
         assert!(
             (estimate - peak).abs() <= 0.25 * peak,
             "{finish:?}: estimate {estimate} MiB, peak {peak} MiB"
         );
         // `check` states the same figure (of the scene as the file gives it: raw).
         if finish.is_empty() {
+            let d = tempfile::tempdir().unwrap();
+            let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
             let o = run(d.path(), &["check", scene.to_str().unwrap()]);
             assert!(o.status.success(), "{}", text(&o));
             assert_eq!(mib_after(&text(&o), "memory: about "), estimate);
@@ -575,40 +593,9 @@ fn memory_estimate_is_within_a_quarter_of_the_peak_at_1080p_on_each_device() {
             &["--denoise", "--frames", "1"][..],
             &["--denoise", "--temporal", "--frames", "3"],
         ] {
-            let d = tempfile::tempdir().unwrap();
-            let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
-            let out = d.path().join("f_####.exr");
-            let mut args = vec![
-                "render",
-                scene.to_str().unwrap(),
-                "--device",
-                device,
-                "--width",
-                "1920",
-                "--height",
-                "1080",
-                "--samples",
-                "1",
-                "--stats",
-                "-o",
-                out.to_str().unwrap(),
-            ];
-            args.extend(finish);
-            let o = run(d.path(), &args);
-            assert!(o.status.success(), "{}", text(&o));
-            let out = text(&o);
-            let estimate = mib_after(&out, "memory: about ");
-            let peak = out
-                .split("peak memory ")
-                .skip(1)
-                .map(|rest| {
-                    rest.split_whitespace()
-                        .next()
-                        .unwrap()
-                        .parse::<f64>()
-                        .unwrap()
-                })
-                .fold(0.0, f64::max);
+            let size = ["--width", "1920", "--height", "1080", "--samples", "1"];
+            let args = [&["--device", device][..], &size, finish].concat();
+            let (estimate, peak) = estimate_and_peak("f_####.exr", &args);
             assert!(
                 (estimate - peak).abs() <= 0.25 * peak,
                 "{device} {finish:?}: estimate {estimate} MiB, peak {peak} MiB"
