@@ -459,3 +459,41 @@ fn malformed_vtk_is_refused() {
         ],
     );
 }
+
+#[test]
+fn a_flat_box_is_refused_only_where_it_is_periodic() {
+    // A zero lattice that no direction wraps, and a LAMMPS box of no x extent with `ff`
+    // bounds: not used as boxes, so the points render.
+    let xyz = b"1\nLattice=\"0 0 0 0 0 0 0 0 0\" pbc=\"F F F\"\nAr 0 0 0\n".to_vec();
+    let lammps = dump().replace(
+        "ITEM: BOX BOUNDS pp pp pp\n0 4\n",
+        "ITEM: BOX BOUNDS ff pp pp\n5 5\n",
+    );
+    assert!(lammps.contains("5 5\n"));
+    for (file, bytes, keys) in [
+        ("a.xyz", xyz.clone(), ""),
+        ("a.xyz", xyz.clone(), "periodic = false\n"),
+        (
+            "d.lammpstrj",
+            lammps.clone().into_bytes(),
+            "periodic = false\n",
+        ),
+    ] {
+        let d = setup(file, keys, &[(file, bytes)]);
+        for args in [&["check", "shot.toml"][..], &["render", "shot.toml"]] {
+            let o = run_limited(d.path(), args, SECONDS, MEMORY_KIB);
+            assert_eq!(
+                o.status.code(),
+                Some(0),
+                "{file} {keys:?} {args:?}: {}",
+                text(&o)
+            );
+        }
+    }
+    // Made periodic, the flat box is refused.
+    let d = setup("a.xyz", "periodic = true\n", &[("a.xyz", xyz)]);
+    refused(
+        d.path(),
+        &["a.xyz", "the box is periodic and its edges span no volume"],
+    );
+}

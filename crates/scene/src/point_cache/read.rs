@@ -54,17 +54,28 @@ pub(super) struct Read {
 
 /// The box of a snapshot as cache `desc` takes it: the file's, periodic where the file says,
 /// unless `periodic` says otherwise (`false`: nowhere; `true`: along every edge, which needs
-/// a box).
+/// a box). A periodic box must span a volume; a box periodic nowhere is not used, and may be
+/// flat (a LAMMPS `ff` box `5 5`, an XYZ zero `Lattice=` with `pbc="F F F"`).
 pub(super) fn cell_of(snap: &Snapshot, desc: &PointCacheDesc) -> Result<Option<Cell>, ReadError> {
-    match (snap.cell, desc.periodic) {
-        (None, Some(true)) => Err(ReadError::Bad(
-            "periodic = true, and the file gives no box (LAMMPS BOX BOUNDS, XYZ Lattice=)".into(),
-        )),
-        (Some(c), Some(p)) => Ok(Some(Cell {
+    let cell = match (snap.cell, desc.periodic) {
+        (None, Some(true)) => {
+            return Err(ReadError::Bad(
+                "periodic = true, and the file gives no box (LAMMPS BOX BOUNDS, XYZ Lattice=)"
+                    .into(),
+            ));
+        }
+        (Some(c), Some(p)) => Some(Cell {
             periodic: [p; 3],
             ..c
-        })),
-        (c, _) => Ok(c),
+        }),
+        (c, _) => c,
+    };
+    match cell {
+        Some(c) if c.any_periodic() && !c.spans_volume() => Err(ReadError::Bad(
+            "the box is periodic and its edges span no volume (two are parallel, or one is zero)"
+                .into(),
+        )),
+        c => Ok(c),
     }
 }
 

@@ -50,10 +50,11 @@ impl Cell {
         let ylo = bounds[1][0] - yz.min(0.0);
         let yhi = bounds[1][1] - yz.max(0.0);
         let (zlo, zhi) = (bounds[2][0], bounds[2][1]);
+        // Equal bounds are a flat box, refused only where it is periodic ([`Cell::spans_volume`]).
         for (name, lo, hi) in [("x", xlo, xhi), ("y", ylo, yhi), ("z", zlo, zhi)] {
-            if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) || !(hi - lo).is_finite() {
+            if hi < lo || !(hi - lo).is_finite() {
                 return Err(format!(
-                    "the box's {name} bounds are {lo} to {hi}: the upper must be greater than the lower"
+                    "the box's {name} bounds are {lo} to {hi}: the upper must not be less than the lower"
                 ));
             }
         }
@@ -74,19 +75,22 @@ impl Cell {
         if !origin.is_finite() || !edges.is_finite() {
             return Err("the box holds a number that is not finite".into());
         }
-        let volume = edges.determinant();
-        let scale = edges.x_axis.length() * edges.y_axis.length() * edges.z_axis.length();
-        // Edges within 1e-12 of lying in a plane have no usable inverse.
-        if volume.abs().partial_cmp(&(1e-12 * scale)) != Some(std::cmp::Ordering::Greater)
-            || !volume.is_finite()
-        {
-            return Err("the box's edges span no volume (two are parallel, or one is zero)".into());
-        }
         Ok(Cell {
             origin,
             edges,
             periodic,
         })
+    }
+
+    /// Whether the edges span a volume, as a periodic box needs (wrapping takes fractional
+    /// coordinates through the edges' inverse); a box no direction of which is periodic is
+    /// not used as a box, and may be flat.
+    pub(crate) fn spans_volume(&self) -> bool {
+        let volume = self.edges.determinant();
+        let e = &self.edges;
+        let scale = e.x_axis.length() * e.y_axis.length() * e.z_axis.length();
+        // Edges within 1e-12 of lying in a plane have no usable inverse.
+        volume.is_finite() && volume.abs() > 1e-12 * scale
     }
 
     /// Whether any direction is periodic.
@@ -170,15 +174,27 @@ mod tests {
             false,
             flags,
         );
-        assert!(e.unwrap_err().contains("x bounds are 1 to 0"));
+        assert!(
+            e.unwrap_err()
+                .contains("x bounds are 1 to 0: the upper must not be less")
+        );
         let e = Cell::from_lammps(
             [[0.0, f64::NAN, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             false,
             flags,
         );
         assert!(e.unwrap_err().contains("NaN, not a finite number"));
+        // A flat box is a box, which spans no volume (refused where it is periodic).
         let flat = DMat3::from_cols(DVec3::X, DVec3::X * 2.0, DVec3::Z);
-        assert!(Cell::new(DVec3::ZERO, flat, flags).is_err());
+        assert!(!Cell::new(DVec3::ZERO, flat, flags).unwrap().spans_volume());
+        let zero = Cell::from_lammps(
+            [[5.0, 5.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            false,
+            [false; 3],
+        );
+        assert!(!zero.unwrap().spans_volume());
+        let cube = DMat3::from_diagonal(DVec3::splat(2.0));
+        assert!(Cell::new(DVec3::ZERO, cube, flags).unwrap().spans_volume());
     }
 
     #[test]
