@@ -85,12 +85,55 @@ const MAX_MESSAGE: usize = 4000;
 /// `\u{1b}`), so that a name cannot move the cursor, recolour or retitle the terminal; then,
 /// when longer than [`MAX_QUOTED`] bytes, its start, an ellipsis, its last few characters
 /// and its length: `renders/aaaaaaaa…aaa/f_####.exr (20971531 bytes)`. A message never
-/// repeats a huge argument.
+/// repeats a huge argument. A text longer than that is cut before it is escaped, and its
+/// length is its own: a huge token (a 3 GiB run of NULs) is never copied whole.
 pub fn elide(text: &str) -> Cow<'_, str> {
+    if text.len() > MAX_QUOTED {
+        return Cow::Owned(format!(
+            "{}…{} ({} bytes)",
+            escaped_head(text, MAX_QUOTED / 2),
+            escaped_tail(text, 32),
+            text.len()
+        ));
+    }
     match escape_controls(text) {
         Cow::Borrowed(text) => shorten(text),
         Cow::Owned(escaped) => Cow::Owned(shorten(&escaped).into_owned()),
     }
+}
+
+/// The escaped form of a character: itself, or as Rust writes a control character.
+fn escaped_char(c: char) -> String {
+    match c.is_control() {
+        true => c.escape_debug().collect(),
+        false => c.to_string(),
+    }
+}
+
+/// The start of `text`, escaped, in at most `bytes` bytes (whole characters and escapes).
+fn escaped_head(text: &str, bytes: usize) -> String {
+    let mut out = String::new();
+    for piece in text.chars().map(escaped_char) {
+        if out.len() + piece.len() > bytes {
+            break;
+        }
+        out.push_str(&piece);
+    }
+    out
+}
+
+/// The end of `text`, escaped, in at most `bytes` bytes (whole characters and escapes).
+fn escaped_tail(text: &str, bytes: usize) -> String {
+    let mut pieces = Vec::new();
+    let mut len = 0;
+    for piece in text.chars().rev().map(escaped_char) {
+        if len + piece.len() > bytes {
+            break;
+        }
+        len += piece.len();
+        pieces.push(piece);
+    }
+    pieces.into_iter().rev().collect()
 }
 
 /// `text` with its control characters (C0, DEL and C1) escaped.
@@ -236,11 +279,23 @@ mod tests {
         assert!(matches!(elide("é \"q\" \\ ~"), Cow::Borrowed(_)));
         let e = Error::io("d/p\u{1b}]0;title\u{7}.ply", std::io::Error::other("gone"));
         assert_eq!(e.to_string(), "d/p\\u{1b}]0;title\\u{7}.ply: gone");
-        // Escaped before it is shortened: the length given is the escaped text's.
+        // A long text is cut before it is escaped: the length given is its own.
         let long = "\u{1b}".repeat(1000);
         let short = elide(&long);
         assert!(
-            short.starts_with("\\u{1b}\\u{1b}") && short.ends_with("(6000 bytes)"),
+            short.starts_with("\\u{1b}\\u{1b}") && short.ends_with("\\u{1b} (1000 bytes)"),
+            "{short}"
+        );
+        assert!(short.len() < MAX_QUOTED, "{short}");
+        // A short text is escaped, then shortened where its escapes make it long.
+        let escapes = "\u{1b}".repeat(100);
+        let short = elide(&escapes);
+        assert!(short.ends_with("(600 bytes)"), "{short}");
+        // A huge one is cut from its two ends, never copied: 256 MiB of NULs.
+        let huge = "\0".repeat(256 << 20);
+        let short = elide(&huge);
+        assert!(
+            short.starts_with("\\0\\0") && short.ends_with(&format!("({} bytes)", 256 << 20)),
             "{short}"
         );
     }
