@@ -68,9 +68,9 @@ impl BvhView<'_> {
     ///
     /// One function on purpose, as the single ray's `traverse` is: split into named steps
     /// (the lanes, the entering test, the sort, the push and pop, the leaf hits; commit
-    /// 1969e91), every step `#[inline(always)]`, the same frames rendered 4 to 6% slower
-    /// (held-out books' scene, 400x225, 100 spp, 2 cores, user time, median of 11 alternated
-    /// pairs), so the steps are named by the comments inside.
+    /// 1969e91), every step `#[inline(always)]`, the same frames rendered 3 to 6% slower
+    /// (held-out books' scene, 400x225, 100 spp, 2 cores, user time of 9 to 11 runs each),
+    /// so the steps are named by the comments inside.
     #[inline(always)]
     pub(super) fn closest_hits_on<M: Lanes>(
         &self,

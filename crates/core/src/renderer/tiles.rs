@@ -56,8 +56,8 @@ impl CpuFrame<'_> {
     /// and those that were not finite.
     ///
     /// The camera rays of a packet are made in this loop, not in a function of their own:
-    /// split out (commit 1969e91), the same frames rendered about 1.3% slower (held-out
-    /// books' scene, 400x225, 100 spp, 2 cores, user time, median of 11 alternated pairs).
+    /// split out (commit 1969e91), the same frames rendered about 1% slower (held-out books'
+    /// scene, 400x225, 100 spp, 2 cores, user time of 11 runs each).
     fn sample_tile<S: Sampler>(
         &self,
         sampler: &mut S,
