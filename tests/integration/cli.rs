@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use crate::common;
-use common::{run, text};
+use common::{mib_after, run, text};
 
 const BIN: &str = env!("CARGO_BIN_EXE_raytrace");
 
@@ -503,15 +503,6 @@ fn a_closed_stdout_does_not_stop_the_render() {
     assert!(out.status.success(), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(files(&d.path().join("out")).len(), 4);
-}
-
-/// A figure `about 12.3 MiB` or `peak memory 12.3 MiB` in `text`, after `label`, in MiB.
-fn mib_after(text: &str, label: &str) -> f64 {
-    let rest = text
-        .split(label)
-        .nth(1)
-        .unwrap_or_else(|| panic!("no {label:?} in {text}"));
-    rest.split_whitespace().next().unwrap().parse().unwrap()
 }
 
 /// `render scenes/quick.toml --stats ARGS` into a new folder, written as `out` (a frame

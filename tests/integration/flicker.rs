@@ -6,7 +6,7 @@ use crate::common;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{run, text};
+use common::{peak_kib, run, text};
 
 /// A one-sphere shot of `frames` frames at 4x4 pixels and 1 sample.
 fn shot(frames: u64) -> String {
@@ -43,13 +43,6 @@ fn bad_ranges_and_a_reference_to_write_are_refused_naming_the_options() {
     }
     // Nothing was written.
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 1);
-}
-
-/// The peak resident memory of process `pid` in KiB (`VmHWM`), while it runs.
-fn peak_kib(pid: u32) -> u64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
-    let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
-    line.split_whitespace().nth(1).unwrap().parse().unwrap()
 }
 
 #[test]

@@ -7,18 +7,7 @@
 use crate::common;
 
 use common::hostile::{scene, setup};
-use common::ok;
-
-/// The MiB figure that follows `label` in `t`, as `--stats` prints it (`12.3 MiB`).
-fn mib_after(t: &str, label: &str) -> f64 {
-    let at = t
-        .find(label)
-        .unwrap_or_else(|| panic!("no {label:?} in {t}"));
-    let rest = &t[at + label.len()..];
-    let number = rest.split_whitespace().next().unwrap();
-    assert!(rest.trim_start()[number.len()..].starts_with(" MiB"), "{t}");
-    number.parse().unwrap()
-}
+use common::{mib_after, ok};
 
 #[test]
 fn a_gpu_render_stays_within_its_memory_estimate() {

@@ -238,18 +238,6 @@ fn open_stream(address: &str) -> BufReader<TcpStream> {
     BufReader::new(s)
 }
 
-/// The peak resident memory of process `pid` in MiB, from /proc.
-fn peak_mib(pid: u32) -> f64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
-    let kb: f64 = status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.split_whitespace().next())
-        .and_then(|v| v.parse().ok())
-        .unwrap();
-    kb / 1024.0
-}
-
 #[test]
 fn a_frame_too_large_for_memory_is_refused_on_the_page_before_it_is_allocated() {
     // 65536 x 65536 with its passes, denoised: hundreds of GiB a frame, which no machine this
@@ -289,7 +277,7 @@ fn a_frame_too_large_for_memory_is_refused_on_the_page_before_it_is_allocated() 
         !events.iter().any(|(name, _)| name == "image"),
         "{events:?}"
     );
-    let peak = peak_mib(p.child.id());
+    let peak = crate::common::peak_kib(p.child.id()) as f64 / 1024.0;
     assert!(peak < 1024.0, "peak {peak} MiB");
     // The server keeps serving.
     let (status, _) = http(a, &format!("GET / HTTP/1.1\r\nHost: {a}"));

@@ -347,3 +347,22 @@ pub(crate) fn run_lammps(input: &Path, dir: &Path) {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// The MiB figure that follows `label` in `t`, as `check` and `--stats` print it (`about 12.3
+/// MiB`, `peak memory 12.3 MiB`): its first occurrence.
+pub(crate) fn mib_after(t: &str, label: &str) -> f64 {
+    let at = t
+        .find(label)
+        .unwrap_or_else(|| panic!("no {label:?} in {t}"));
+    let rest = &t[at + label.len()..];
+    let number = rest.split_whitespace().next().unwrap();
+    assert!(rest.trim_start()[number.len()..].starts_with(" MiB"), "{t}");
+    number.parse().unwrap()
+}
+
+/// The peak resident memory of process `pid` in KiB (`VmHWM` in /proc), while it runs.
+pub(crate) fn peak_kib(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
+    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
