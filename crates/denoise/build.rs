@@ -13,7 +13,8 @@
 //!    system's folder;
 //! 2. otherwise the official OIDN 2.5.1 Linux x86-64 binaries that PyPI's `pyoidn` 2.5.1 wheel
 //!    carries, fetched with `python3 -m pip download` (its SHA-256 pinned below) and unpacked
-//!    with Python's `zipfile`: the library, its core, its CPU device module and oneTBB.
+//!    with Python's `zipfile`: the library, its core, its CPU, CUDA and HIP device modules
+//!    and oneTBB.
 //!
 //! A stamp file records what was provided; a later build that finds it does nothing.
 
@@ -26,19 +27,25 @@ use std::time::{Duration, SystemTime};
 const WHEEL_REQUIREMENT: &str = "pyoidn==2.5.1";
 const WHEEL_PLATFORM: &str = "manylinux2014_x86_64";
 const WHEEL_SHA256: &str = "32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e";
-/// The files taken from the wheel's `pyoidn/oidn/lib/` (the GPU device modules are left out:
-/// only the CPU device is used). The libraries find each other through their own
+/// The files taken from the wheel's `pyoidn/oidn/lib/`: the library, its core, oneTBB, and
+/// the device modules raytrace uses: the CPU's, and for `--denoise-device` the CUDA (NVIDIA)
+/// and HIP (AMD) ones, 3.4 and 12.8 MB, which load only where their GPU's driver is installed
+/// (OIDN skips a module whose driver library is missing). The SYCL module (Intel GPUs) is
+/// left out: it needs 30 MB more of the wheel's runtime (`libsycl`, the Unified Runtime
+/// loader and its Level Zero adapters). The libraries find each other through their own
 /// `$ORIGIN/../lib` rpath in a folder named `lib` (and in any folder once the `oidn` crate has
 /// loaded oneTBB and the core first); OIDN loads device modules from its own folder.
-const WHEEL_LIBRARIES: [&str; 4] = [
+const WHEEL_LIBRARIES: [&str; 6] = [
     "libOpenImageDenoise.so.2.5.1",
     "libOpenImageDenoise_core.so.2.5.1",
     "libOpenImageDenoise_device_cpu.so.2.5.1",
+    "libOpenImageDenoise_device_cuda.so.2.5.1",
+    "libOpenImageDenoise_device_hip.so.2.5.1",
     "libtbb.so.12",
 ];
-/// The version the stamp records for the wheel route; a change of it provides anew.
-const STAMP_WHEEL: &str =
-    "pyoidn 2.5.1 sha256:32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e\n";
+/// The version the stamp records for the wheel route, with the modules taken; a change of it
+/// provides anew.
+const STAMP_WHEEL: &str = "pyoidn 2.5.1 sha256:32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e cpu cuda hip\n";
 const STAMP: &str = "PROVIDED";
 
 fn main() {

@@ -10,7 +10,7 @@ use clap::{Args, Parser, Subcommand};
 
 use raytrace_core::renderer::Budget;
 use raytrace_core::sampler::SamplerKind;
-use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 use raytrace_core::scene::Device;
 use raytrace_scene::scene_file::Overrides;
 
@@ -141,6 +141,11 @@ pub(crate) struct SceneArgs {
     /// DirectX 12), replacing `[render] device`.
     #[arg(long)]
     pub device: Option<Device>,
+    /// Where denoised frames are denoised: `auto` (default: on the GPU that traces them
+    /// when OIDN has a device for it, else on the CPU), `cpu`, or `gpu` (an error without
+    /// one).
+    #[arg(long, value_name = "DEVICE", value_parser = denoise_device)]
+    pub denoise_device: Option<DenoiseDevice>,
 }
 
 /// Arguments of `raytrace render`.
@@ -226,6 +231,14 @@ fn denoise_quality(text: &str) -> Result<DenoiseQuality, String> {
 /// The passes `--passes` names, in order (duplicates are the scene validator's to name).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct PassList(pub Vec<raytrace_core::pass::Pass>);
+
+/// Clap's value parser of `--denoise-device`.
+fn denoise_device(text: &str) -> Result<DenoiseDevice, String> {
+    DenoiseDevice::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = DenoiseDevice::ALL.iter().map(|d| d.name()).collect();
+        format!("expected one of {}", names.join(", "))
+    })
+}
 
 /// Clap's value parser of `--passes`: pass names separated by commas.
 fn pass_list(text: &str) -> Result<PassList, String> {
@@ -371,6 +384,9 @@ pub(crate) struct PreviewArgs {
     /// Where paths are traced: `cpu` (default) or `gpu`, replacing `[render] device`.
     #[arg(long)]
     pub device: Option<Device>,
+    /// Where denoised frames are denoised: `auto` (default), `cpu` or `gpu`, as `render`'s.
+    #[arg(long, value_name = "DEVICE", value_parser = denoise_device)]
+    pub denoise_device: Option<DenoiseDevice>,
 }
 
 /// Arguments of `raytrace clip`.
@@ -458,6 +474,7 @@ impl SceneArgs {
             height: self.height,
             seed: self.seed,
             device: self.device,
+            denoise_device: self.denoise_device,
             ..Overrides::default()
         }
     }

@@ -17,6 +17,7 @@ use raytrace_scene::scene_file::{Overrides, SceneSource};
 pub(crate) fn preview(args: &PreviewArgs) -> Result<(), Error> {
     let overrides = Overrides {
         device: args.device,
+        denoise_device: args.denoise_device,
         ..Overrides::default()
     };
     let source = SceneSource::read(&args.scene)?;

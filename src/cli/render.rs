@@ -215,7 +215,8 @@ fn render_shot(
         ));
         if args.stats {
             let read = (!scene.points.is_empty()).then_some((read.seconds, read.points));
-            progress.line(&stats_line(frame, st, scene.render.device, read));
+            let denoiser = result.denoised.as_ref().and(devices.denoiser_name());
+            progress.line(&stats_line(frame, st, scene.render.device, read, denoiser));
         }
         error_sum += st.relative_error;
         summary.error_max = summary.error_max.max(st.relative_error);
@@ -384,19 +385,25 @@ fn gpu_note(st: &FrameStats) -> String {
 }
 
 /// The `--stats` line of a frame rendered on `device`; `read`: the seconds its point caches
-/// took to read, and their points.
-fn stats_line(frame: u32, st: &FrameStats, device: Device, read: Option<(f64, usize)>) -> String {
+/// took to read, and their points; `denoiser`: the device that denoised it (`cpu`,
+/// `cuda (NVIDIA H100 ...)`), if it was.
+fn stats_line(
+    frame: u32,
+    st: &FrameStats,
+    device: Device,
+    read: Option<(f64, usize)>,
+    denoiser: Option<&str>,
+) -> String {
     let per_s = |n: u64| n as f64 / st.render_seconds.max(1e-9) / 1e6;
     let memory = peak_memory_bytes().map_or("unknown".to_string(), mib);
-    let denoise = if st.denoises > 0 {
-        format!(
-            " (denoising {:.3} s, {} denoise{})",
+    let denoise = match denoiser {
+        Some(name) => format!(
+            " (denoising {:.3} s, {} denoise{}, denoiser: {name})",
             st.denoise_seconds,
             st.denoises,
             if st.denoises == 1 { "" } else { "s" }
-        )
-    } else {
-        String::new()
+        ),
+        None => String::new(),
     };
     // The share of the render time the worker threads spent in tiles: what is missing is
     // time a core sat idle (waiting for the last tile) or spent scheduling. On the GPU, the

@@ -151,7 +151,7 @@ fn check(path: &Path, run: &Run) {
     let name = path.file_stem().unwrap().to_string_lossy().into_owned();
     let devices = Devices::opened(Needs {
         denoiser: true,
-        gpu: false,
+        ..Needs::default()
     })
     .unwrap();
     let refs = references(path, None, run.references);

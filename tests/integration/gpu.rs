@@ -624,6 +624,67 @@ fn denoising_and_a_transparent_background_work_on_the_gpu() {
 }
 
 #[test]
+fn the_denoiser_runs_on_the_gpu_that_traces_or_says_why_not() {
+    // `--stats` names the denoiser's device. On a software adapter (lavapipe) that is the
+    // CPU, with no note; on a hardware GPU, OIDN's device for it (`cuda (NAME)`) or the CPU
+    // with a note saying why. `--denoise-device cpu` is the CPU; `--denoise-device gpu`
+    // without an OIDN device for the GPU is exit 1, naming the flag, and nothing written.
+    let Some(gpu) = gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let quick = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/quick.toml");
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            quick.to_str().unwrap(),
+            "--frames",
+            "1",
+            "--width",
+            "48",
+            "--height",
+            "27",
+            "--samples",
+            "4",
+            "--denoise",
+            "--device",
+            "gpu",
+            "--stats",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        raytrace(dir.path(), &args, &[])
+    };
+    let auto = run("auto.exr", &[]);
+    assert!(auto.status.success(), "{}", String::from_utf8_lossy(&auto.stderr));
+    let (out, err) = (String::from_utf8_lossy(&auto.stdout), String::from_utf8_lossy(&auto.stderr));
+    let named = |words: &str| named_in(&out, words);
+    if gpu.is_software() {
+        assert!(named("cpu") && !err.contains("note: "), "{out}\n{err}");
+    } else {
+        let on_gpu = ["cuda (", "hip (", "sycl (", "metal ("]
+            .iter()
+            .any(|k| out.contains(&format!("denoiser: {k}")));
+        let fell_back = named("cpu")
+            && err.contains("note: denoising on the CPU: Intel Open Image Denoise has no device for");
+        assert!(on_gpu != fell_back, "{out}\n{err}");
+    }
+    let cpu = run("cpu.exr", &["--denoise-device", "cpu"]);
+    assert!(cpu.status.success() && named_in(&String::from_utf8_lossy(&cpu.stdout), "cpu"));
+    let asked = run("gpu.exr", &["--denoise-device", "gpu"]);
+    if gpu.is_software() {
+        assert_eq!(asked.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&asked.stderr);
+        assert!(err.contains("--denoise-device gpu: Intel Open Image Denoise has no device for the GPU"), "{err}");
+        assert!(!dir.path().join("gpu.exr").exists());
+    }
+}
+
+/// Whether a `--stats` output names the denoiser `words`.
+fn named_in(out: &str, words: &str) -> bool {
+    out.contains(&format!(", denoiser: {words})"))
+}
+
+#[test]
 fn scenes_with_point_caches_are_refused_for_the_gpu() {
     // Point caches are rendered by the CPU alone: `check`, `render` and `converge` refuse a
     // scene with `[[points]]` for the GPU (exit 2, nothing written, `--device cpu` offered),

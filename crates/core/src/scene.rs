@@ -46,6 +46,41 @@ pub struct DenoiseSettings {
     pub quality: DenoiseQuality,
     /// `--temporal`: keep the denoised sequence from flickering.
     pub temporal: bool,
+    /// `--denoise-device`: where the denoiser runs.
+    pub device: DenoiseDevice,
+}
+
+/// Where the denoiser runs (`--denoise-device`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DenoiseDevice {
+    /// On the GPU that traces the frame when OIDN has a device for it (CUDA, HIP, SYCL,
+    /// Metal), else on the CPU, with a note; the default.
+    #[default]
+    Auto,
+    /// On the CPU.
+    Cpu,
+    /// On a GPU: the one that traces the frame, or with `--device cpu` the first OIDN finds;
+    /// without one, an error.
+    Gpu,
+}
+
+impl DenoiseDevice {
+    /// Every choice, as the command line lists them.
+    pub const ALL: [DenoiseDevice; 3] = [DenoiseDevice::Auto, DenoiseDevice::Cpu, DenoiseDevice::Gpu];
+
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DenoiseDevice::Auto => "auto",
+            DenoiseDevice::Cpu => "cpu",
+            DenoiseDevice::Gpu => "gpu",
+        }
+    }
+
+    /// The choice named `name`, if any.
+    pub fn from_name(name: &str) -> Option<DenoiseDevice> {
+        DenoiseDevice::ALL.into_iter().find(|d| d.name() == name)
+    }
 }
 
 /// The denoiser's filter qualities, OIDN's (`[output] denoise_quality`, `--denoise-quality`): each slower and

@@ -1,5 +1,7 @@
-//! The denoiser: Intel Open Image Denoise's `RT` filter on its CPU device, through the `oidn`
-//! crate (vendored: vendor/README.md).
+//! The denoiser: Intel Open Image Denoise's `RT` filter on the device `--denoise-device` picks
+//! ([`crate::device`]: the GPU that traces, or the CPU), through the `oidn` crate (vendored:
+//! vendor/README.md). On a GPU device a run uploads the image and reads the result back (the
+//! `oidn` crate's copies); the rest of finishing stays on the host.
 //!
 //! The filter reads three channels of an image (linear HDR radiance) and gives them back
 //! denoised (OIDN takes them interleaved, a pixel after another). It takes the colour alone: guides (the first hit's albedo and normal), prefiltered as OIDN recommends for
@@ -18,7 +20,9 @@ use std::fmt;
 
 use glam::Vec3;
 use raytrace_core::image::{Image, Rgb};
-use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
+
+use crate::device::TracingGpu;
 
 /// The largest width and height OIDN accepts (its `ImageDesc` refuses larger sides as
 /// "image size is too large").
@@ -44,6 +48,8 @@ pub enum DenoiseError {
     },
     /// OIDN reported an error while filtering.
     Filter(String),
+    /// `--denoise-device gpu`, and OIDN has no device for the GPU: why.
+    NoGpu(String),
 }
 
 impl fmt::Display for DenoiseError {
@@ -74,6 +80,13 @@ impl fmt::Display for DenoiseError {
                 "the {what} image holds {len} values, not {expected} (RGB for each pixel)"
             ),
             DenoiseError::Filter(m) => write!(f, "Intel Open Image Denoise failed: {m}"),
+            DenoiseError::NoGpu(m) => write!(
+                f,
+                "--denoise-device gpu: Intel Open Image Denoise has no device for the GPU: {m}. \
+                 It drives NVIDIA GPUs through CUDA and AMD ones through HIP (its device \
+                 modules beside libOpenImageDenoise, with the GPU's driver); use \
+                 --denoise-device auto or cpu to denoise on the CPU"
+            ),
         }
     }
 }
@@ -86,18 +99,40 @@ impl From<DenoiseError> for raytrace_core::error::Error {
     }
 }
 
-/// An OIDN CPU device, made once and used for every frame.
+/// An OIDN device, made once for a run and used for every frame.
 pub struct Denoiser {
     device: oidn::Device,
+    /// `cpu`, or `cuda (ADAPTER NAME)` and the like.
+    name: String,
+    note: Option<String>,
 }
 
 impl Denoiser {
-    /// Starts OIDN's CPU device (it uses every core unless `OIDN_NUM_THREADS` says
-    /// otherwise).
-    pub fn new() -> Result<Denoiser, DenoiseError> {
+    /// Starts the OIDN device `choice` asks for, for a run that traces on `traced_on` (none:
+    /// the CPU): see [`crate::device`]. OIDN's CPU device uses every core unless
+    /// `OIDN_NUM_THREADS` says otherwise.
+    pub fn new(
+        choice: DenoiseDevice,
+        traced_on: Option<&TracingGpu>,
+    ) -> Result<Denoiser, DenoiseError> {
         super::library::load().map_err(DenoiseError::Missing)?;
-        let device = oidn::Device::cpu().map_err(|e| DenoiseError::Unavailable(describe(&e)))?;
-        Ok(Denoiser { device })
+        let opened = crate::device::open(choice, traced_on)?;
+        Ok(Denoiser {
+            device: opened.device,
+            name: opened.name,
+            note: opened.note,
+        })
+    }
+
+    /// The device, as `--stats` names it: `cpu`, or `cuda (NVIDIA H100 80GB HBM3)`.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Why the run denoises on the CPU though it traces on a GPU (`auto` without an OIDN
+    /// device for it): one line for standard error.
+    pub fn note(&self) -> Option<&str> {
+        self.note.as_deref()
     }
 
     /// A colour-only `RT` filter for HDR images of `width` x `height` at `quality`, made once
@@ -205,7 +240,7 @@ fn check_size(width: usize, height: usize) -> Result<usize, DenoiseError> {
 }
 
 /// OIDN's error kind and message.
-fn describe(e: &oidn::Error) -> String {
+pub(crate) fn describe(e: &oidn::Error) -> String {
     let message = e.message();
     if message.is_empty() {
         e.kind().as_str().to_string()
@@ -228,7 +263,7 @@ mod tests {
 
     fn denoised() -> Image {
         let (w, h, color) = noisy();
-        let denoiser = Denoiser::new().unwrap();
+        let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
         filter.run(&color, COLOUR).unwrap()
     }
@@ -244,7 +279,7 @@ mod tests {
     #[test]
     fn denoising_brings_the_image_closer_to_the_truth_at_every_quality() {
         let f = synthetic::frame(64, 48, synthetic::edges, 0.5, 11);
-        let denoiser = Denoiser::new().unwrap();
+        let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let before = raytrace_core::metrics::rel_mse(&f.full(), &f.truth());
         for q in DenoiseQuality::ALL {
             let filter = denoiser.filter(64, 48, q).unwrap();
@@ -282,7 +317,7 @@ mod tests {
             let (w, h): (u32, u32) = (w.parse().unwrap(), h.parse().unwrap());
             let quality = DenoiseQuality::from_name(q).unwrap();
             let image = Image::from_interleaved(w, h, COLOUR, &vec![0.5; 3 * (w * h) as usize]);
-            let denoiser = Denoiser::new().unwrap();
+            let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
             let before = resident().1;
             let filter = denoiser.filter(w as usize, h as usize, quality).unwrap();
             let out = filter.run(&image, COLOUR).unwrap();
@@ -324,7 +359,7 @@ mod tests {
     #[test]
     fn a_filter_runs_again_and_again_with_the_same_bytes() {
         let (w, h, color) = noisy();
-        let denoiser = Denoiser::new().unwrap();
+        let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let filter = denoiser.filter(w, h, DenoiseQuality::Fast).unwrap();
         let once = filter.run(&color, COLOUR).unwrap();
         // Another image between two runs of the same one.
@@ -333,7 +368,7 @@ mod tests {
         assert_ne!(hash(&once), hash(&other));
         assert_eq!(hash(&once), hash(&filter.run(&color, COLOUR).unwrap()));
         // A second device, a second filter.
-        let second = Denoiser::new().unwrap();
+        let second = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let again = second.filter(w, h, DenoiseQuality::Fast).unwrap();
         assert_eq!(hash(&once), hash(&again.run(&color, COLOUR).unwrap()));
     }
@@ -342,7 +377,7 @@ mod tests {
     fn balanced_is_high_on_the_cpu_and_fast_is_not() {
         // What the quality's documentation says of OIDN's CPU device.
         let (w, h, color) = noisy();
-        let denoiser = Denoiser::new().unwrap();
+        let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let run = |q| {
             hash(
                 &denoiser
@@ -389,7 +424,7 @@ mod tests {
 
     #[test]
     fn sizes_beyond_what_oidn_takes_are_refused() {
-        let denoiser = Denoiser::new().unwrap();
+        let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
         let n = MAX_SIDE + 1;
         let refused = denoiser
             .filter(n, 1, DenoiseQuality::Fast)

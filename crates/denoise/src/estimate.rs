@@ -147,6 +147,12 @@ pub(crate) fn blended_error(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
     part(w * w, e_d) + part(r * r, v) + part(2.0 * w * r, c)
 }
 
+/// `-n d/dn` of [`blended_error`] at the weight `w` ([`sample_weights`]):
+/// `(1 - w)^2 v + 2 w (1 - w) c + (2/3) w^2 e_d`, `e_d` the denoised error at the samples now.
+pub(crate) fn reducible(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
+    blended_error(w, e_d * (2.0 / 3.0), v, c)
+}
+
 /// The denoised frame `D̄` in a [`DenoiseTerms`]'s terms.
 pub(crate) const DENOISED: Rgb = Rgb(["denoised.R", "denoised.G", "denoised.B"]);
 /// The denoised frame's error `E[(D̄ - T)^2]` in a snapshot's terms (kept infinite where
@@ -168,6 +174,9 @@ pub(crate) const ERROR: Rgb = Rgb(["error.R", "error.G", "error.B"]);
 pub(crate) const SMOOTH_ERROR: Rgb = Rgb(["smoothError.R", "smoothError.G", "smoothError.B"]);
 /// The raw frame's variance `v` in a written frame's terms.
 pub(crate) const RAW_VARIANCE: Rgb = Rgb(["rawVariance.R", "rawVariance.G", "rawVariance.B"]);
+/// What more samples remove of the written pixel's squared error, per added sample over its
+/// samples now ([`sample_weights`]), from the pixel's own terms at its weight.
+pub(crate) const REDUCIBLE: Rgb = Rgb(["reducible.R", "reducible.G", "reducible.B"]);
 
 /// One denoise of a film, its terms: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
 /// [`DENOISED_ERROR`], [`CROSS`]) and the samples they were made from ([`SAMPLES`]), an image
@@ -187,8 +196,8 @@ pub struct Blend {
     /// The frame's estimated relative error (infinite where a pixel has fewer than two
     /// samples).
     pub relative_error: f64,
-    /// Each pixel's estimated relative squared error from its neighbourhood's means: smooth,
-    /// for deciding where samples go (row-major).
+    /// Each pixel's estimated relative squared error from its neighbourhood's means: smooth
+    /// (row-major). Where samples go is [`sample_weights`]'s.
     pub pixel_errors: Vec<f64>,
     /// The mean weight of the denoised frame over pixels and channels, in [0, 1].
     pub denoised_share: f64,
@@ -210,18 +219,15 @@ impl Blend {
     /// the raw frame's 3x3 mean, see the module's notes).
     pub fn new(terms: &Image) -> Blend {
         let n = terms.pixels();
-        let width = terms.width() as usize;
         let planes = |names| terms.rgb(names).expect("a written frame's terms");
         let (value, error, smooth) = (planes(WRITTEN), planes(ERROR), planes(SMOOTH_ERROR));
-        let raw = planes(RAW);
-        let raw: Vec<DVec3> = (0..n).map(|i| raw.at_f64(i)).collect();
-        let around = box_mean(&raw, width, 1);
+        let around = raw_around(terms);
         let mut pixel_errors = Vec::with_capacity(n);
         let mut sum = 0.0;
         let mut image = Image::new(terms.width(), terms.height());
         image.set_rgbs([COLOUR], |i| {
             let v = value.at_f64(i);
-            let m = v.max(DVec3::ZERO).min(around[i].max(DVec3::ZERO));
+            let m = true_value_for_error(v, around[i]);
             sum += estimated_rel_mse_term(m, error.at_f64(i));
             pixel_errors.push(estimated_rel_mse_term(m, smooth.at_f64(i)));
             [to_f32(v)]
@@ -241,26 +247,96 @@ impl Blend {
     }
 }
 
+/// The raw frame of `terms` (a written frame's, or a combination's), averaged over each
+/// pixel's 3x3 neighbourhood.
+fn raw_around(terms: &Image) -> Vec<DVec3> {
+    let raw = terms.rgb(RAW).expect("a written frame's terms");
+    let raw: Vec<DVec3> = (0..terms.pixels()).map(|i| raw.at_f64(i)).collect();
+    box_mean(&raw, terms.width() as usize, 1)
+}
+
+/// What stands in for a pixel's true value in its relative error: the smaller of its value
+/// `v` and the raw frame's mean `around` it (see the module's notes).
+fn true_value_for_error(v: DVec3, around: DVec3) -> DVec3 {
+    v.max(DVec3::ZERO).min(around.max(DVec3::ZERO))
+}
+
+/// Each pixel's relative squared error that the next samples remove, per sample: where a
+/// round's samples lower the written frame's error most (`finish::Denoising` weighs the
+/// adaptive rounds by it, times the pixel's samples, as raw rounds weigh the raw variance
+/// per sample). `written` is a written frame's terms ([`DenoiseTerms::written`]).
+///
+/// With the weight `w` fixed, the written error `w^2 e_D + (1 - w)^2 v + 2 w (1 - w) c` falls
+/// with the samples `n` through its raw side (`v` and `c` fall as `1 / n`) and, once the frame
+/// is denoised again, its denoised side (`e_D` as `n^(-2/3)`, a smoother's rate: Stone, Ann.
+/// Statist. 10, 1982), so `-n d/dn` of it is `(1 - w)^2 v + 2 w (1 - w) c + (2/3) w^2 e_D`,
+/// with `e_D` carried from the samples denoised to now at that rate ([`REDUCIBLE`]). The whole
+/// error would not do: where the denoised side holds it, a stale denoise's error does not fall
+/// with the samples between denoises, and a weight of error times samples would grow without
+/// bound there, sending every round's samples to the same pixels. The terms are the pixel's
+/// own at its (smooth) weight, averaged over its 3x3 neighbourhood as the raw rounds average
+/// the raw variance (`renderer::adaptive`): where the weight is 0 the rounds go exactly where
+/// raw rounds would, so the denoiser never sends samples where they do less than raw
+/// sampling's.
+pub fn sample_weights(written: &Image) -> Vec<f64> {
+    let value = written.rgb(WRITTEN).expect("a written frame's terms");
+    let reducible = written.rgb(REDUCIBLE).expect("a written frame's terms");
+    let around = raw_around(written);
+    let own: Vec<f64> = (0..written.pixels())
+        .map(|i| {
+            let m = true_value_for_error(value.at_f64(i), around[i]);
+            estimated_rel_mse_term(m, reducible.at_f64(i))
+        })
+        .collect();
+    mean_3x3(&own, written.width() as usize)
+}
+
+/// The mean of `values` (row-major, `width` wide) over each pixel's 3x3 neighbourhood, cut at
+/// the image's edges, summed directly: a summed-area table ([`box_mean`]) would lose a small
+/// term beside large ones to cancellation, and these span many orders of magnitude. A pixel
+/// with a term that is not finite (fewer than two samples) is `f64::MAX`, as its neighbours.
+fn mean_3x3(values: &[f64], width: usize) -> Vec<f64> {
+    let height = values.len() / width.max(1);
+    let mut out = Vec::with_capacity(values.len());
+    for y in 0..height {
+        for x in 0..width {
+            let (mut sum, mut count) = (0.0, 0.0);
+            for yy in y.saturating_sub(1)..(y + 2).min(height) {
+                for xx in x.saturating_sub(1)..(x + 2).min(width) {
+                    sum += values[yy * width + xx];
+                    count += 1.0;
+                }
+            }
+            let mean = sum / count;
+            out.push(if mean.is_finite() { mean } else { f64::MAX });
+        }
+    }
+    out
+}
+
 /// The bytes a snapshot of a frame of `pixels` pixels holds ([`DenoiseTerms`]: its terms' nine
 /// channels and the samples).
 pub fn terms_bytes(pixels: u64) -> u64 {
     Image::bytes_for(pixels, 10)
 }
 
-/// The bytes a written frame of `pixels` pixels holds once blended: its terms' 21 channels
+/// The bytes a written frame of `pixels` pixels holds once blended: its terms' 24 channels
 /// ([`DenoiseTerms::written`]) and its blend (the colour and each pixel's error).
 pub fn written_bytes(pixels: u64) -> u64 {
-    Image::bytes_for(pixels, 21 + 3) + pixels * std::mem::size_of::<f64>() as u64
+    Image::bytes_for(pixels, WRITTEN_CHANNELS + 3) + pixels * std::mem::size_of::<f64>() as u64
 }
+
+/// The channels of a written frame's terms ([`DenoiseTerms::written`]).
+const WRITTEN_CHANNELS: usize = 24;
 
 /// The bytes a blend ([`DenoiseTerms::written`], then [`Blend::from_written`]) holds at its peak
 /// beyond its inputs, for a frame of `pixels` pixels: each pixel's terms now and their
-/// neighbourhood means (three `DVec3`s each) while the written frame's terms are made (21
-/// `f32`s); the blend after them holds less (the terms, and a `DVec3` a pixel for the raw
-/// frame and two for its 3x3 means).
+/// neighbourhood means (three `DVec3`s each) while the written frame's terms are made
+/// ([`WRITTEN_CHANNELS`] `f32`s); the blend after them holds less (the terms, and a `DVec3` a
+/// pixel for the raw frame and two for its 3x3 means).
 pub fn blending_bytes(pixels: u64) -> u64 {
     let dvec3 = std::mem::size_of::<DVec3>() as u64;
-    pixels * (3 * dvec3 + 3 * dvec3) + Image::bytes_for(pixels, 21)
+    pixels * (3 * dvec3 + 3 * dvec3) + Image::bytes_for(pixels, WRITTEN_CHANNELS)
 }
 
 /// The mean weight of the denoised frame in a written frame's terms, over pixels and channels.
@@ -311,7 +387,7 @@ impl DenoiseTerms {
 
     /// [`blend`](Self::blend)'s terms, with what combining them with earlier frames needs:
     /// an image of [`WRITTEN`], [`RAW`], [`WEIGHT`], [`ERROR`], [`SMOOTH_ERROR`],
-    /// [`RAW_VARIANCE`] and [`CROSS`] (now), `f32`.
+    /// [`RAW_VARIANCE`], [`CROSS`] (now) and [`REDUCIBLE`], `f32`.
     pub fn written(&self, replicates: &Image) -> Image {
         let h = Replicates::of(replicates);
         let taken_then = self.terms.counts(SAMPLES).expect("a snapshot's samples");
@@ -321,7 +397,7 @@ impl DenoiseTerms {
         let n = replicates.pixels();
         assert_eq!(n, taken_then.len(), "the film denoised");
         // The pixel's terms now: the covariance falls with the samples added since.
-        let terms: Vec<[DVec3; 3]> = (0..n)
+        let terms: Vec<[DVec3; 4]> = (0..n)
             .map(|i| {
                 let h = h.at(i);
                 let fall = if h.taken > 0 {
@@ -333,6 +409,7 @@ impl DenoiseTerms {
                     denoised_error.at_f64(i),
                     h.variance_of_mean,
                     cross.at_f64(i) * fall,
+                    DVec3::splat(fall),
                 ]
             })
             .collect();
@@ -353,9 +430,10 @@ impl DenoiseTerms {
             SMOOTH_ERROR,
             RAW_VARIANCE,
             CROSS,
+            REDUCIBLE,
         ];
         written.set_rgbs(names, |i| {
-            let [e_d, v, c] = &terms[i];
+            let [e_d, v, c, fall] = &terms[i];
             let (se, sv, sc) = (
                 smoothed[0][i].max(DVec3::ZERO),
                 smoothed[1][i],
@@ -375,6 +453,7 @@ impl DenoiseTerms {
                 to_f32(blended_error(w, se, sv, sc).max(DVec3::ZERO)),
                 v.as_vec3(),
                 to_f32(*c),
+                to_f32(reducible(w, e_d.max(DVec3::ZERO) * fall.powf(2.0 / 3.0), *v, *c)),
             ]
         });
         written
@@ -588,6 +667,61 @@ mod tests {
         let m = written.min(later.full()).max(DVec3::ZERO);
         assert!((then.relative_error.powi(2) - estimated_rel_mse_term(m, e)).abs() < 1e-9);
         assert_ne!(now.image, then.image);
+    }
+
+    #[test]
+    fn a_stale_denoise_s_sample_weight_is_what_more_samples_remove() {
+        // One pixel (its 3x3 neighbourhood is itself), denoised at 4 samples, then blended at
+        // 4 and at 16: the weight is (1 - w)^2 v + 2 w (1 - w) c + (2/3) w^2 e_D, with e_D
+        // carried to the samples now as n^(-2/3) and c falling as 1 / n.
+        let h = halves(1.0, 1.2, 4, 0.01);
+        let (replicates, da, db) = one_pixel(&h, 0.9, 1.1);
+        let s = DenoiseTerms::new(&replicates, &da, &db);
+        let t = PixelTerms::new(&h, DVec3::splat(0.9), DVec3::splat(1.1));
+        for (later, fall) in [(h, 1.0), (halves(1.05, 1.1, 16, 0.002), 0.25)] {
+            let written = s.written(&one_pixel(&later, 0.0, 0.0).0);
+            let (v, c) = (later.variance_of_mean, t.cross * fall);
+            let w = weight(t.denoised_error, v, c);
+            let r = DVec3::ONE - w;
+            let e_d = t.denoised_error * f64::powf(fall, 2.0 / 3.0);
+            let expected = r * r * v + 2.0 * w * r * c + w * w * e_d * (2.0 / 3.0);
+            let value = t.denoised * w + later.full() * r;
+            let m = value.max(DVec3::ZERO).min(later.full());
+            let got = sample_weights(&written)[0];
+            let want = estimated_rel_mse_term(m, expected);
+            assert!((got / want - 1.0).abs() < 1e-5, "{got} against {want}");
+        }
+    }
+
+    #[test]
+    fn where_the_denoised_side_holds_the_error_more_samples_do_not_grow_the_weight() {
+        // A denoise that is exact in value but biased in its estimate's eyes (a large e_D,
+        // no noise of its own): w near 1. Weighed as the whole error times the samples, the
+        // pixel would ask for ever more samples as they grow (e n with e fixed); weighed by
+        // what more samples remove, times the samples, it grows as n^(1/3) at most.
+        let h = halves(1.0, 1.0, 16, 0.01);
+        let (replicates, da, db) = one_pixel(&h, 1.3, 0.7);
+        let s = DenoiseTerms::new(&replicates, &da, &db);
+        let per_sample = |n: u32| {
+            let later = halves(1.0, 1.0, n, 0.16 / n as f64);
+            sample_weights(&s.written(&one_pixel(&later, 0.0, 0.0).0))[0] * n as f64
+        };
+        let (at16, at1024) = (per_sample(16), per_sample(1024));
+        assert!(at1024 / at16 <= 64f64.powf(1.0 / 3.0) * 1.0001, "{at16} {at1024}");
+    }
+
+    #[test]
+    fn a_3x3_mean_is_the_neighbourhood_s_and_keeps_unknown_pixels_unknown() {
+        let values = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        // 3 wide, 2 high: the corner (0, 0) sees 1, 2, 4, 5; the middle (1, 0) all six.
+        let m = mean_3x3(&values, 3);
+        assert_eq!(m[0], 3.0);
+        assert_eq!(m[1], 3.5);
+        let unknown = mean_3x3(&[1.0, f64::INFINITY, 1.0], 3);
+        assert_eq!(unknown, vec![f64::MAX; 3]);
+        // Tiny terms beside huge ones are not lost (a summed-area table would cancel them).
+        let spread = mean_3x3(&[1e12, 0.0, 0.0, 0.0, 0.0, 3e-9], 6);
+        assert_eq!(spread[5], 1.5e-9);
     }
 
     #[test]

@@ -9,12 +9,12 @@ use super::synthetic::{self, Frame};
 use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::metrics::rel_mse;
 use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B};
-use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 
 /// The frame written from `frame` (its halves denoised at the default quality) and its true
 /// relative error.
 fn written(frame: &Frame) -> (Blend, f64) {
-    let denoiser = Denoiser::new().unwrap();
+    let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
     let filter = denoiser
         .filter(frame.width, frame.height, DenoiseQuality::default())
         .unwrap();
@@ -148,7 +148,7 @@ fn the_mean_of_denoised_halves_is_what_is_blended() {
     // One pixel-level identity the module's derivation rests on: the snapshot's denoised
     // frame is the halves' denoised images averaged by their shares.
     let frame = synthetic::frame(32, 24, synthetic::smooth, 0.3, 7);
-    let denoiser = Denoiser::new().unwrap();
+    let denoiser = Denoiser::new(DenoiseDevice::Cpu, None).unwrap();
     let filter = denoiser.filter(32, 24, DenoiseQuality::Fast).unwrap();
     let replicates = frame.replicates();
     let (da, db) = (

@@ -1,4 +1,4 @@
-//! Denoising frames ([`denoiser`]: Intel Open Image Denoise), the written frame blended from
+//! Denoising frames ([`denoiser`]: Intel Open Image Denoise, on the device [`device`] opens), the written frame blended from
 //! the raw and denoised frames with its error estimated from the film's two replicates
 //! ([`estimate`]), and `--temporal`'s combination of a frame with its earlier frames
 //! ([`reproject`] carries them to its pixels, [`history`] weighs them). The library is loaded
@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod denoiser;
+pub mod device;
 pub mod estimate;
 pub mod history;
 pub mod library;

@@ -214,6 +214,13 @@ impl Gpu {
         self.adapter().describe()
     }
 
+    /// The adapter's name (`NVIDIA H100 80GB HBM3`) and its PCI address as the platform
+    /// reports it (`0000:01:00.0`; empty where it gives none): what a denoiser looks for to
+    /// run on the same GPU.
+    pub fn name_and_pci_bus_id(&self) -> (String, String) {
+        (self.info.name.clone(), self.info.device_pci_bus_id.clone())
+    }
+
     /// Whether the adapter is a software one ([`Adapter::is_software`]).
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu

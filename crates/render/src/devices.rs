@@ -6,8 +6,9 @@
 use crate::finish::Finishing;
 use raytrace_core::error::Error;
 use raytrace_core::renderer::{CpuShot, ShotTracer};
-use raytrace_core::scene::{Device, Scene};
+use raytrace_core::scene::{DenoiseDevice, Device, Scene};
 use raytrace_denoise::denoiser::Denoiser;
+use raytrace_denoise::device::TracingGpu;
 use raytrace_gpu::{Adapter, Gpu, GpuShot, Unsupported, unsupported};
 use raytrace_scene::scene_file::Overrides;
 
@@ -18,6 +19,8 @@ pub struct Needs {
     pub gpu: bool,
     /// A scene's frames are denoised.
     pub denoiser: bool,
+    /// Where the denoiser runs (`--denoise-device`, the same for every scene of a run).
+    pub denoise_device: DenoiseDevice,
 }
 
 impl Needs {
@@ -26,6 +29,7 @@ impl Needs {
         scenes.into_iter().fold(Needs::default(), |n, s| Needs {
             gpu: n.gpu || s.render.device == Device::Gpu,
             denoiser: n.denoiser || s.output.denoise.is_some(),
+            denoise_device: s.output.denoise.map_or(n.denoise_device, |d| d.device),
         })
     }
 }
@@ -61,7 +65,9 @@ impl Devices {
 
     /// Opens what `needs` says that is not open yet: the GPU (on a software adapter, a
     /// warning on standard error says so, whatever `--quiet` says: the CPU renders faster
-    /// there) and the denoiser. A device that cannot open is an error, before any frame is
+    /// there) and the denoiser, on the GPU the run traces on where `--denoise-device` lets
+    /// it and OIDN has a device for it (where `auto` falls back to the CPU, a note on
+    /// standard error says why). A device that cannot open is an error, before any frame is
     /// rendered.
     pub fn open(&mut self, needs: Needs) -> Result<(), Error> {
         if needs.gpu && self.gpu.is_none() {
@@ -72,9 +78,24 @@ impl Devices {
             self.gpu = Some(gpu);
         }
         if needs.denoiser && self.denoiser.is_none() {
-            self.denoiser = Some(std::sync::Arc::new(Denoiser::new()?));
+            // A software adapter is the CPU: the denoiser's CPU device is the one for it.
+            let traced_on = self.gpu.as_ref().filter(|g| !g.is_software()).map(|g| {
+                let (name, pci_bus_id) = g.name_and_pci_bus_id();
+                TracingGpu { name, pci_bus_id }
+            });
+            let denoiser = Denoiser::new(needs.denoise_device, traced_on.as_ref())?;
+            if let Some(note) = denoiser.note() {
+                eprintln!("note: {note}");
+            }
+            self.denoiser = Some(std::sync::Arc::new(denoiser));
         }
         Ok(())
+    }
+
+    /// The denoiser's device as `--stats` names it (`cpu`, `cuda (NVIDIA H100 ...)`), when a
+    /// scene opened it.
+    pub fn denoiser_name(&self) -> Option<&str> {
+        self.denoiser.as_deref().map(Denoiser::name)
     }
 
     /// The GPU, when a scene opened it.

@@ -97,6 +97,25 @@ impl Device {
         )
     }
 
+    /// Creates a device on the physical device at the given PCI address, as
+    /// reported by e.g. `VkPhysicalDevicePCIBusInfoPropertiesEXT`.
+    ///
+    /// See [`Device::by_uuid`] for the caveats that apply to selecting a
+    /// physical device this way.
+    pub fn by_pci_address(domain: i32, bus: i32, device: i32, function: i32) -> Result<Self, Error> {
+        crate::library::ensure_loaded()?;
+        Self::commit_new_handle(
+            unsafe { oidnNewDeviceByPCIAddress(domain, bus, device, function) },
+            "oidnNewDeviceByPCIAddress",
+        )
+    }
+
+    /// The device's type: one of the `OIDNDeviceType_OIDN_DEVICE_TYPE_*`
+    /// constants (CPU, SYCL, CUDA, HIP or Metal), never the default.
+    pub fn device_type(&self) -> OIDNDeviceType {
+        unsafe { oidnGetDeviceInt(self.0, b"type\0" as *const _ as _) as OIDNDeviceType }
+    }
+
     fn commit_new_handle(handle: OIDNDevice, call: &str) -> Result<Self, Error> {
         if handle.is_null() {
             // Errors that are not associated with a device, which includes a

@@ -248,11 +248,12 @@ fn sample(
         };
         let round_start = Instant::now();
         let counts = device.round(&mut film, &plan, progress)?;
-        schedule.took(&plan, round_start.elapsed().as_secs_f64(), &counts);
+        let round_seconds = round_start.elapsed().as_secs_f64();
+        schedule.took(&plan, round_seconds, &counts);
         stats.add(&counts);
         if let Some(threshold) = budget.noise_threshold
             && schedule.warmed_up()
-            && stop.reached(&film, threshold)?
+            && stop.reached(&film, threshold, round_seconds)?
         {
             stats.stop = StopReason::NoiseThreshold;
             break;

@@ -15,18 +15,19 @@
 //! written before their own history, so it depends on those two frames' renders and no
 //! others': the command renders them first where its run does not ([`Finishing::needs`]).
 //!
-//! **Under a noise threshold, at most two denoises a frame.** Once every pixel has its first
-//! samples, the frame is denoised; its written error over the raw film's, `ρ`, is the frame's
-//! own measured gain. The rounds then sample raw, and after each the written error is
-//! predicted from the raw estimate, `ρ` growing as `n^(1/3)` with the mean samples `n` (a
-//! smoother's squared error falls as `n^(-2/3)` in two dimensions, Stone, Ann. Statist. 10,
-//! 1982, and the raw frame's as `n^(-1)`); when the prediction meets the threshold the frame is
-//! denoised again. Every round also re-blends the last denoise with the film as it is now,
-//! exactly (the denoised halves are unchanged, the raw side is the film's): the frame stops
-//! as soon as that meets the threshold, and after the second denoise only that decides.
+//! **Under a noise threshold, a denoise when it pays.** Once every pixel has its first
+//! samples, the frame is denoised and its written error measured. After every later round the
+//! last denoise is re-blended with the film as it is now, exactly and without the filter (the
+//! denoised halves are unchanged, the raw side is the film's): the frame stops as soon as
+//! that meets the threshold. Otherwise the written error a denoise now would give is
+//! predicted from the frame's own earlier denoises, and the frame is denoised again when the
+//! prediction meets the threshold, or sooner when a denoise costs less than the round it may
+//! save (`when`, derived there). The rounds' samples go where the written frame's estimated
+//! error is largest ([`StopRule::weights`]).
 
 mod denoising;
 mod history;
+mod when;
 
 use std::time::Instant;
 

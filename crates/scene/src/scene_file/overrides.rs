@@ -2,7 +2,7 @@
 
 use raytrace_core::pass::Pass;
 use raytrace_core::sampler::SamplerKind;
-use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 use raytrace_core::scene::Device;
 
 /// Values given on the command line in place of the scene file's. They are written into the
@@ -33,6 +33,9 @@ pub struct Overrides {
     pub denoise_quality: Option<DenoiseQuality>,
     /// `--temporal`: a denoised shot kept from flickering (needs denoising).
     pub temporal: Option<bool>,
+    /// `--denoise-device`: where the denoiser runs (no scene key: a machine's choice, not
+    /// the shot's).
+    pub denoise_device: Option<DenoiseDevice>,
     /// `--device`: replaces `[render] device`.
     pub device: Option<Device>,
 }

@@ -532,6 +532,7 @@ impl<'a> Validator<'a> {
             denoise: denoise.then(|| DenoiseSettings {
                 quality: o.denoise_quality.map(|q| q.0).unwrap_or_default(),
                 temporal,
+                device: self.overrides.denoise_device.unwrap_or_default(),
             }),
             path,
             format,
