@@ -109,7 +109,10 @@ mod tests {
         let mut c = parsed("raytrace render s.toml --width 1920 --samples 64");
         Small.apply(&mut c);
         let Command::Render(r) = c else { panic!() };
-        assert_eq!((r.scene_args.width, r.scene_args.height), (Some(32), Some(18)));
+        assert_eq!(
+            (r.scene_args.width, r.scene_args.height),
+            (Some(32), Some(18))
+        );
         assert_eq!(r.samples, Some(4));
         let mut c = parsed("raytrace render s.toml --width 8 --noise-threshold 0.01");
         Small.apply(&mut c);
