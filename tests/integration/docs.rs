@@ -78,8 +78,10 @@ fn workspace() -> (tempfile::TempDir, PathBuf) {
     }
     let bin = tmp.path().join("bin");
     std::fs::create_dir_all(&bin).unwrap();
+    // `trap :` keeps the shim alive to log the status when a `serves=` block is interrupted
+    // (a handler, unlike an ignored signal, is not inherited by the binary).
     let shim = format!(
-        "#!/bin/sh\n\"{}\" \"$@\"\ns=$?\necho $s >> \"{}\"\nexit $s\n",
+        "#!/bin/sh\ntrap : INT TERM\n\"{}\" \"$@\"\ns=$?\necho $s >> \"{}\"\nexit $s\n",
         env!("CARGO_BIN_EXE_raytrace"),
         tmp.path().join("statuses").display()
     );
@@ -128,8 +130,12 @@ fn run_block(block: &Block, dir: &Path, page: &str) -> Result<(), String> {
         tmp.join("bin").display(),
         std::env::var("PATH").unwrap()
     );
-    let status = Command::new("timeout")
-        .arg(BLOCK_SECONDS.to_string())
+    let mut timeout = Command::new("timeout");
+    match block.serves {
+        Some(seconds) => timeout.args(["-s", "INT", &seconds.to_string()]),
+        None => timeout.arg(BLOCK_SECONDS.to_string()),
+    };
+    let status = timeout
         .args(["bash", "-o", "pipefail", "-c"])
         .arg(format!("{strict}{}", block.script))
         .current_dir(dir)
@@ -149,6 +155,11 @@ fn run_block(block: &Block, dir: &Path, page: &str) -> Result<(), String> {
         .map(|l| l.parse().unwrap())
         .collect();
     let at = format!("{page}:{}", block.line);
+    if block.serves.is_some() && status.code() != Some(124) {
+        return Err(format!(
+            "{at}: the block should serve until stopped, but it ended ({status}):\n{output}"
+        ));
+    }
     if block.exit == 0 && !status.success() {
         return Err(format!("{at}: the block failed ({status}):\n{output}"));
     }

@@ -7,6 +7,8 @@
 //!   `lmp`, `hyperfine`, `oiiotool`, `time`): without it the block is skipped, except under CI=true;
 //! - `exit=N`: every `raytrace` the block runs exits N (default 0, and then the whole block
 //!   must succeed);
+//! - `serves=SECONDS`: the block serves until stopped; it is interrupted (SIGINT, as Ctrl-C
+//!   does) after SECONDS, and every `raytrace` in it must then exit 130;
 //! - `skip: REASON`: the rest of the line says why the block cannot run from a checkout (it
 //!   builds or tests the project, or runs on another machine); it is not run.
 //!
@@ -22,6 +24,8 @@ pub(crate) struct Block {
     pub needs: Vec<String>,
     /// The status every `raytrace` in it exits with.
     pub exit: i32,
+    /// How long it runs before it is interrupted, for a block that serves until stopped.
+    pub serves: Option<u32>,
     /// Why it is not run, where it is not.
     pub skip: Option<String>,
     /// The block's text: a bash script.
@@ -100,6 +104,7 @@ fn parse_info(rest: &str, line: usize) -> Block {
         line,
         needs: Vec::new(),
         exit: 0,
+        serves: None,
         skip,
         script: String::new(),
         quoted: None,
@@ -108,6 +113,10 @@ fn parse_info(rest: &str, line: usize) -> Block {
         match word.split_once('=') {
             Some(("needs", list)) => block.needs = list.split(',').map(String::from).collect(),
             Some(("exit", n)) => block.exit = n.parse().expect("exit=N"),
+            Some(("serves", n)) => {
+                block.serves = Some(n.parse().expect("serves=SECONDS"));
+                block.exit = 130;
+            }
             _ => panic!("line {line}: unknown `{word}` in an sh block's info string"),
         }
     }
@@ -118,9 +127,9 @@ fn parse_info(rest: &str, line: usize) -> Block {
 fn blocks_their_settings_and_quotes_are_read() {
     let page = "intro\n```sh\nraytrace check a.toml\n```\n\n```text\nchunks: 3\n```\n\
                 ```sh needs=gpu,lmp exit=2\nx\n```\nprose\n```text\nnot quoted\n```\n\
-                ```toml\n[shot]\n```\n```sh skip: on another machine\nssh node\n```\n";
+                ```toml\n[shot]\n```\n```sh skip: on another machine\nssh node\n```\n```sh serves=3\nraytrace preview a.toml\n```\n";
     let b = sh_blocks(page);
-    assert_eq!(b.len(), 3);
+    assert_eq!(b.len(), 4);
     assert_eq!((b[0].line, b[0].exit), (2, 0));
     assert_eq!(b[0].script, "raytrace check a.toml");
     assert_eq!(b[0].quoted, Some(vec!["chunks: 3".to_string()]));
@@ -130,6 +139,7 @@ fn blocks_their_settings_and_quotes_are_read() {
     );
     assert_eq!(b[1].quoted, None);
     assert_eq!(b[2].skip.as_deref(), Some("on another machine"));
+    assert_eq!((b[3].serves, b[3].exit), (Some(3), 130));
 }
 
 #[test]
