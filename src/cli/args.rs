@@ -127,7 +127,7 @@ pub(crate) struct SceneArgs {
     /// Image height in pixels.
     #[arg(long, allow_negative_numbers = true)]
     pub height: Option<u32>,
-    /// Random seed (for `converge`: of the measured renders).
+    /// Random seed, replacing `[render] seed`.
     #[arg(long, allow_negative_numbers = true, value_parser = whole::<u64>)]
     pub seed: Option<u64>,
     /// Worker threads, 1 to 1024 (default: one per core).
@@ -410,10 +410,6 @@ pub(crate) struct ClipArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
-    /// Where paths are traced: `cpu` (default) or `gpu` (through wgpu: Vulkan, Metal or
-    /// DirectX 12), replacing `[render] device`.
-    #[arg(long)]
-    pub device: Option<Device>,
 }
 
 /// Arguments of `raytrace generate`: a random scene (`.toml`), or a fountain's point cache

@@ -5,7 +5,8 @@
 //! A command module parses nothing more, calls the library and prints; no command imports
 //! another. What several commands share lives in helper modules: the shots and frames of a
 //! run ([`jobs`], [`frames`]), progress and printed lines ([`progress`]), interrupts
-//! ([`interrupt`]), worker threads ([`threads`]) . `converge --flicker` measures a sequence
+//! ([`interrupt`]), worker threads ([`threads`]); [`small`] shrinks every command for the
+//! test that runs the docs' commands. `converge --flicker` measures a sequence
 //! in a module of its own ([`flicker`]).
 
 mod args;
@@ -20,9 +21,11 @@ mod jobs;
 mod preview;
 mod progress;
 mod render;
+mod small;
 mod threads;
 
 pub(crate) use args::{Cli, Command};
+pub(crate) use small::Small;
 
 use raytrace_core::error::Error;
 

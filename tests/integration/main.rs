@@ -17,6 +17,7 @@ mod clip;
 mod converge;
 mod denoise;
 mod denoise_estimate;
+mod docs;
 mod flicker;
 mod gpu;
 mod gpu_check;

@@ -1,8 +1,10 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub(crate) mod doc_blocks;
 pub(crate) mod hostile;
 pub(crate) mod moved;
+pub(crate) mod shape;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
