@@ -173,7 +173,9 @@ fn missing_positions_non_numeric_fields_and_bad_boxes_are_refused() {
     );
     refused(
         d.path(),
-        &["d.lammpstrj", "line 6", "the box's y bounds are 4 to 0"],
+        &[
+            "d.lammpstrj: snapshot 1 (timestep 0): line 7: the box's y bounds are 4 to 0",
+        ],
     );
     let d = setup(
         "d.lammpstrj",
@@ -184,7 +186,7 @@ fn missing_positions_non_numeric_fields_and_bad_boxes_are_refused() {
         d.path(),
         &[
             "d.lammpstrj",
-            "box bound line 3 holds inf, not a finite number",
+            "line 8: box bound inf is not a finite number",
         ],
     );
 }

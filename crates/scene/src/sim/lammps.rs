@@ -33,11 +33,11 @@ fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
 
 /// The next line, or an error saying the file ends in the middle of `what`.
 fn required<'a>(lines: &'a mut Lines, what: &str) -> Result<&'a str, ReadError> {
-    let line = lines.position().line;
+    let end = lines.last_line();
     match lines.next_line()? {
         Some(l) => Ok(l),
         None => bad(
-            line,
+            end,
             format_args!("the file ends inside {what} (truncated)"),
         ),
     }
@@ -206,7 +206,8 @@ fn box_bounds(lines: &mut Lines, item_line: u64, flags: &str) -> Result<Cell, Re
             })?;
         }
     }
-    Cell::from_lammps(bounds, triclinic, periodic).or_else(|m| bad(item_line + 1, m))
+    // The bound lines follow the item's line.
+    Cell::from_lammps(bounds, triclinic, periodic).or_else(|(k, m)| bad(item_line + 1 + k as u64, m))
 }
 
 /// Skips the atom lines of `snap` (`lines` at its first); an error when the file ends first.
@@ -225,7 +226,7 @@ pub(crate) fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadEr
     };
     if snap.count > 0 && last.is_none() {
         return bad(
-            line,
+            lines.last_line(),
             format_args!(
                 "the file ends after {skipped} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                 snap.count,
@@ -271,7 +272,7 @@ pub(crate) fn read_rows(
         let line = lines.position().line;
         let Some(text) = lines.next_line()? else {
             return bad(
-                line,
+                lines.last_line(),
                 format_args!(
                     "the file ends after {i} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                     snap.count,
@@ -392,7 +393,7 @@ mod tests {
     fn bad_dumps_are_errors_naming_the_line() {
         let cut = &DUMP[..DUMP.len() - 16];
         assert!(
-            error_of(cut).starts_with("line 21: the file ends after 0 of the 1 atoms"),
+            error_of(cut).starts_with("line 20: the file ends after 0 of the 1 atoms"),
             "{}",
             error_of(cut)
         );
@@ -406,11 +407,23 @@ mod tests {
             error_of(&short),
             "line 11: atom 1: 4 fields for the 5 columns of ITEM: ATOMS"
         );
+        // The bad bound line is named: y's is the item's second line after it (line 7; in
+        // the second snapshot, line 18), z's the third.
         let inverted = DUMP.replace("0 4\n0 4\n-1 1", "0 4\n4 0\n-1 1");
+        assert_eq!(
+            error_of(&inverted),
+            "line 7: the box's y bounds are 4 to 0: the upper must not be less than the lower"
+        );
+        let later = DUMP.replace("0 4 -1\n", "4 0 -1\n");
         assert!(
-            error_of(&inverted).contains("y bounds are 4 to 0"),
+            error_of(&later).starts_with("line 18: the box's y bounds are 4 to 0"),
             "{}",
-            error_of(&inverted)
+            error_of(&later)
+        );
+        let infinite = DUMP.replace("0 4\n0 4\n-1 1", "0 4\n0 4\n-1 inf");
+        assert_eq!(
+            error_of(&infinite),
+            "line 8: box bound inf is not a finite number"
         );
         let count = DUMP.replace("ITEM: NUMBER OF ATOMS\n2", "ITEM: NUMBER OF ATOMS\n-2");
         assert!(error_of(&count).contains("NUMBER OF ATOMS is \"-2\", not a whole number"));
