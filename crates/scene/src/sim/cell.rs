@@ -193,7 +193,10 @@ mod tests {
             flags,
         );
         let (line, m) = e.unwrap_err();
-        assert_eq!((line, m.as_str()), (0, "box bound NaN is not a finite number"));
+        assert_eq!(
+            (line, m.as_str()),
+            (0, "box bound NaN is not a finite number")
+        );
         // A flat box is a box, which spans no volume (refused where it is periodic).
         let flat = DMat3::from_cols(DVec3::X, DVec3::X * 2.0, DVec3::Z);
         assert!(!Cell::new(DVec3::ZERO, flat, flags).unwrap().spans_volume());

@@ -36,10 +36,7 @@ fn required<'a>(lines: &'a mut Lines, what: &str) -> Result<&'a str, ReadError> 
     let end = lines.last_line();
     match lines.next_line()? {
         Some(l) => Ok(l),
-        None => bad(
-            end,
-            format_args!("the file ends inside {what} (truncated)"),
-        ),
+        None => bad(end, format_args!("the file ends inside {what} (truncated)")),
     }
 }
 
@@ -108,7 +105,7 @@ pub(crate) fn next_snapshot(
                 rows: lines.position(),
                 count,
                 timestep: Some(timestep),
-                cell,
+                cell: cell.map(Arc::new),
                 columns,
             }));
         } else if rest == "UNITS" || rest == "TIME" {
@@ -207,7 +204,8 @@ fn box_bounds(lines: &mut Lines, item_line: u64, flags: &str) -> Result<Cell, Re
         }
     }
     // The bound lines follow the item's line.
-    Cell::from_lammps(bounds, triclinic, periodic).or_else(|(k, m)| bad(item_line + 1 + k as u64, m))
+    Cell::from_lammps(bounds, triclinic, periodic)
+        .or_else(|(k, m)| bad(item_line + 1 + k as u64, m))
 }
 
 /// Skips the atom lines of `snap` (`lines` at its first); an error when the file ends first.
@@ -346,7 +344,7 @@ mod tests {
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         assert_eq!((a.line, a.count, a.timestep), (1, 2, Some(0)));
         assert_eq!(a.rows.line, 10);
-        let cell = a.cell.unwrap();
+        let cell = *a.cell.clone().unwrap();
         assert_eq!(cell.periodic, [true, true, false]);
         assert_eq!(cell.edges.z_axis.z, 2.0);
         skip_rows(&mut l, &a).unwrap();
@@ -354,7 +352,7 @@ mod tests {
         assert!(Arc::ptr_eq(&a.columns, &b.columns));
         assert_eq!((b.line, b.count, b.timestep), (12, 1, Some(10)));
         // xlo = -1 - min(0, 1, -1, 0) = 0, xhi = 5 - max(0, 1, -1, 0) = 4.
-        let cell = b.cell.unwrap();
+        let cell = *b.cell.clone().unwrap();
         assert_eq!(cell.edges.x_axis.x, 4.0);
         assert_eq!(cell.edges.z_axis.x, -1.0);
         skip_rows(&mut l, &b).unwrap();

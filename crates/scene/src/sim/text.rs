@@ -337,6 +337,30 @@ mod tests {
         }
     }
 
+    /// Blank lines in a row are read up to [`MAX_BLANK`] bytes, and refused past it.
+    #[test]
+    fn blank_lines_in_a_row_are_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.gz");
+        let blank = MAX_BLANK as usize;
+        std::fs::write(&path, gz(format!("{}x\n", "\n".repeat(blank)).as_bytes())).unwrap();
+        let mut l = Lines::open(&path, "file").unwrap();
+        assert_eq!(
+            l.next_filled_line().unwrap(),
+            Some((blank as u64 + 1, "x".into()))
+        );
+        std::fs::write(
+            &path,
+            gz(format!("{}x\n", "\n".repeat(blank + 1)).as_bytes()),
+        )
+        .unwrap();
+        let mut l = Lines::open(&path, "file").unwrap();
+        assert!(matches!(
+            l.next_filled_line(),
+            Err(ReadError::Bad(m)) if m == format!("line {}: more than {blank} bytes of blank lines from line 1 (not a file of snapshots?)", blank + 1)
+        ));
+    }
+
     #[test]
     fn a_cut_gzip_stream_and_a_line_without_end_are_errors() {
         let dir = tempfile::tempdir().unwrap();

@@ -180,7 +180,7 @@ pub(crate) fn next_snapshot(
         rows: lines.position(),
         count,
         timestep: None,
-        cell,
+        cell: cell.map(Arc::new),
         columns,
     }))
 }
@@ -424,7 +424,7 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let mut l = Lines::open(&path, "xyz").unwrap();
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
-        assert_eq!(a.cell.unwrap().periodic, [true, true, false]);
+        assert_eq!(a.cell.clone().unwrap().periodic, [true, true, false]);
         let mut rows = Vec::new();
         let labels = read_rows(&mut l, &a, &[0, 3, 4], |_, v| {
             rows.push(v.to_vec());
