@@ -69,7 +69,7 @@ impl PointLoad {
     /// What the index holds per snapshot of a file of several: where it is and its header
     /// (`Located`), and its figures twice: listed as the file is read, then the map built
     /// from the list (both held at the peak).
-    pub const INDEX_BYTES_PER_SNAPSHOT: u64 =
+    pub(crate) const INDEX_BYTES_PER_SNAPSHOT: u64 =
         (std::mem::size_of::<Located>() + 2 * std::mem::size_of::<(Key, Figures)>()) as u64;
 }
 

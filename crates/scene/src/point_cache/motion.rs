@@ -103,7 +103,8 @@ pub(super) fn paths_within_box(
     let too_far = |v: &DVec3| {
         let f = inverse * (*v * exposure);
         (0..3)
-            .find(|&k| cell.periodic[k] && !(f[k].abs() <= MAX_CROSSINGS))
+            // NaN is too far too.
+            .find(|&k| cell.periodic[k] && (f[k].abs() > MAX_CROSSINGS || f[k].is_nan()))
             .map(|k| (k, f[k].abs()))
     };
     match velocities

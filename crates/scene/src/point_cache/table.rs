@@ -161,19 +161,18 @@ pub(super) fn index<T>(
                 _ => "LAMMPS dump",
             };
             let mut lines = Lines::open(path, what)?;
-            let mut last: Option<(Arc<[Column]>, Option<Arc<Cell>>)> = None;
+            // The last snapshot's columns and box, shared with the next where the same.
+            let mut columns: Option<Arc<[Column]>> = None;
+            let mut cell: Option<Arc<Cell>> = None;
             let mut count = 0;
             loop {
-                let columns = last.as_ref().map(|l| &l.0);
                 let next = match format {
-                    CacheFormat::Xyz => xyz::next_snapshot(&mut lines, columns)?,
-                    _ => lammps::next_snapshot(&mut lines, columns)?,
+                    CacheFormat::Xyz => xyz::next_snapshot(&mut lines, columns.as_ref())?,
+                    _ => lammps::next_snapshot(&mut lines, columns.as_ref())?,
                 };
                 let Some(mut snap) = next else { break };
-                if let Some((_, Some(cell))) = &last
-                    && snap.cell.as_ref() == Some(cell)
-                {
-                    snap.cell = Some(cell.clone());
+                if snap.cell.is_some() && snap.cell == cell {
+                    snap.cell = cell.clone();
                 }
                 count += 1;
                 let mut rows = Rows::Text {
@@ -186,7 +185,7 @@ pub(super) fn index<T>(
                 let with = |e: ReadError| about_snapshot(e, count, timestep);
                 let t = visit(count, &snap, &mut rows).map_err(with)?;
                 rows.finish().map_err(with)?;
-                last = Some((snap.columns.clone(), snap.cell.clone()));
+                (columns, cell) = (Some(snap.columns.clone()), snap.cell.clone());
                 keep(snap, t).map_err(with)?;
             }
             if count == 0 {
