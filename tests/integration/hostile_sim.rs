@@ -3,7 +3,9 @@
 //! naming the file, the line or snapshot and the point, and what is wrong; no panic, nothing
 //! written. And the point-cache survey's bounds (issue 31): a single file over four billion
 //! frames is read once; `check` reads each file once; the next snapshot's points are in the
-//! memory estimate; duplicate ids are refused before the next file is read.
+//! memory estimate; duplicate ids are refused before the next file is read. And the fourth
+//! round's (issue 41): motion past a periodic box refused by `check` as by `render`, the
+//! snapshot index counted and bounded, a gzip bomb of blank lines, VTK files padded with NULs.
 
 use crate::common;
 
@@ -534,7 +536,7 @@ fn one_atom_snapshots(n: usize) -> Vec<u8> {
 /// The snapshot index is in the memory estimate (300,000 snapshots: about 60 MiB of the
 /// estimate), within a quarter of the peak; a cache past the 2^20 snapshots an index may
 /// hold is refused as its index reaches them, gzipped one-atom snapshots too (they grew past
-/// 3 GB and aborted). About 2.5 s.
+/// 3 GB and aborted). About 3 s.
 #[test]
 fn the_snapshot_index_is_in_the_estimate_and_bounded() {
     let d = setup("m.xyz.gz", "", &[("m.xyz.gz", one_atom_snapshots(300_000))]);

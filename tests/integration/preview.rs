@@ -345,7 +345,7 @@ fn page_seconds(address: &str) -> f64 {
 /// A plain request is answered within a second under each flood of connections: 200 event
 /// streams (16 served, the rest refused and closed), 100 half-open connections (part of a
 /// request, never finished), 70 idle kept-alive ones (each after an answer). They held every
-/// slot: the request waited 9 to 24 s. About 1 s.
+/// slot: the request waited 9 to 24 s. About 2 s.
 #[test]
 fn a_page_is_served_within_a_second_under_floods_of_connections() {
     let dir = tempfile::tempdir().unwrap();
