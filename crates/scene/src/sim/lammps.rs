@@ -25,7 +25,7 @@ use std::sync::Arc;
 use super::cell::Cell;
 use super::read_error::ReadError;
 use super::snapshot::{Column, Snapshot};
-use super::text::Lines;
+use super::text::{Lines, MAX_BLANK};
 
 fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
     Err(ReadError::Bad(format!("line {line}: {what}")))
@@ -152,10 +152,20 @@ fn atom_columns(
     Ok(columns)
 }
 
-/// Skips the lines of an item this reader does not know, up to the next `ITEM:` line.
+/// Skips the lines of an item this reader does not know, up to the next `ITEM:` line: at
+/// most [`MAX_BLANK`] bytes of them, as blank lines, since no value is read from them.
 fn skip_item(lines: &mut Lines) -> Result<(), ReadError> {
+    let start = lines.position();
     loop {
         let at = lines.position();
+        if at.offset - start.offset > MAX_BLANK {
+            return bad(
+                start.line - 1,
+                format_args!(
+                    "an item this reader does not know runs on for more than {MAX_BLANK} bytes (not a LAMMPS dump?)"
+                ),
+            );
+        }
         let line = required(lines, "an item")?;
         if line.trim_start().starts_with("ITEM:") {
             return lines.seek(at);
@@ -425,6 +435,21 @@ mod tests {
         );
         let count = DUMP.replace("ITEM: NUMBER OF ATOMS\n2", "ITEM: NUMBER OF ATOMS\n-2");
         assert!(error_of(&count).contains("NUMBER OF ATOMS is \"-2\", not a whole number"));
+        let unknown = DUMP.replacen(
+            "ITEM: ATOMS",
+            &format!(
+                "ITEM: FOO\n{}ITEM: ATOMS",
+                "x\n".repeat(MAX_BLANK as usize / 2 + 1)
+            ),
+            1,
+        );
+        assert_eq!(
+            error_of(&unknown),
+            "line 9: an item this reader does not know runs on for more than 1048576 bytes (not a LAMMPS dump?)"
+        );
+        let small = DUMP.replacen("ITEM: ATOMS", "ITEM: FOO\nx\nITEM: ATOMS", 1);
+        let (_d, mut l) = lines_of(&small);
+        assert_eq!(next_snapshot(&mut l, None).unwrap().unwrap().count, 2);
         let text = DUMP.replace("ITEM: TIMESTEP\n0", "hello\n0");
         assert!(error_of(&text).starts_with("line 1: expected \"ITEM: TIMESTEP\""));
     }
