@@ -3,6 +3,7 @@
 //! - [`live`]: the preview started: its board, worker and server;
 //! - [`server`]: the HTTP server (the page, its event streams, its choices; Host and Origin
 //!   checked);
+//! - [`slots`]: the connections it holds, none kept waiting by connections that send nothing;
 //! - [`board`]: what the pages are shown and ask for, shared under one lock;
 //! - [`worker`]: reading the shot when its files change, and the passes rendered next;
 //! - [`render`]: the one call into the renderer;
@@ -17,6 +18,7 @@ mod board;
 mod live;
 mod render;
 mod server;
+mod slots;
 mod timeline;
 mod views;
 mod watch;

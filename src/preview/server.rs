@@ -21,15 +21,18 @@ use hyper::header::{self, HeaderValue};
 use hyper::service::service_fn;
 use hyper::{Method, Request, Response, StatusCode};
 use hyper_util::rt::{TokioIo, TokioTimer};
-use tokio::sync::{Semaphore, mpsc};
+use tokio::sync::mpsc;
 
 use super::board::Board;
+use super::slots::Slots;
 use raytrace_core::error::Error;
 
 /// The page, with its script and style: no build step, nothing else to fetch.
 const PAGE: &str = include_str!("page.html");
 
-/// Most connections open at once; the next waits until one closes.
+/// Most connections open at once; the next takes the slot of the one that has waited longest
+/// for a request ([`Slots`]), so connections that send nothing (half-open, or kept alive and
+/// idle) do not keep a page's request waiting.
 const MAX_CONNECTIONS: usize = 64;
 
 /// The longest a client may take to send a request's headers.
@@ -59,11 +62,8 @@ pub(crate) fn serve(listener: TcpListener, board: Arc<Board>) -> Result<(), Erro
     let hosts = Arc::new(Hosts(bound.ip()));
     runtime.block_on(async move {
         let listener = tokio::net::TcpListener::from_std(listener).map_err(fail)?;
-        let permits = Arc::new(Semaphore::new(MAX_CONNECTIONS));
+        let slots = Slots::new(MAX_CONNECTIONS);
         loop {
-            let Ok(permit) = Arc::clone(&permits).acquire_owned().await else {
-                unreachable!("the semaphore is never closed")
-            };
             let stream = match listener.accept().await {
                 Ok((stream, _)) => stream,
                 // Out of file descriptors, say: try again shortly.
@@ -72,10 +72,17 @@ pub(crate) fn serve(listener: TcpListener, board: Arc<Board>) -> Result<(), Erro
                     continue;
                 }
             };
+            // Every connection inside a request or streaming: this one is closed.
+            let Some(slot) = slots.admit() else { continue };
+            let slot = Arc::new(slot);
             let (board, hosts) = (Arc::clone(&board), Arc::clone(&hosts));
-            tokio::spawn(async move {
+            let held = Arc::clone(&slot);
+            let task = tokio::spawn(async move {
                 let service = service_fn(move |request| {
+                    held.set_busy(true);
                     let reply = answer(&request, &board, &hosts);
+                    // A stream holds its connection while the page is open.
+                    held.set_busy(matches!(reply.body(), Body::Events(_)));
                     async move { Ok::<_, Infallible>(reply) }
                 });
                 let _ = hyper::server::conn::http1::Builder::new()
@@ -83,8 +90,8 @@ pub(crate) fn serve(listener: TcpListener, board: Arc<Board>) -> Result<(), Erro
                     .header_read_timeout(HEADER_TIMEOUT)
                     .serve_connection(TokioIo::new(stream), service)
                     .await;
-                drop(permit);
             });
+            slot.serving(task.abort_handle());
         }
     })
 }

@@ -3,7 +3,9 @@
 //! naming the file, the line or snapshot and the point, and what is wrong; no panic, nothing
 //! written. And the point-cache survey's bounds (issue 31): a single file over four billion
 //! frames is read once; `check` reads each file once; the next snapshot's points are in the
-//! memory estimate; duplicate ids are refused before the next file is read.
+//! memory estimate; duplicate ids are refused before the next file is read. And the fourth
+//! round's (issue 41): motion past a periodic box refused by `check` as by `render`, the
+//! snapshot index counted and bounded, a gzip bomb of blank lines, VTK files padded with NULs.
 
 use crate::common;
 
@@ -173,7 +175,9 @@ fn missing_positions_non_numeric_fields_and_bad_boxes_are_refused() {
     );
     refused(
         d.path(),
-        &["d.lammpstrj", "line 6", "the box's y bounds are 4 to 0"],
+        &[
+            "d.lammpstrj: line 7: the box's y bounds are 4 to 0: the upper must not be less than the lower",
+        ],
     );
     let d = setup(
         "d.lammpstrj",
@@ -184,7 +188,7 @@ fn missing_positions_non_numeric_fields_and_bad_boxes_are_refused() {
         d.path(),
         &[
             "d.lammpstrj",
-            "box bound line 3 holds inf, not a finite number",
+            "line 8: box bound inf is not a finite number",
         ],
     );
 }
@@ -495,5 +499,130 @@ fn a_flat_box_is_refused_only_where_it_is_periodic() {
     refused(
         d.path(),
         &["a.xyz", "the box is periodic and its edges span no volume"],
+    );
+}
+
+/// A shot's exposure that would carry a point across more than one box edge (`vx = 1e30` in
+/// a periodic box) is refused by `check` as by `render`, with the same message in short
+/// numbers (1/48 s at 24 fps, a box of 4: 5.208e27 edges).
+#[test]
+fn a_path_longer_than_the_periodic_box_is_refused_by_check_as_by_render() {
+    let fast = bad_dump("0.5 0.5 0.5 0.1 0 0", "0.5 0.5 0.5 1e30 0 0");
+    let d = setup("d.lammpstrj", "", &[("d.lammpstrj", fast)]);
+    refused(
+        d.path(),
+        &[
+            "d.lammpstrj: snapshot 1 (timestep 0): point 0 moves 5.208e27 box edges along edge a in a frame's exposure of 0.02083 s (velocity 1e30, 0, 0)",
+        ],
+    );
+    // Not periodic along x: drawn as it moves.
+    let open = dump()
+        .replace("pp pp pp", "ff pp pp")
+        .replacen("0.1 0 0", "1e30 0 0", 1);
+    let d = setup("d.lammpstrj", "", &[("d.lammpstrj", open.into_bytes())]);
+    let o = run_limited(d.path(), &["check", "shot.toml"], SECONDS, MEMORY_KIB);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+/// One-atom XYZ snapshots, `n` of them, gzipped.
+fn one_atom_snapshots(n: usize) -> Vec<u8> {
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    for _ in 0..n {
+        e.write_all(b"1\n\nA 0 0 0\n").unwrap();
+    }
+    e.finish().unwrap()
+}
+
+/// The snapshot index is in the memory estimate (300,000 snapshots: about 60 MiB of the
+/// estimate), within a quarter of the peak; a cache past the 2^20 snapshots an index may
+/// hold is refused as its index reaches them, gzipped one-atom snapshots too (they grew past
+/// 3 GB and aborted). About 3 s.
+#[test]
+fn the_snapshot_index_is_in_the_estimate_and_bounded() {
+    let d = setup("m.xyz.gz", "", &[("m.xyz.gz", one_atom_snapshots(300_000))]);
+    let o = run_limited(
+        d.path(),
+        &["render", "shot.toml", "--stats", "--threads", "2"],
+        SECONDS,
+        MEMORY_KIB,
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{t}");
+    let estimate = common::mib_after(&t, "memory: about ");
+    let peak = common::mib_after(&t, "peak memory ");
+    assert!(estimate > 60.0, "{t}");
+    assert!(
+        (estimate - peak).abs() <= 0.25 * peak,
+        "estimate {estimate} MiB, peak {peak} MiB"
+    );
+    let d = setup(
+        "m.xyz.gz",
+        "",
+        &[("m.xyz.gz", one_atom_snapshots((1 << 20) + 1))],
+    );
+    let o = run_limited(d.path(), &["check", "shot.toml"], SECONDS, MEMORY_KIB);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("m.xyz.gz: snapshot 1048577: the cache holds more than 1048576 snapshots"),
+        "{t}"
+    );
+}
+
+/// A gzip bomb of blank lines: 1 GiB of line ends after a snapshot, made of 1024 gzip
+/// members of 1 MiB each (about 1 MB), refused after the 1 MiB of blank lines a file may
+/// hold in a row, in milliseconds (it was decompressed for minutes).
+#[test]
+fn a_gzip_bomb_of_blank_lines_is_refused() {
+    let member = {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+        e.write_all(&vec![b'\n'; 1 << 20]).unwrap();
+        e.finish().unwrap()
+    };
+    let mut bomb = one_atom_snapshots(1);
+    for _ in 0..1024 {
+        bomb.extend_from_slice(&member);
+    }
+    assert!(bomb.len() < 2 << 20);
+    let d = setup("bomb.xyz.gz", "", &[("bomb.xyz.gz", bomb)]);
+    refused(
+        d.path(),
+        &[
+            "bomb.xyz.gz",
+            "line 1048580: more than 1048576 bytes of blank lines from line 4",
+        ],
+    );
+}
+
+/// VTK files of 3 GiB, a small file padded with NULs (made sparse): refused unread, as
+/// larger than their 2 points may need (they were read whole: 6.4 GB and an abort, and a
+/// `.vtp` accepted); a `.vtp` with a few NULs after `</VTKFile>` is refused for them.
+#[test]
+fn vtk_files_padded_with_nuls_are_refused_unread() {
+    let legacy =
+        b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0 1 1 1\n"
+            .to_vec();
+    let xml = b"<VTKFile type=\"PolyData\" version=\"1.0\">\n<PolyData>\n<Piece NumberOfPoints=\"2\">\n<Points>\n<DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 1 1</DataArray>\n</Points>\n</Piece>\n</PolyData>\n</VTKFile>\n".to_vec();
+    for (name, bytes) in [("a.vtk", legacy), ("a.vtp", xml.clone())] {
+        let d = setup(name, "", &[(name, bytes)]);
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(d.path().join(name))
+            .unwrap();
+        f.set_len(3 << 30).unwrap();
+        refused(
+            d.path(),
+            &[
+                name,
+                "holds 3221225472 bytes, more than the 16785408 its 2 points may need",
+            ],
+        );
+    }
+    let mut padded = xml;
+    padded.extend([0u8; 1000]);
+    let d = setup("a.vtp", "", &[("a.vtp", padded)]);
+    refused(
+        d.path(),
+        &["a.vtp", "line 10: the file does not end with </VTKFile>"],
     );
 }

@@ -12,7 +12,9 @@ use rayon::prelude::*;
 use super::columns::{ColumnMap, map_columns};
 use super::files::{Files, Key};
 use super::message::{about, check_total, error};
-use super::motion::{Crossing, images, interpolate, sorted_ids};
+use super::motion::{
+    Crossing, file_velocities_within_box, images, interpolate, paths_within_box, sorted_ids,
+};
 use super::read::cell_of;
 use super::read::{Read, Wanted, read_values};
 use super::survey::{CacheShot, ShotPoints, SurveyDepth, frame_range};
@@ -31,16 +33,19 @@ struct Values {
     cell: Option<Cell>,
 }
 
+/// A snapshot's values for cache `desc` of `scene`, checked as `check` checks them.
 fn values_of(
     rows: &mut Rows,
     snap: &Snapshot,
-    desc: &PointCacheDesc,
+    (scene, desc): (&Scene, &PointCacheDesc),
     want: Wanted,
 ) -> Result<Values, ReadError> {
     let layout = map_columns(&snap.columns, desc).map_err(ReadError::Bad)?;
     let cell = cell_of(snap, desc)?;
     let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
     let read = read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
+    file_velocities_within_box(&read, cell.as_ref(), desc, scene.shot.exposure())
+        .map_err(ReadError::Bad)?;
     Ok(Values { read, layout, cell })
 }
 
@@ -68,25 +73,27 @@ fn read_key(
                 desc.format,
                 (located.file, located.ordinal, &located.snap),
                 &mut open[slot],
-                |rows| values_of(rows, &located.snap, desc, want),
+                |rows| values_of(rows, &located.snap, (scene, desc), want),
             )
             .map_err(failed)
         }
         _ => {
             // A file per frame: read in the one pass that finds it holds one snapshot.
             let mut out = None;
-            let snaps = table::index(&path, desc.format, |ordinal, snap, rows| {
+            let visit = |ordinal, snap: &Snapshot, rows: &mut Rows| {
                 if ordinal > 1 {
                     return Err(ReadError::Bad(
                         "holds more than one snapshot, and a sequence ('#') is a file per frame"
                             .into(),
                     ));
                 }
-                out = Some(values_of(rows, snap, desc, want)?);
+                values_of(rows, snap, (scene, desc), want)
+            };
+            table::index(&path, desc.format, visit, |_, values| {
+                out = Some(values);
                 Ok(())
             })
             .map_err(failed)?;
-            let _ = snaps;
             Ok(out.expect("a file's first snapshot is read"))
         }
     }
@@ -151,6 +158,9 @@ fn read_cache(
         let dt = next_time - placed.time;
         velocities = interpolate(&own.read, &next.read, &next_ids, dt, crossing(&own, &next))
             .map_err(own_error)?;
+        if let Some(cell) = &own.cell {
+            paths_within_box(&velocities, scene.shot.exposure(), cell).map_err(own_error)?;
+        }
     }
     if velocities.iter().all(|v| *v == DVec3::ZERO) {
         velocities = Vec::new();

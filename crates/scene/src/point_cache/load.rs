@@ -1,5 +1,7 @@
 //! What a frame's points hold in memory, for the estimate checked before anything renders.
 
+use super::files::{Key, Located};
+use super::survey::Figures;
 use crate::ply::READ_BUFFER_BYTES;
 use raytrace_core::points::PointMotion;
 use raytrace_core::scene::Scene;
@@ -28,17 +30,20 @@ const INTERPOLATE_BYTES_PER_POINT: u64 = 8 + 16;
 const NEXT_BYTES_PER_POINT: u64 = 24 + 8 + 16;
 
 /// The points a frame of a shot with point caches holds: its own, and those of the next
-/// snapshots read beside them to interpolate towards.
+/// snapshots read beside them to interpolate towards; and the snapshots the shot's caches
+/// index, held for the whole run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PointLoad {
     pub points: u64,
     pub next: u64,
+    pub snapshots: u64,
 }
 
 impl PointLoad {
     /// The bytes these points hold in a frame of `scene` at the peak: [`BYTES_PER_POINT`]
     /// each (and [`INTERPOLATE_BYTES_PER_POINT`] where a cache interpolates),
-    /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots', and with point caches what
+    /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots', the index's
+    /// [`PointLoad::INDEX_BYTES_PER_SNAPSHOT`] for each snapshot, and with point caches what
     /// reading one of their files holds (a file is read through bounded buffers, one file at a
     /// time: [`READ_BUFFER_BYTES`]).
     pub fn bytes(&self, scene: &Scene) -> u64 {
@@ -55,12 +60,24 @@ impl PointLoad {
             } else {
                 0
             };
-        READ_BUFFER_BYTES + self.points * per_point + self.next * NEXT_BYTES_PER_POINT
+        READ_BUFFER_BYTES
+            + self.points * per_point
+            + self.next * NEXT_BYTES_PER_POINT
+            + self.snapshots * Self::INDEX_BYTES_PER_SNAPSHOT
     }
+
+    /// What the index holds per snapshot of a file of several: where it is and its header
+    /// (`Located`), and its figures twice: listed as the file is read, then the map built
+    /// from the list (both held at the peak).
+    pub(crate) const INDEX_BYTES_PER_SNAPSHOT: u64 =
+        (std::mem::size_of::<Located>() + 2 * std::mem::size_of::<(Key, Figures)>()) as u64;
 }
 
 impl From<u64> for PointLoad {
     fn from(points: u64) -> PointLoad {
-        PointLoad { points, next: 0 }
+        PointLoad {
+            points,
+            ..PointLoad::default()
+        }
     }
 }

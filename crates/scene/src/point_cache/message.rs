@@ -10,6 +10,13 @@ use raytrace_core::scene::Scene;
 /// Most spheres and points a frame may hold: what one hierarchy indexes (2^28 primitives).
 pub(crate) const MAX_FRAME_SPHERES: u64 = 1 << 28;
 
+/// Most snapshots a cache may hold (its file's, or its series' together): 2^20, each
+/// indexed ([`super::PointLoad::INDEX_BYTES_PER_SNAPSHOT`], about 170 MiB for them all)
+/// before anything renders. A file past it is refused when its index reaches it, before it
+/// is read on: gzipped snapshots of one atom (a few bytes each) cannot grow the index past
+/// memory.
+pub(crate) const MAX_SNAPSHOTS: usize = 1 << 20;
+
 /// A message about cache `index` of `scene` in `frame`'s file `path`.
 pub(super) fn about(scene: &Scene, index: usize, frame: u32, path: &Path, what: &str) -> String {
     format!(

@@ -8,6 +8,8 @@ use rayon::prelude::*;
 
 use super::read::{MAX_VALUE, Read};
 use crate::sim::cell::Cell;
+use raytrace_core::points::{PointCacheDesc, PointMotion};
+use raytrace_core::show::show_approx;
 use raytrace_core::shutter::Interval;
 
 /// Most whole boxes a point may cross along one edge during a frame's shutter: beyond it the
@@ -84,6 +86,62 @@ pub(super) fn interpolate(
     Ok(out)
 }
 
+/// Checks that points moving at `velocities` travel at most [`MAX_CROSSINGS`] box edges
+/// along each periodic edge of `cell` in one frame's `exposure` (seconds), so that each
+/// path is drawn in at most two images of the box whatever its start: the one rule `check`
+/// and `render` hold a snapshot's velocities (the file's, or those towards the next
+/// snapshot) to. An error names the first point that travels further.
+pub(super) fn paths_within_box(
+    velocities: &[DVec3],
+    exposure: f64,
+    cell: &Cell,
+) -> Result<(), String> {
+    if !cell.any_periodic() || exposure == 0.0 {
+        return Ok(());
+    }
+    let inverse = cell.edges.inverse();
+    let too_far = |v: &DVec3| {
+        let f = inverse * (*v * exposure);
+        (0..3)
+            // NaN is too far too.
+            .find(|&k| cell.periodic[k] && (f[k].abs() > MAX_CROSSINGS || f[k].is_nan()))
+            .map(|k| (k, f[k].abs()))
+    };
+    match velocities
+        .par_iter()
+        .enumerate()
+        .find_first(|(_, v)| too_far(v).is_some())
+    {
+        None => Ok(()),
+        Some((i, v)) => {
+            let (k, edges) = too_far(v).expect("found");
+            let [x, y, z] = v.to_array().map(show_approx);
+            Err(format!(
+                "point {i} moves {} box edges along edge {} in a frame's exposure of {} s (velocity {x}, {y}, {z}): a point may move at most one box edge a frame in a periodic box",
+                show_approx(edges),
+                ["a", "b", "c"][k],
+                show_approx(exposure)
+            ))
+        }
+    }
+}
+
+/// Holds the file's velocities of a snapshot (`read`, in box `cell`) to [`paths_within_box`]
+/// where cache `desc` moves its points by them (any motion but `still`).
+pub(super) fn file_velocities_within_box(
+    read: &Read,
+    cell: Option<&Cell>,
+    desc: &PointCacheDesc,
+    exposure: f64,
+) -> Result<(), String> {
+    match cell {
+        Some(cell) if desc.motion != Some(PointMotion::Still) => {
+            paths_within_box(&read.velocities, exposure, cell)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Points (by index) with a shift.
 pub(super) type Shifts = Vec<(usize, DVec3)>;
 
@@ -131,7 +189,7 @@ pub(super) fn images(
             if out.abs() > MAX_CROSSINGS {
                 return Err(format!(
                     "point {i} crosses {} boxes along edge {} in one frame: its motion during the shutter is longer than the periodic box",
-                    out.abs(),
+                    show_approx(out.abs()),
                     ["a", "b", "c"][k]
                 ));
             }
@@ -232,6 +290,24 @@ mod tests {
             &cell,
         );
         assert!(e.unwrap_err().contains("crosses 2 boxes along edge a"));
+    }
+
+    /// A path longer than one box edge in an exposure is refused whatever its start, in
+    /// short numbers; one edge exactly, or any speed along an edge that is not periodic, is
+    /// not.
+    #[test]
+    fn a_path_longer_than_a_box_edge_is_refused() {
+        let cell = cube([true, true, false]);
+        let ok = [DVec3::new(20.0, -20.0, 1e30)];
+        assert_eq!(paths_within_box(&ok, 0.5, &cell), Ok(()));
+        let fast = [DVec3::ZERO, DVec3::new(0.0, 1e30, 0.0)];
+        assert_eq!(
+            paths_within_box(&fast, 0.5, &cell).unwrap_err(),
+            "point 1 moves 5e28 box edges along edge b in a frame's exposure of 0.5 s (velocity 0, 1e30, 0): a point may move at most one box edge a frame in a periodic box"
+        );
+        assert!(paths_within_box(&[DVec3::new(f64::NAN, 0.0, 0.0)], 0.5, &cell).is_err());
+        assert_eq!(paths_within_box(&fast, 0.0, &cell), Ok(()));
+        assert_eq!(paths_within_box(&fast, 0.5, &cube([false; 3])), Ok(()));
     }
 
     #[test]

@@ -57,7 +57,7 @@ pub(super) struct Read {
 /// a box). A periodic box must span a volume; a box periodic nowhere is not used, and may be
 /// flat (a LAMMPS `ff` box `5 5`, an XYZ zero `Lattice=` with `pbc="F F F"`).
 pub(super) fn cell_of(snap: &Snapshot, desc: &PointCacheDesc) -> Result<Option<Cell>, ReadError> {
-    let cell = match (snap.cell, desc.periodic) {
+    let cell = match (snap.cell.as_deref().copied(), desc.periodic) {
         (None, Some(true)) => {
             return Err(ReadError::Bad(
                 "periodic = true, and the file gives no box (LAMMPS BOX BOUNDS, XYZ Lattice=)"

@@ -14,7 +14,8 @@ use glam::DVec3;
 use super::columns::map_columns;
 use super::files::{Files, Key, Located, series, timestep_time};
 use super::load::PointLoad;
-use super::message::{MAX_FRAME_SPHERES, about, error};
+use super::message::{MAX_FRAME_SPHERES, MAX_SNAPSHOTS, about, error};
+use super::motion::file_velocities_within_box;
 use super::read::{Wanted, read_values};
 use super::table::{self, OpenText};
 use crate::sim::ReadError;
@@ -195,6 +196,7 @@ impl ShotPoints {
                 }
             }
         }
+        most.snapshots = shot.snapshots();
         shot.most = most;
         Ok(shot)
     }
@@ -202,6 +204,15 @@ impl ShotPoints {
     /// The most points a rendered frame holds (and the most its next snapshots hold).
     pub fn most(&self) -> PointLoad {
         self.most
+    }
+
+    /// The snapshots the caches' files of several index, together.
+    fn snapshots(&self) -> u64 {
+        let count = |c: &CacheShot| match &c.files {
+            Files::Snapshots { snaps, .. } => snaps.len() as u64,
+            Files::PerFrame => 0,
+        };
+        self.caches.iter().map(count).sum()
     }
 
     /// The files the survey read (each once, when it works as it should).
@@ -250,6 +261,7 @@ impl ShotPoints {
             moving: Some(0),
             ..FrameSurvey::default()
         };
+        out.load.snapshots = self.snapshots();
         for (index, c) in self.caches.iter().enumerate() {
             let desc = &scene.points[index];
             let placed = c
@@ -315,19 +327,19 @@ fn wanted(depth: SurveyDepth, colour: bool) -> Option<Wanted> {
 }
 
 /// Indexes `path` for cache `index`, checking each snapshot's layout and reading the values
-/// `read` asks of the snapshots it picks (by their number in the cache); the snapshots with
-/// their figures.
+/// `read` asks of the snapshots it picks (by their number in the cache), handing each
+/// snapshot with its figures to `keep`; how many there were.
 fn index_file(
     scene: &Scene,
     index: usize,
     path: &Path,
     first: usize,
     read: &dyn Fn(usize, &crate::sim::Snapshot) -> Option<Wanted>,
-) -> Result<Vec<(crate::sim::Snapshot, Figures)>, ReadError> {
+    keep: &mut dyn FnMut(crate::sim::Snapshot, Figures) -> Result<(), ReadError>,
+) -> Result<usize, ReadError> {
     let desc = &scene.points[index];
-    let mut figures = Vec::new();
     let mut last_timestep: Option<i64> = None;
-    let snaps = table::index(path, desc.format, |ordinal, snap, rows| {
+    let visit = |ordinal, snap: &crate::sim::Snapshot, rows: &mut table::Rows| {
         if snap.count > MAX_FRAME_SPHERES {
             return Err(ReadError::Bad(format!(
                 "{} points, more than the {MAX_FRAME_SPHERES} a frame can hold",
@@ -345,11 +357,14 @@ fn index_file(
         last_timestep = snap.timestep.or(last_timestep);
         let layout = map_columns(&snap.columns, desc).map_err(ReadError::Bad)?;
         let names: Vec<String> = snap.columns.iter().map(|c| c.label()).collect();
-        let f = match read(first + ordinal - 1, snap) {
+        Ok(match read(first + ordinal - 1, snap) {
             Some(want) => {
                 let cell = super::read::cell_of(snap, desc)?;
                 let values =
                     read_values(rows, snap.count, &names, &layout, cell.as_ref(), desc, want)?;
+                let exposure = scene.shot.exposure();
+                file_velocities_within_box(&values, cell.as_ref(), desc, exposure)
+                    .map_err(ReadError::Bad)?;
                 if desc.motion == Some(PointMotion::Interpolate) && want.ids {
                     super::motion::sorted_ids(&values.ids).map_err(ReadError::Bad)?;
                 }
@@ -359,11 +374,9 @@ fn index_file(
                 count: snap.count,
                 ..Figures::default()
             },
-        };
-        figures.push(f);
-        Ok(())
-    })?;
-    Ok(snaps.into_iter().zip(figures).collect())
+        })
+    };
+    table::index(path, desc.format, visit, keep)
 }
 
 /// Surveys a sequence: each frame's file of `frames` (and with `interpolate` the next
@@ -395,16 +408,20 @@ fn survey_sequence(
         }
         let path = raytrace_core::path_pattern::frame_path(&desc.file, frame);
         cache.reads += 1;
-        let found = index_file(scene, index, &path, 0, &|_, _| want)
-            .map_err(|e| error(scene, index, frame, &path, e))?;
-        if found.len() > 1 {
+        // The first snapshot's figures; the others are only counted.
+        let mut first = None;
+        let found = index_file(scene, index, &path, 0, &|_, _| want, &mut |_, f| {
+            first.get_or_insert(f);
+            Ok(())
+        })
+        .map_err(|e| error(scene, index, frame, &path, e))?;
+        if found > 1 {
             let m = format!(
-                "holds {} snapshots, and a sequence ('#') is a file per frame: name the file without '#' (or with '*') to take its snapshots as frames",
-                found.len()
+                "holds {found} snapshots, and a sequence ('#') is a file per frame: name the file without '#' (or with '*') to take its snapshots as frames"
             );
             return Err(Error::Scene(about(scene, index, frame, &path, &m)));
         }
-        let (_, f) = found.into_iter().next().expect("one snapshot");
+        let f = first.expect("a file holds a snapshot");
         cache.figures.insert(Key::Frame(frame), f);
         Ok(())
     };
@@ -503,20 +520,32 @@ fn survey_snapshots(
             (false, false) => None,
         }
     };
-    let mut snaps = Vec::new();
-    let mut figures = BTreeMap::new();
+    let mut snaps: Vec<Located> = Vec::new();
+    let mut figures: Vec<(Key, Figures)> = Vec::new();
     for (file, path) in paths.iter().enumerate() {
-        let found = index_file(scene, index, path, snaps.len(), &read)
-            .map_err(|e| error(scene, index, span.0, path, e))?;
-        for (ordinal, (snap, f)) in found.into_iter().enumerate() {
-            figures.insert(Key::Snap(snaps.len()), f);
+        let mut ordinal = 0;
+        let first = snaps.len();
+        let mut keep = |snap, f| {
+            if snaps.len() >= MAX_SNAPSHOTS {
+                return Err(ReadError::Bad(format!(
+                    "the cache holds more than {MAX_SNAPSHOTS} snapshots, the most it may (its index: {} bytes a snapshot)",
+                    PointLoad::INDEX_BYTES_PER_SNAPSHOT
+                )));
+            }
+            ordinal += 1;
+            figures.push((Key::Snap(snaps.len()), f));
             snaps.push(Located {
                 file,
-                ordinal: ordinal + 1,
+                ordinal,
                 snap,
             });
-        }
+            Ok(())
+        };
+        index_file(scene, index, path, first, &read, &mut keep)
+            .map_err(|e| error(scene, index, span.0, path, e))?;
     }
+    // Built from keys in order, the map's nodes are full.
+    let figures: BTreeMap<Key, Figures> = figures.into_iter().collect();
     if let (SnapshotTime::Timestep { .. }, true) = (desc.snapshots, desc.is_series()) {
         // Timesteps in order across the series' files too.
         timesteps_in_order(scene, index, span.0, &paths, &snaps)?;

@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use crate::ply::{Kind, PlyError, PlyFile};
+use crate::sim::cell::Cell;
 use crate::sim::text::{Lines, Position};
 use crate::sim::vtk::VtkFile;
 use crate::sim::{Column, ColumnKind, ReadError, Snapshot, lammps, xyz};
@@ -128,25 +129,31 @@ impl Rows<'_> {
 }
 
 /// Goes through the snapshots of `path` in order, calling `visit(ordinal, snapshot, rows)`
-/// for each (ordinal from 1); the visitor may read the rows, else they are skipped. Returns
-/// the snapshots. A file of a one-snapshot format (PLY, VTK) gives one.
-pub(super) fn index(
+/// for each (ordinal from 1; the visitor may read the rows, else they are skipped), then
+/// `keep(snapshot, what visit gave)`: the snapshots are handed over, not gathered here, so
+/// a file of a million is held once. Consecutive snapshots with the same columns or box
+/// share them. Returns how many there were. A file of a one-snapshot format (PLY, VTK)
+/// gives one.
+pub(super) fn index<T>(
     path: &Path,
     format: CacheFormat,
-    mut visit: impl FnMut(usize, &Snapshot, &mut Rows) -> Result<(), ReadError>,
-) -> Result<Vec<Snapshot>, ReadError> {
+    mut visit: impl FnMut(usize, &Snapshot, &mut Rows) -> Result<T, ReadError>,
+    mut keep: impl FnMut(Snapshot, T) -> Result<(), ReadError>,
+) -> Result<usize, ReadError> {
     match format {
         CacheFormat::Ply => {
             let file = PlyFile::open(path)?;
             let (element, snap) = ply_snapshot(&file)?;
-            visit(1, &snap, &mut Rows::Ply(Some((file, element))))?;
-            Ok(vec![snap])
+            let t = visit(1, &snap, &mut Rows::Ply(Some((file, element))))?;
+            keep(snap, t)?;
+            Ok(1)
         }
         CacheFormat::Vtk => {
             let file = VtkFile::open(path)?;
             let snap = one_snapshot(file.count(), file.columns());
-            visit(1, &snap, &mut Rows::Vtk(&file))?;
-            Ok(vec![snap])
+            let t = visit(1, &snap, &mut Rows::Vtk(&file))?;
+            keep(snap, t)?;
+            Ok(1)
         }
         CacheFormat::Lammps | CacheFormat::Xyz => {
             let what = match format {
@@ -154,46 +161,55 @@ pub(super) fn index(
                 _ => "LAMMPS dump",
             };
             let mut lines = Lines::open(path, what)?;
-            let mut out: Vec<Snapshot> = Vec::new();
+            // The last snapshot's columns and box, shared with the next where the same.
+            let mut columns: Option<Arc<[Column]>> = None;
+            let mut cell: Option<Arc<Cell>> = None;
+            let mut count = 0;
             loop {
-                let last = out.last().map(|s| &s.columns);
                 let next = match format {
-                    CacheFormat::Xyz => xyz::next_snapshot(&mut lines, last)?,
-                    _ => lammps::next_snapshot(&mut lines, last)?,
+                    CacheFormat::Xyz => xyz::next_snapshot(&mut lines, columns.as_ref())?,
+                    _ => lammps::next_snapshot(&mut lines, columns.as_ref())?,
                 };
-                let Some(snap) = next else { break };
+                let Some(mut snap) = next else { break };
+                if snap.cell.is_some() && snap.cell == cell {
+                    snap.cell = cell.clone();
+                }
+                count += 1;
                 let mut rows = Rows::Text {
                     lines: &mut lines,
                     snap: &snap,
                     format,
                     read: false,
                 };
-                let with = |e: ReadError| about_snapshot(e, out.len() + 1, &snap);
-                visit(out.len() + 1, &snap, &mut rows).map_err(with)?;
+                let timestep = snap.timestep;
+                let with = |e: ReadError| about_snapshot(e, count, timestep);
+                let t = visit(count, &snap, &mut rows).map_err(with)?;
                 rows.finish().map_err(with)?;
-                out.push(snap);
+                (columns, cell) = (Some(snap.columns.clone()), snap.cell.clone());
+                keep(snap, t).map_err(with)?;
             }
-            if out.is_empty() {
+            if count == 0 {
                 return Err(ReadError::Bad(format!(
                     "holds no snapshot (an empty {what})"
                 )));
             }
-            Ok(out)
+            Ok(count)
         }
     }
 }
 
-/// An error inside snapshot `ordinal` of a file of several, with the snapshot named.
-pub(super) fn about_snapshot(e: ReadError, ordinal: usize, snap: &Snapshot) -> ReadError {
+/// An error inside snapshot `ordinal` (at `timestep`, where the file gives one) of a file of
+/// several, with the snapshot named.
+pub(super) fn about_snapshot(e: ReadError, ordinal: usize, timestep: Option<i64>) -> ReadError {
     match e {
-        ReadError::Bad(m) => ReadError::Bad(format!("{}: {m}", snapshot_name(ordinal, snap))),
+        ReadError::Bad(m) => ReadError::Bad(format!("{}: {m}", snapshot_name(ordinal, timestep))),
         io => io,
     }
 }
 
 /// `snapshot 3 (timestep 200)`, or `snapshot 3` where the file gives no timestep.
-pub(super) fn snapshot_name(ordinal: usize, snap: &Snapshot) -> String {
-    match snap.timestep {
+pub(super) fn snapshot_name(ordinal: usize, timestep: Option<i64>) -> String {
+    match timestep {
         Some(t) => format!("snapshot {ordinal} (timestep {t})"),
         None => format!("snapshot {ordinal}"),
     }
@@ -250,7 +266,7 @@ pub(super) fn read_snapshot<T>(
             let several = format.has_snapshots();
             result.map_err(|e| {
                 if several {
-                    about_snapshot(e, ordinal, snap)
+                    about_snapshot(e, ordinal, snap.timestep)
                 } else {
                     e
                 }

@@ -22,20 +22,17 @@ pub(crate) struct Cell {
 impl Cell {
     /// The box of a LAMMPS dump: the three `BOX BOUNDS` lines as numbers (`lo hi` or, for a
     /// triclinic box, `lo hi tilt` with tilts `xy`, `xz`, `yz`) and the boundary flags
-    /// (`pp` is periodic). Errors name what is wrong: non-finite numbers, a box of no or
-    /// negative size.
+    /// (`pp` is periodic). An error is the bound line at fault (0 to 2) and what is wrong:
+    /// non-finite numbers, bounds whose upper is less than their lower.
     pub(crate) fn from_lammps(
         bounds: [[f64; 3]; 3],
         triclinic: bool,
         periodic: [bool; 3],
-    ) -> Result<Cell, String> {
+    ) -> Result<Cell, (usize, String)> {
         for (k, b) in bounds.iter().enumerate() {
             let n = if triclinic { 3 } else { 2 };
             if let Some(x) = b[..n].iter().find(|x| !x.is_finite()) {
-                return Err(format!(
-                    "box bound line {} holds {x}, not a finite number",
-                    k + 1
-                ));
+                return Err((k, format!("box bound {x} is not a finite number")));
             }
         }
         let (xy, xz, yz) = if triclinic {
@@ -51,10 +48,16 @@ impl Cell {
         let yhi = bounds[1][1] - yz.max(0.0);
         let (zlo, zhi) = (bounds[2][0], bounds[2][1]);
         // Equal bounds are a flat box, refused only where it is periodic ([`Cell::spans_volume`]).
-        for (name, lo, hi) in [("x", xlo, xhi), ("y", ylo, yhi), ("z", zlo, zhi)] {
+        for (k, (name, lo, hi)) in [("x", xlo, xhi), ("y", ylo, yhi), ("z", zlo, zhi)]
+            .into_iter()
+            .enumerate()
+        {
             if hi < lo || !(hi - lo).is_finite() {
-                return Err(format!(
-                    "the box's {name} bounds are {lo} to {hi}: the upper must not be less than the lower"
+                return Err((
+                    k,
+                    format!(
+                        "the box's {name} bounds are {lo} to {hi}: the upper must not be less than the lower"
+                    ),
                 ));
             }
         }
@@ -67,6 +70,7 @@ impl Cell {
             ),
             periodic,
         )
+        .map_err(|m| (0, m))
     }
 
     /// A box from its origin and edges; an error when the edges are not finite or span no
@@ -174,16 +178,25 @@ mod tests {
             false,
             flags,
         );
-        assert!(
-            e.unwrap_err()
-                .contains("x bounds are 1 to 0: the upper must not be less")
+        let (line, m) = e.unwrap_err();
+        assert_eq!(line, 0);
+        assert!(m.contains("x bounds are 1 to 0: the upper must not be less"));
+        let e = Cell::from_lammps(
+            [[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [3.0, 1.0, 0.0]],
+            false,
+            flags,
         );
+        assert_eq!(e.unwrap_err().0, 2);
         let e = Cell::from_lammps(
             [[0.0, f64::NAN, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             false,
             flags,
         );
-        assert!(e.unwrap_err().contains("NaN, not a finite number"));
+        let (line, m) = e.unwrap_err();
+        assert_eq!(
+            (line, m.as_str()),
+            (0, "box bound NaN is not a finite number")
+        );
         // A flat box is a box, which spans no volume (refused where it is periodic).
         let flat = DMat3::from_cols(DVec3::X, DVec3::X * 2.0, DVec3::Z);
         assert!(!Cell::new(DVec3::ZERO, flat, flags).unwrap().spans_volume());

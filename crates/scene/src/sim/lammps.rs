@@ -25,7 +25,7 @@ use std::sync::Arc;
 use super::cell::Cell;
 use super::read_error::ReadError;
 use super::snapshot::{Column, Snapshot};
-use super::text::Lines;
+use super::text::{Lines, MAX_BLANK};
 
 fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
     Err(ReadError::Bad(format!("line {line}: {what}")))
@@ -33,13 +33,10 @@ fn bad<T>(line: u64, what: impl std::fmt::Display) -> Result<T, ReadError> {
 
 /// The next line, or an error saying the file ends in the middle of `what`.
 fn required<'a>(lines: &'a mut Lines, what: &str) -> Result<&'a str, ReadError> {
-    let line = lines.position().line;
+    let end = lines.last_line();
     match lines.next_line()? {
         Some(l) => Ok(l),
-        None => bad(
-            line,
-            format_args!("the file ends inside {what} (truncated)"),
-        ),
+        None => bad(end, format_args!("the file ends inside {what} (truncated)")),
     }
 }
 
@@ -108,7 +105,7 @@ pub(crate) fn next_snapshot(
                 rows: lines.position(),
                 count,
                 timestep: Some(timestep),
-                cell,
+                cell: cell.map(Arc::new),
                 columns,
             }));
         } else if rest == "UNITS" || rest == "TIME" {
@@ -155,10 +152,20 @@ fn atom_columns(
     Ok(columns)
 }
 
-/// Skips the lines of an item this reader does not know, up to the next `ITEM:` line.
+/// Skips the lines of an item this reader does not know, up to the next `ITEM:` line: at
+/// most [`MAX_BLANK`] bytes of them, as blank lines, since no value is read from them.
 fn skip_item(lines: &mut Lines) -> Result<(), ReadError> {
+    let start = lines.position();
     loop {
         let at = lines.position();
+        if at.offset - start.offset > MAX_BLANK {
+            return bad(
+                start.line - 1,
+                format_args!(
+                    "an item this reader does not know runs on for more than {MAX_BLANK} bytes (not a LAMMPS dump?)"
+                ),
+            );
+        }
         let line = required(lines, "an item")?;
         if line.trim_start().starts_with("ITEM:") {
             return lines.seek(at);
@@ -206,7 +213,9 @@ fn box_bounds(lines: &mut Lines, item_line: u64, flags: &str) -> Result<Cell, Re
             })?;
         }
     }
-    Cell::from_lammps(bounds, triclinic, periodic).or_else(|m| bad(item_line + 1, m))
+    // The bound lines follow the item's line.
+    Cell::from_lammps(bounds, triclinic, periodic)
+        .or_else(|(k, m)| bad(item_line + 1 + k as u64, m))
 }
 
 /// Skips the atom lines of `snap` (`lines` at its first); an error when the file ends first.
@@ -225,7 +234,7 @@ pub(crate) fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadEr
     };
     if snap.count > 0 && last.is_none() {
         return bad(
-            line,
+            lines.last_line(),
             format_args!(
                 "the file ends after {skipped} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                 snap.count,
@@ -271,7 +280,7 @@ pub(crate) fn read_rows(
         let line = lines.position().line;
         let Some(text) = lines.next_line()? else {
             return bad(
-                line,
+                lines.last_line(),
                 format_args!(
                     "the file ends after {i} of the {} atoms its snapshot (timestep {}) declares (truncated, or a wrong count)",
                     snap.count,
@@ -345,7 +354,7 @@ mod tests {
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
         assert_eq!((a.line, a.count, a.timestep), (1, 2, Some(0)));
         assert_eq!(a.rows.line, 10);
-        let cell = a.cell.unwrap();
+        let cell = *a.cell.clone().unwrap();
         assert_eq!(cell.periodic, [true, true, false]);
         assert_eq!(cell.edges.z_axis.z, 2.0);
         skip_rows(&mut l, &a).unwrap();
@@ -353,7 +362,7 @@ mod tests {
         assert!(Arc::ptr_eq(&a.columns, &b.columns));
         assert_eq!((b.line, b.count, b.timestep), (12, 1, Some(10)));
         // xlo = -1 - min(0, 1, -1, 0) = 0, xhi = 5 - max(0, 1, -1, 0) = 4.
-        let cell = b.cell.unwrap();
+        let cell = *b.cell.clone().unwrap();
         assert_eq!(cell.edges.x_axis.x, 4.0);
         assert_eq!(cell.edges.z_axis.x, -1.0);
         skip_rows(&mut l, &b).unwrap();
@@ -392,7 +401,7 @@ mod tests {
     fn bad_dumps_are_errors_naming_the_line() {
         let cut = &DUMP[..DUMP.len() - 16];
         assert!(
-            error_of(cut).starts_with("line 21: the file ends after 0 of the 1 atoms"),
+            error_of(cut).starts_with("line 20: the file ends after 0 of the 1 atoms"),
             "{}",
             error_of(cut)
         );
@@ -406,14 +415,41 @@ mod tests {
             error_of(&short),
             "line 11: atom 1: 4 fields for the 5 columns of ITEM: ATOMS"
         );
+        // The bad bound line is named: y's is the item's second line after it (line 7; in
+        // the second snapshot, line 18), z's the third.
         let inverted = DUMP.replace("0 4\n0 4\n-1 1", "0 4\n4 0\n-1 1");
+        assert_eq!(
+            error_of(&inverted),
+            "line 7: the box's y bounds are 4 to 0: the upper must not be less than the lower"
+        );
+        let later = DUMP.replace("0 4 -1\n", "4 0 -1\n");
         assert!(
-            error_of(&inverted).contains("y bounds are 4 to 0"),
+            error_of(&later).starts_with("line 18: the box's y bounds are 4 to 0"),
             "{}",
-            error_of(&inverted)
+            error_of(&later)
+        );
+        let infinite = DUMP.replace("0 4\n0 4\n-1 1", "0 4\n0 4\n-1 inf");
+        assert_eq!(
+            error_of(&infinite),
+            "line 8: box bound inf is not a finite number"
         );
         let count = DUMP.replace("ITEM: NUMBER OF ATOMS\n2", "ITEM: NUMBER OF ATOMS\n-2");
         assert!(error_of(&count).contains("NUMBER OF ATOMS is \"-2\", not a whole number"));
+        let unknown = DUMP.replacen(
+            "ITEM: ATOMS",
+            &format!(
+                "ITEM: FOO\n{}ITEM: ATOMS",
+                "x\n".repeat(MAX_BLANK as usize / 2 + 1)
+            ),
+            1,
+        );
+        assert_eq!(
+            error_of(&unknown),
+            "line 9: an item this reader does not know runs on for more than 1048576 bytes (not a LAMMPS dump?)"
+        );
+        let small = DUMP.replacen("ITEM: ATOMS", "ITEM: FOO\nx\nITEM: ATOMS", 1);
+        let (_d, mut l) = lines_of(&small);
+        assert_eq!(next_snapshot(&mut l, None).unwrap().unwrap().count, 2);
         let text = DUMP.replace("ITEM: TIMESTEP\n0", "hello\n0");
         assert!(error_of(&text).starts_with("line 1: expected \"ITEM: TIMESTEP\""));
     }

@@ -72,7 +72,9 @@ pub(crate) struct Snapshot {
     pub rows: Position,
     pub count: u64,
     pub timestep: Option<i64>,
-    pub cell: Option<super::cell::Cell>,
+    /// Shared between consecutive snapshots with the same box (a file of a million
+    /// snapshots holds its index, not a million boxes).
+    pub cell: Option<Arc<super::cell::Cell>>,
     /// Shared between consecutive snapshots with the same columns.
     pub columns: Arc<[Column]>,
 }

@@ -21,6 +21,10 @@ use super::read_error::ReadError;
 /// Longest line read, in bytes (a LAMMPS line of a few hundred columns is a few kB).
 pub(crate) const MAX_LINE: usize = 1 << 20;
 
+/// Most bytes of blank lines in a row, where snapshots may be apart: as a line's
+/// [`MAX_LINE`], a margin no writer comes near (LAMMPS and XYZ writers put none).
+pub(crate) const MAX_BLANK: u64 = MAX_LINE as u64;
+
 /// The buffer of a file's reader.
 const BUFFER: usize = 1 << 20;
 
@@ -105,6 +109,12 @@ impl Lines {
         self.next
     }
 
+    /// The number of the last line read (0 before the first): where a file that ends too
+    /// soon ends.
+    pub(crate) fn last_line(&self) -> u64 {
+        self.next.line - 1
+    }
+
     fn reader(&mut self) -> &mut dyn BufRead {
         match &mut self.stream {
             Stream::Plain(r) => r,
@@ -167,13 +177,23 @@ impl Lines {
     }
 
     /// The next line that is not blank, trimmed, and its number; `None` at the end of the
-    /// file.
+    /// file. Blank lines in a row are at most [`MAX_BLANK`] bytes: text no value is read from
+    /// is not decompressed on and on (a gzip bomb of line ends).
     pub(crate) fn next_filled_line(&mut self) -> Result<Option<(u64, String)>, ReadError> {
+        let start = self.next;
         loop {
             let at = self.next.line;
             match self.next_line()? {
                 None => return Ok(None),
-                Some(l) if l.trim().is_empty() => continue,
+                Some(l) if l.trim().is_empty() => {
+                    if self.next.offset - start.offset > MAX_BLANK {
+                        return Err(ReadError::Bad(format!(
+                            "line {}: more than {MAX_BLANK} bytes of blank lines from line {} (not a file of snapshots?)",
+                            self.last_line(),
+                            start.line
+                        )));
+                    }
+                }
                 Some(l) => return Ok(Some((at, l.trim().to_string()))),
             }
         }
@@ -315,6 +335,30 @@ mod tests {
             l.seek(first).unwrap();
             assert_eq!(l.next_line().unwrap(), Some(expected[0]));
         }
+    }
+
+    /// Blank lines in a row are read up to [`MAX_BLANK`] bytes, and refused past it.
+    #[test]
+    fn blank_lines_in_a_row_are_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.gz");
+        let blank = MAX_BLANK as usize;
+        std::fs::write(&path, gz(format!("{}x\n", "\n".repeat(blank)).as_bytes())).unwrap();
+        let mut l = Lines::open(&path, "file").unwrap();
+        assert_eq!(
+            l.next_filled_line().unwrap(),
+            Some((blank as u64 + 1, "x".into()))
+        );
+        std::fs::write(
+            &path,
+            gz(format!("{}x\n", "\n".repeat(blank + 1)).as_bytes()),
+        )
+        .unwrap();
+        let mut l = Lines::open(&path, "file").unwrap();
+        assert!(matches!(
+            l.next_filled_line(),
+            Err(ReadError::Bad(m)) if m == format!("line {}: more than {blank} bytes of blank lines from line 1 (not a file of snapshots?)", blank + 1)
+        ));
     }
 
     #[test]

@@ -29,6 +29,44 @@ pub(crate) use super::vtk_data::POINTS;
 /// Largest VTK file read (bytes): it is held whole while it is read.
 pub(crate) const MAX_FILE: u64 = 16 << 30;
 
+/// Bytes a VTK file may hold besides its points' values: its header, cells, field data and
+/// layout, read whole with it. The head of the file read first, where its points are declared.
+const MARGIN: u64 = 16 << 20;
+
+/// Bytes a point may take in a file: its position and a few dozen values in ASCII (25
+/// characters each, as `%.17g` writes them), its cell and its cell data; a file larger than
+/// its points may need is refused unread (a file padded with gigabytes of NULs).
+const BYTES_PER_POINT: u64 = 4096;
+
+/// The points a VTK file's head declares: a legacy file's `POINTS n`, or the sum of an XML
+/// file's `NumberOfPoints="n"` (0 where the head names none).
+fn declared_points(head: &[u8]) -> u64 {
+    let number = |b: &[u8]| -> u64 {
+        let digits = b.iter().take_while(|c| c.is_ascii_digit()).count();
+        std::str::from_utf8(&b[..digits])
+            .ok()
+            .and_then(|d| d.parse().ok())
+            .unwrap_or(0)
+    };
+    if head.starts_with(b"# vtk DataFile") {
+        let mut words = head
+            .split(|c| c.is_ascii_whitespace())
+            .filter(|w| !w.is_empty());
+        return match words.position(|w| w.eq_ignore_ascii_case(b"POINTS")) {
+            Some(_) => words.next().map_or(0, number),
+            None => 0,
+        };
+    }
+    const KEY: &[u8] = b"NumberOfPoints=";
+    let mut total: u64 = 0;
+    let mut rest = head;
+    while let Some(k) = rest.windows(KEY.len()).position(|w| w == KEY) {
+        rest = &rest[k + KEY.len()..];
+        total = total.saturating_add(number(rest.get(1..).unwrap_or_default()));
+    }
+    total
+}
+
 /// A VTK file's points and point data.
 pub(crate) struct VtkFile {
     bytes: Vec<u8>,
@@ -55,7 +93,17 @@ impl VtkFile {
                 "holds {size} bytes, more than the {MAX_FILE} a VTK file may (it is read whole)"
             )));
         }
-        let mut bytes = Vec::with_capacity(size as usize);
+        // The head, where the points are declared; the rest only where they may need it.
+        let mut bytes = Vec::with_capacity(size.min(MARGIN) as usize);
+        (&mut file).take(MARGIN).read_to_end(&mut bytes)?;
+        let points = declared_points(&bytes);
+        let most = MARGIN.saturating_add(points.saturating_mul(BYTES_PER_POINT));
+        if size > most {
+            return Err(ReadError::Bad(format!(
+                "holds {size} bytes, more than the {most} its {points} points may need ({MARGIN} bytes and {BYTES_PER_POINT} a point): padded, or not a VTK file"
+            )));
+        }
+        bytes.reserve_exact((size - bytes.len() as u64) as usize);
         file.read_to_end(&mut bytes)?;
         let structure = if bytes.starts_with(b"# vtk DataFile") {
             super::vtk_legacy::structure(&bytes)?
@@ -154,5 +202,24 @@ impl VtkFile {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_points_a_head_declares_are_found() {
+        let legacy = b"# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 12 float\n";
+        assert_eq!(declared_points(legacy), 12);
+        assert_eq!(
+            declared_points(b"# vtk DataFile Version 3.0\nt\nASCII\n"),
+            0
+        );
+        let xml =
+            b"<VTKFile><PolyData><Piece NumberOfPoints=\"3\"></Piece><Piece NumberOfPoints=\"40\">";
+        assert_eq!(declared_points(xml), 43);
+        assert_eq!(declared_points(b"<VTKFile NumberOfPoints=\"x\">"), 0);
     }
 }

@@ -164,6 +164,19 @@ pub(super) fn structure(b: &[u8]) -> Result<Structure, ReadError> {
     if pieces.is_empty() {
         return Err(ReadError::Bad("no Piece: no points".into()));
     }
+    // Nothing but white space after the file's last tag (NULs that pad a file are not XML).
+    let end = b.len()
+        - b.iter()
+            .rev()
+            .take_while(|c| c.is_ascii_whitespace())
+            .count();
+    if !b[..end].ends_with(b"</VTKFile>") {
+        return bad(
+            b,
+            end.saturating_sub(1),
+            "the file does not end with </VTKFile> (padded, or cut short)",
+        );
+    }
     let arrays = every_piece_arrays(b, pieces)?;
     for a in &arrays {
         if let Some(Place::Appended { .. }) = a.pieces.first()

@@ -152,7 +152,7 @@ pub(crate) fn next_snapshot(
     let comment_line = lines.position().line;
     let Some(comment) = lines.next_line()? else {
         return bad(
-            comment_line,
+            lines.last_line(),
             "the file ends before the frame's comment line (truncated)",
         );
     };
@@ -180,7 +180,7 @@ pub(crate) fn next_snapshot(
         rows: lines.position(),
         count,
         timestep: None,
-        cell,
+        cell: cell.map(Arc::new),
         columns,
     }))
 }
@@ -280,7 +280,7 @@ pub(crate) fn skip_rows(lines: &mut Lines, snap: &Snapshot) -> Result<(), ReadEr
     };
     if snap.count > 0 && last.is_none() {
         return bad(
-            line,
+            lines.last_line(),
             format_args!(
                 "the file ends after {skipped} of the {} atoms its count line (line {}) declares (the count line lies, or the file is truncated)",
                 snap.count, snap.line
@@ -330,7 +330,7 @@ pub(crate) fn read_rows(
         let line = lines.position().line;
         let Some(text) = lines.next_line()? else {
             return bad(
-                line,
+                lines.last_line(),
                 format_args!(
                     "the file ends after {i} of the {} atoms its count line (line {}) declares (the count line lies, or the file is truncated)",
                     snap.count, snap.line
@@ -424,7 +424,7 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let mut l = Lines::open(&path, "xyz").unwrap();
         let a = next_snapshot(&mut l, None).unwrap().unwrap();
-        assert_eq!(a.cell.unwrap().periodic, [true, true, false]);
+        assert_eq!(a.cell.clone().unwrap().periodic, [true, true, false]);
         let mut rows = Vec::new();
         let labels = read_rows(&mut l, &a, &[0, 3, 4], |_, v| {
             rows.push(v.to_vec());
@@ -515,6 +515,35 @@ mod tests {
         let e = read_rows(&mut l, &a, &[2], |_, _| Ok(())).unwrap_err();
         assert!(
             matches!(e, ReadError::Bad(m) if m == "line 3: atom 0: pos[1] is \"x\", not a number"),
+        );
+    }
+
+    /// A file that ends too soon is named at its last line (a 9-line file at line 9), whether
+    /// its rows are read or skipped, and where it ends before a comment line.
+    #[test]
+    fn a_file_that_ends_early_is_named_at_its_last_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.xyz");
+        let nine = "3\n\nAr 0 0 0\nAr 1 1 1\nAr 2 2 2\n3\n\nAr 0 0 0\nAr 1 1 1\n";
+        assert_eq!(nine.lines().count(), 9);
+        std::fs::write(&path, nine).unwrap();
+        let expected = "line 9: the file ends after 2 of the 3 atoms its count line (line 6) declares (the count line lies, or the file is truncated)";
+        let mut l = Lines::open(&path, "xyz").unwrap();
+        let a = next_snapshot(&mut l, None).unwrap().unwrap();
+        skip_rows(&mut l, &a).unwrap();
+        let b = next_snapshot(&mut l, Some(&a.columns)).unwrap().unwrap();
+        let mut read = Lines::open(&path, "xyz").unwrap();
+        read.seek(b.rows).unwrap();
+        let e = read_rows(&mut read, &b, &[1], |_, _| Ok(())).unwrap_err();
+        assert!(matches!(&e, ReadError::Bad(m) if m == expected), "{e:?}");
+        let e = skip_rows(&mut l, &b).unwrap_err();
+        assert!(matches!(&e, ReadError::Bad(m) if m == expected), "{e:?}");
+        std::fs::write(&path, "1\n").unwrap();
+        let mut l = Lines::open(&path, "xyz").unwrap();
+        let e = next_snapshot(&mut l, None).unwrap_err();
+        assert!(
+            matches!(&e, ReadError::Bad(m) if m == "line 1: the file ends before the frame's comment line (truncated)"),
+            "{e:?}"
         );
     }
 }
