@@ -10,8 +10,8 @@ use clap::{Args, Parser, Subcommand};
 
 use raytrace_core::renderer::Budget;
 use raytrace_core::sampler::SamplerKind;
-use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 use raytrace_core::scene::Device;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 use raytrace_scene::scene_file::Overrides;
 
 /// The `raytrace` command line.

@@ -655,8 +655,15 @@ fn the_denoiser_runs_on_the_gpu_that_traces_or_says_why_not() {
         raytrace(dir.path(), &args, &[])
     };
     let auto = run("auto.exr", &[]);
-    assert!(auto.status.success(), "{}", String::from_utf8_lossy(&auto.stderr));
-    let (out, err) = (String::from_utf8_lossy(&auto.stdout), String::from_utf8_lossy(&auto.stderr));
+    assert!(
+        auto.status.success(),
+        "{}",
+        String::from_utf8_lossy(&auto.stderr)
+    );
+    let (out, err) = (
+        String::from_utf8_lossy(&auto.stdout),
+        String::from_utf8_lossy(&auto.stderr),
+    );
     let named = |words: &str| named_in(&out, words);
     if gpu.is_software() {
         assert!(named("cpu") && !err.contains("note: "), "{out}\n{err}");
@@ -665,7 +672,8 @@ fn the_denoiser_runs_on_the_gpu_that_traces_or_says_why_not() {
             .iter()
             .any(|k| out.contains(&format!("denoiser: {k}")));
         let fell_back = named("cpu")
-            && err.contains("note: denoising on the CPU: Intel Open Image Denoise has no device for");
+            && err
+                .contains("note: denoising on the CPU: Intel Open Image Denoise has no device for");
         assert!(on_gpu != fell_back, "{out}\n{err}");
     }
     let cpu = run("cpu.exr", &["--denoise-device", "cpu"]);
@@ -674,7 +682,12 @@ fn the_denoiser_runs_on_the_gpu_that_traces_or_says_why_not() {
     if gpu.is_software() {
         assert_eq!(asked.status.code(), Some(1));
         let err = String::from_utf8_lossy(&asked.stderr);
-        assert!(err.contains("--denoise-device gpu: Intel Open Image Denoise has no device for the GPU"), "{err}");
+        assert!(
+            err.contains(
+                "--denoise-device gpu: Intel Open Image Denoise has no device for the GPU"
+            ),
+            "{err}"
+        );
         assert!(!dir.path().join("gpu.exr").exists());
     }
 }

@@ -66,7 +66,8 @@ pub enum DenoiseDevice {
 
 impl DenoiseDevice {
     /// Every choice, as the command line lists them.
-    pub const ALL: [DenoiseDevice; 3] = [DenoiseDevice::Auto, DenoiseDevice::Cpu, DenoiseDevice::Gpu];
+    pub const ALL: [DenoiseDevice; 3] =
+        [DenoiseDevice::Auto, DenoiseDevice::Cpu, DenoiseDevice::Gpu];
 
     /// The name used on the command line.
     pub fn name(self) -> &'static str {

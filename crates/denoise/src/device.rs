@@ -100,10 +100,15 @@ fn gpu_kind(device_type: oidn::sys::OIDNDeviceType) -> Option<&'static str> {
         OIDNDeviceType_OIDN_DEVICE_TYPE_METAL as METAL,
         OIDNDeviceType_OIDN_DEVICE_TYPE_SYCL as SYCL,
     };
-    [(CUDA, "cuda"), (HIP, "hip"), (SYCL, "sycl"), (METAL, "metal")]
-        .into_iter()
-        .find(|(t, _)| *t == device_type)
-        .map(|(_, word)| word)
+    [
+        (CUDA, "cuda"),
+        (HIP, "hip"),
+        (SYCL, "sycl"),
+        (METAL, "metal"),
+    ]
+    .into_iter()
+    .find(|(t, _)| *t == device_type)
+    .map(|(_, word)| word)
 }
 
 /// A PCI address `domain:bus:device.function` in hexadecimal (`0000:c1:00.0`) as numbers,

@@ -453,7 +453,12 @@ impl DenoiseTerms {
                 to_f32(blended_error(w, se, sv, sc).max(DVec3::ZERO)),
                 v.as_vec3(),
                 to_f32(*c),
-                to_f32(reducible(w, e_d.max(DVec3::ZERO) * fall.powf(2.0 / 3.0), *v, *c)),
+                to_f32(reducible(
+                    w,
+                    e_d.max(DVec3::ZERO) * fall.powf(2.0 / 3.0),
+                    *v,
+                    *c,
+                )),
             ]
         });
         written
@@ -707,7 +712,10 @@ mod tests {
             sample_weights(&s.written(&one_pixel(&later, 0.0, 0.0).0))[0] * n as f64
         };
         let (at16, at1024) = (per_sample(16), per_sample(1024));
-        assert!(at1024 / at16 <= 64f64.powf(1.0 / 3.0) * 1.0001, "{at16} {at1024}");
+        assert!(
+            at1024 / at16 <= 64f64.powf(1.0 / 3.0) * 1.0001,
+            "{at16} {at1024}"
+        );
     }
 
     #[test]

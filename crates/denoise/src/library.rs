@@ -39,7 +39,8 @@ pub fn load() -> Result<(), String> {
              from beside the binary (its folder, lib, ../lib), the build's folder or the system's library path: {}. Copy the libraries of the \
              build's .oidn/lib folder (libOpenImageDenoise.so.2, \
              libOpenImageDenoise_core.so.2.5.1, libOpenImageDenoise_device_cpu.so.2.5.1, \
-             libtbb.so.12) beside the binary, or install OIDN 2.5 \
+             libtbb.so.12; libOpenImageDenoise_device_cuda.so.2.5.1 and _hip to denoise on an \
+             NVIDIA or AMD GPU) beside the binary, or install OIDN 2.5 \
              (https://github.com/RenderKit/oidn/releases) where the system's loader finds \
              it; frames that are not denoised need none of it",
             oidn::LIBRARY_NAMES[0],

@@ -17,8 +17,7 @@ pub trait StopRule {
     /// Whether the frame, as `film` holds it after a round that took `round_seconds`, is
     /// within `threshold` (a relative error). The round's time is what the next round is
     /// likely to cost, which a rule with work of its own to do (a denoise) weighs against it.
-    fn reached(&mut self, film: &Film, threshold: f64, round_seconds: f64)
-    -> Result<bool, Error>;
+    fn reached(&mut self, film: &Film, threshold: f64, round_seconds: f64) -> Result<bool, Error>;
 
     /// Each pixel's weight in the next adaptive round (its estimated relative variance per
     /// sample).

@@ -94,7 +94,12 @@ impl DenoiseSchedule {
 
     /// Whether to denoise now, under `threshold`, after a round of `round_seconds`, where a
     /// denoise is predicted to give a written error of `predicted` (see the module's notes).
-    pub(crate) fn worth_denoising(&self, predicted: f64, threshold: f64, round_seconds: f64) -> bool {
+    pub(crate) fn worth_denoising(
+        &self,
+        predicted: f64,
+        threshold: f64,
+        round_seconds: f64,
+    ) -> bool {
         if predicted.is_nan() || predicted <= threshold {
             return true;
         }

@@ -2,8 +2,8 @@
 
 use raytrace_core::pass::Pass;
 use raytrace_core::sampler::SamplerKind;
-use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 use raytrace_core::scene::Device;
+use raytrace_core::scene::{DenoiseDevice, DenoiseQuality};
 
 /// Values given on the command line in place of the scene file's. They are written into the
 /// file's raw values before validation, so the one validator checks them with the same rules
