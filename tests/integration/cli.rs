@@ -595,6 +595,23 @@ fn memory_estimate_is_within_a_quarter_of_the_peak_at_1080p_on_each_device() {
     }
 }
 
+// Peak memory is read from /proc.
+#[cfg(target_os = "linux")]
+#[test]
+fn memory_estimate_is_within_a_quarter_of_the_peak_of_a_one_pixel_wide_denoised_frame() {
+    // OIDN pads a side to a multiple of 16: a 1x65536 frame takes the scratch of 16x65536,
+    // sixteen times what its own pixels would (about 360 MiB against 25).
+    let size = ["--width", "1", "--height", "65536", "--samples", "1"];
+    let (estimate, peak) = estimate_and_peak(
+        "t_####.exr",
+        &[&size[..], &["--denoise", "--frames", "1"]].concat(),
+    );
+    assert!(
+        (estimate - peak).abs() <= 0.25 * peak && peak > 200.0,
+        "estimate {estimate} MiB, peak {peak} MiB"
+    );
+}
+
 // Peak and available memory are read from /proc.
 #[cfg(target_os = "linux")]
 #[test]

@@ -162,20 +162,29 @@ pub struct Filter<'d> {
     len: usize,
 }
 
-/// OIDN's own scratch memory for a filter of `pixels` pixels at `quality` (its CPU device,
+/// OIDN's own scratch memory for a `width` x `height` filter at `quality` (its CPU device,
 /// OIDN 2.5.1), made when the filter first runs and kept while it lives (a shot's): about 355
 /// bytes a pixel at `fast` and 620 at `balanced` and `high`, up to about 1.5 and 2.5 GiB,
-/// beyond which OIDN denoises the image in tiles. Measured by the peak resident memory of
-/// denoising images of 480x270 to 3840x2160, less the images' own ([`Filter::run_bytes`]):
+/// beyond which OIDN denoises the image in tiles. The pixels are those of the image padded to
+/// multiples of [`OIDN_ALIGNMENT`] a side, as OIDN's network works on them: a 1x65536 frame
+/// holds sixteen times its own pixels' scratch (355 MiB where 65536 pixels in a square take
+/// 22). Measured by the peak resident memory of denoising images of 480x270 to 3840x2160 and
+/// 1x65536, less the images' own ([`Filter::run_bytes`]):
 /// `cargo test --release -p raytrace-denoise --lib -- --ignored --nocapture scratch_memory`
 /// (which checks these figures).
-pub fn oidn_scratch(pixels: u64, quality: DenoiseQuality) -> u64 {
+pub fn oidn_scratch(width: u64, height: u64, quality: DenoiseQuality) -> u64 {
     let (per_pixel, most): (u64, u64) = match quality {
         DenoiseQuality::Fast => (355, 1_520 << 20),
         DenoiseQuality::Balanced | DenoiseQuality::High => (620, 2_590 << 20),
     };
-    (pixels * per_pixel).min(most)
+    let padded = width.next_multiple_of(OIDN_ALIGNMENT) * height.next_multiple_of(OIDN_ALIGNMENT);
+    (padded * per_pixel).min(most)
 }
+
+/// The side multiple OIDN pads an image to: its U-Net pools four times, halving the image each
+/// time, so a side must divide by 16 (measured: a 1x65536 image takes the scratch of
+/// 16x65536).
+pub const OIDN_ALIGNMENT: u64 = 16;
 
 impl Filter<'_> {
     /// The bytes a run of a filter of `pixels` pixels holds beyond OIDN's scratch memory
@@ -331,6 +340,7 @@ mod tests {
             "3840 2160 fast",
             "1920 1080 balanced",
             "3840 2160 high",
+            "1 65536 fast",
         ] {
             let out = std::process::Command::new(std::env::current_exe().unwrap())
                 .args(["--exact", "denoiser::tests::scratch_memory"])
@@ -345,9 +355,9 @@ mod tests {
                 .and_then(|n| n.trim().parse().ok())
                 .unwrap_or_else(|| panic!("{size}: {text}"));
             let [w, h, q]: [&str; 3] = size.split(' ').collect::<Vec<_>>().try_into().unwrap();
-            let pixels = w.parse::<u64>().unwrap() * h.parse::<u64>().unwrap();
+            let (w, h) = (w.parse::<u64>().unwrap(), h.parse::<u64>().unwrap());
             let quality = DenoiseQuality::from_name(q).unwrap();
-            let model = oidn_scratch(pixels, quality) + Filter::run_bytes(pixels);
+            let model = oidn_scratch(w, h, quality) + Filter::run_bytes(w * h);
             println!("{size}: peak {} MiB, model {} MiB", peak >> 20, model >> 20);
             assert!(
                 (peak as f64 / model as f64 - 1.0).abs() < 0.1,

@@ -77,8 +77,11 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         }
         false => 0,
     };
-    oidn_scratch(pixels, settings.quality)
-        + Image::bytes_for(pixels, 10)
+    oidn_scratch(
+        scene.output.width.into(),
+        scene.output.height.into(),
+        settings.quality,
+    ) + Image::bytes_for(pixels, 10)
         + snapshot
         + pixels * 8
         + denoise.max(blend).max(history)
