@@ -175,6 +175,58 @@ fn noise_threshold_stops_at_the_denoised_estimate() {
 }
 
 #[test]
+fn denoised_rounds_leave_at_the_first_count_only_the_pixels_raw_rounds_leave() {
+    // Under a noise threshold the denoised rounds weigh a pixel by what more samples remove
+    // of the written error, which is the raw variance's where the denoised frame has no
+    // weight. A weight of the whole error once left pixels at 16 samples while others took
+    // 8192 (a stale denoise's error times the samples grew without bound where the denoised
+    // side held it). The pixels left at the first round's 16 samples must be, nearly all,
+    // those raw rounds leave there too (the sky, whose samples all agree), though other
+    // pixels reach the cap.
+    let d = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/bouncing_spheres_seed7.toml");
+    let render = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--width",
+            "160",
+            "--height",
+            "90",
+            "--noise-threshold",
+            "0.03",
+            "--max-samples",
+            "256",
+            "--passes",
+            "samples",
+            "--quiet",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        run_ok(d.path(), &args);
+    };
+    render("d.exr", &["--denoise"]);
+    render("r.exr", &[]);
+    let samples = |name: &str| exr_channels(&d.path().join(name))["samples"].clone();
+    let (denoised, raw) = (samples("d.exr"), samples("r.exr"));
+    let first = |s: &[f32], i: usize| s[i] <= 16.0;
+    let left: Vec<usize> = (0..denoised.len())
+        .filter(|&i| first(&denoised, i))
+        .collect();
+    let also_raw = left.iter().filter(|&&i| first(&raw, i)).count();
+    assert!(
+        denoised.iter().any(|&n| n >= 256.0),
+        "no pixel reached the cap"
+    );
+    assert!(
+        also_raw as f64 >= 0.9 * left.len() as f64,
+        "{} pixels left at 16 samples, {also_raw} of them also by raw rounds",
+        left.len()
+    );
+}
+
+#[test]
 fn noisy_takes_denoising_and_an_exr_output() {
     let d = tempfile::tempdir().unwrap();
     let scene = quick();
