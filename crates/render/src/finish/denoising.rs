@@ -44,6 +44,8 @@ struct FrameState {
     weights: Option<Vec<f64>>,
     /// What the frame's denoises so far tell of the next.
     schedule: DenoiseSchedule,
+    /// The film's samples at the last denoise.
+    denoised_at: Option<u64>,
     denoises: u32,
     seconds: f64,
 }
@@ -76,31 +78,48 @@ impl<'d> Denoising<'d> {
 
     /// Denoises `replicates` (the film's, [`Film::replicates`]), each replicate alone: the
     /// frame's new snapshot.
-    /// Returns the seconds it took.
-    fn denoise(&mut self, replicates: &Image) -> Result<f64, Error> {
+    /// `samples` is the film's count. Returns the seconds it took.
+    fn denoise(&mut self, replicates: &Image, samples: u64) -> Result<f64, Error> {
         let start = Instant::now();
         let da = self.filter.run(replicates, REPLICATE_A)?;
         let db = self.filter.run(replicates, REPLICATE_B)?;
         self.state.snapshot = Some(DenoiseTerms::new(replicates, &da, &db));
+        self.state.denoised_at = Some(samples);
         self.state.denoises += 1;
         let seconds = start.elapsed().as_secs_f64();
         self.state.seconds += seconds;
         Ok(seconds)
     }
 
-    /// The frame written from `film`: the one the last round judged if the film has taken no
-    /// sample since, else its last denoise blended with it as it is now, or, if it has none,
-    /// a denoise of it.
+    /// The frame written from `film`: a denoise of all its samples, blended with it. The
+    /// frame the last round judged where it is that (a frame stopped at its noise
+    /// threshold), else a denoise now (a frame that took its samples, or stopped at its
+    /// largest sample count after a round that did not denoise).
     pub(super) fn written(&mut self, film: &Film) -> Result<Written, Error> {
+        let samples = film.samples_taken();
+        if self.state.denoised_at == Some(samples)
+            && let Some(w) = self.state.written.take_if(|w| w.samples == samples)
+        {
+            return Ok(w);
+        }
+        let replicates = film.replicates();
+        self.denoise(&replicates, samples)?;
+        Ok(self.blend(&replicates, samples))
+    }
+
+    /// The frame written from `film` without another denoise where it has one: the one the
+    /// last round judged if the film has taken no sample since, else its last denoise
+    /// blended with the film as it is now. For a frame stopped at its time limit, which a
+    /// denoise after it would overrun (a second or two at 1920x1080 on the CPU).
+    pub(super) fn written_within_time(&mut self, film: &Film) -> Result<Written, Error> {
+        if self.state.snapshot.is_none() {
+            return self.written(film);
+        }
         let samples = film.samples_taken();
         if let Some(w) = self.state.written.take_if(|w| w.samples == samples) {
             return Ok(w);
         }
-        let replicates = film.replicates();
-        if self.state.snapshot.is_none() {
-            self.denoise(&replicates)?;
-        }
-        Ok(self.blend(&replicates, samples))
+        Ok(self.blend(&film.replicates(), samples))
     }
 
     /// The last denoise blended with the film's `replicates` now (of `samples` samples).
@@ -183,7 +202,7 @@ impl StopRule for Denoising<'_> {
                 return Ok(false);
             }
         }
-        let seconds = self.denoise(&replicates)?;
+        let seconds = self.denoise(&replicates, total)?;
         let fresh = self.blend(&replicates, total);
         let error = fresh.blend.relative_error;
         self.state

@@ -36,7 +36,9 @@ use history::History;
 use raytrace_core::error::Error;
 use raytrace_core::image::Image;
 use raytrace_core::pass::{Pass, PassSet};
-use raytrace_core::renderer::{Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopRule};
+use raytrace_core::renderer::{
+    Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopReason, StopRule,
+};
 use raytrace_core::scene::Scene;
 use raytrace_denoise::denoiser::{Denoiser, Filter, oidn_scratch};
 use raytrace_denoise::estimate;
@@ -179,7 +181,11 @@ impl<'d> Finishing<'d> {
         };
         let frame = result.frame;
         let start = Instant::now();
-        let written = d.written(&result.film).map_err(|e| e.in_frame(frame))?;
+        let written = match result.stats.stop {
+            StopReason::TimeLimit => d.written_within_time(&result.film),
+            _ => d.written(&result.film),
+        }
+        .map_err(|e| e.in_frame(frame))?;
         let blend = match &mut self.history {
             None => written.blend,
             Some(h) => h.combine(&result, &written.terms),
