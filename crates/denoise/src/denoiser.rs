@@ -184,7 +184,7 @@ pub fn oidn_scratch(width: u64, height: u64, quality: DenoiseQuality) -> u64 {
 /// The side multiple OIDN pads an image to: its U-Net pools four times, halving the image each
 /// time, so a side must divide by 16 (measured: a 1x65536 image takes the scratch of
 /// 16x65536).
-pub const OIDN_ALIGNMENT: u64 = 16;
+const OIDN_ALIGNMENT: u64 = 16;
 
 impl Filter<'_> {
     /// The bytes a run of a filter of `pixels` pixels holds beyond OIDN's scratch memory
