@@ -37,6 +37,13 @@ fn render(dir: &Path, out: &str, samples: u32, args: &[&str]) {
     run_ok(dir, &all);
 }
 
+/// Renders the scene file `scene` (in `dir`) to `out` with the extra `args`, quietly.
+fn render_file(dir: &Path, scene: &str, out: &str, args: &[&str]) {
+    let mut all = vec!["render", scene, "--quiet", "-o", out];
+    all.extend_from_slice(args);
+    run_ok(dir, &all);
+}
+
 /// The relative MSE of `image` against `reference` (RGB channels), as `converge` measures it.
 fn rel_mse(image: &HashMap<String, Vec<f32>>, reference: &HashMap<String, Vec<f32>>) -> f64 {
     let mut sum = 0.0;
@@ -368,11 +375,7 @@ fn on_a_still_shot_temporal_frames_take_their_history_and_come_closer_to_the_tru
          material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
     )
     .unwrap();
-    let render = |out: &str, extra: &[&str]| {
-        let mut args = vec!["render", "still.toml", "--quiet", "-o", out];
-        args.extend_from_slice(extra);
-        run_ok(d.path(), &args);
-    };
+    let render = |out: &str, extra: &[&str]| render_file(d.path(), "still.toml", out, extra);
     render("t_####.exr", &["--denoise", "--temporal"]);
     render("p_####.exr", &["--denoise"]);
     render("r_####.exr", &["--frames", "3", "--samples", "256"]);
@@ -410,11 +413,7 @@ fn a_fast_sphere_leaves_no_trail_under_temporal() {
          material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
     )
     .unwrap();
-    let render = |out: &str, extra: &[&str]| {
-        let mut args = vec!["render", "fast.toml", "--quiet", "-o", out];
-        args.extend_from_slice(extra);
-        run_ok(d.path(), &args);
-    };
+    let render = |out: &str, extra: &[&str]| render_file(d.path(), "fast.toml", out, extra);
     render("t_####.exr", &["--denoise", "--temporal"]);
     render("p_####.exr", &["--frames", "3", "--denoise"]);
     render("r_####.exr", &["--frames", "1,3", "--samples", "1024"]);
