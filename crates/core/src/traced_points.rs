@@ -17,7 +17,9 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bvh::{Boxes, BuildBox, BvhView, PACKET, PacketRay, Topology, TraversalStack};
+use crate::bvh::{
+    Boxes, BuildBox, BvhView, Leaves, PACKET, PacketLeaves, PacketRay, Topology, TraversalStack,
+};
 use crate::points::FramePoints;
 use crate::ray::Ray;
 use crate::shutter::Interval;
@@ -218,13 +220,11 @@ impl TracedPoints {
                 s,
                 t_max,
                 stack,
-                #[inline(always)]
-                |pos, t_max| {
-                    let q = &g.records[pos as usize];
-                    if q.id == skip {
-                        return None;
-                    }
-                    intersect(g.center(q, dt), q.radius.into(), ray, t_max)
+                RayTest {
+                    group: g,
+                    ray,
+                    dt,
+                    skip,
                 },
             );
             if let Some((t, pos)) = found {
@@ -249,16 +249,9 @@ impl TracedPoints {
     ) -> [Option<PointHit>; PACKET] {
         let mut best = [None; PACKET];
         for g in &self.groups {
-            let found = g.view().closest_hits(
-                lanes,
-                t_max,
-                stack,
-                #[inline(always)]
-                |r, pos, t_max| {
-                    let q = &g.records[pos as usize];
-                    intersect(g.center(q, dt[r]), q.radius.into(), &rays[r], t_max)
-                },
-            );
+            let found =
+                g.view()
+                    .closest_hits(lanes, t_max, stack, PacketTest { group: g, rays, dt });
             for r in 0..rays.len() {
                 if let Some((t, pos)) = found[r] {
                     t_max[r] = t;
@@ -270,7 +263,75 @@ impl TracedPoints {
     }
 }
 
+/// A group's points as one ray tests them, the sphere numbered `skip` left out.
+struct RayTest<'a> {
+    group: &'a Group,
+    ray: &'a Ray,
+    /// The ray's time after the shutter's opening.
+    dt: f64,
+    skip: u32,
+}
+
+impl Leaves for RayTest<'_> {
+    #[inline(always)]
+    fn hit(&mut self, pos: u32, t_max: f64) -> Option<f64> {
+        let g = self.group;
+        let q = &g.records[pos as usize];
+        if q.id == self.skip {
+            return None;
+        }
+        intersect(g.center(q, self.dt), q.radius.into(), self.ray, t_max)
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.group.prefetch(first, count);
+    }
+}
+
+/// A group's points as a packet of rays tests them, ray `r` at `dt[r]` after the opening.
+struct PacketTest<'a> {
+    group: &'a Group,
+    rays: &'a [Ray],
+    dt: &'a [f64; PACKET],
+}
+
+impl PacketLeaves for PacketTest<'_> {
+    #[inline(always)]
+    fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64> {
+        let g = self.group;
+        let q = &g.records[pos as usize];
+        intersect(
+            g.center(q, self.dt[r]),
+            q.radius.into(),
+            &self.rays[r],
+            t_max,
+        )
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.group.prefetch(first, count);
+    }
+}
+
 impl Group {
+    /// Asks for the records at `first..first + count` (a leaf a traversal has entered) to be
+    /// loaded into the cache. A frame's records are far larger than the cache, and leaves are
+    /// met in no order memory can predict: waiting for a leaf's records when it is tested
+    /// took a sixth of a render of ten million points.
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        #[cfg(target_arch = "x86_64")]
+        for pos in first..first + count {
+            if let Some(q) = self.records.get(pos as usize) {
+                safe_arch::prefetch_t0(q);
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (first, count);
+    }
+
     /// The hit at `t` on the record at `pos`, for a ray at `dt`.
     #[inline(always)]
     fn hit(&self, t: f64, pos: u32, dt: f64) -> PointHit {

@@ -534,7 +534,7 @@ impl World<'_> {
                 t_max,
                 stack,
                 #[inline(always)]
-                move |r, i, t_max| {
+                move |r: usize, i: u32, t_max: f64| {
                     let p = &self.animated[i as usize];
                     let ray = &lanes.0[r];
                     intersect(

@@ -113,8 +113,9 @@ impl Bvh {
         s: f64,
         t_max: f64,
         stack: &mut TraversalStack,
-        hit: impl FnMut(u32, f64) -> Option<f64>,
+        leaves: impl super::Leaves,
     ) -> Option<(f64, u32)> {
-        self.view().closest_hit(origin, dir, s, t_max, stack, hit)
+        self.view()
+            .closest_hit(origin, dir, s, t_max, stack, leaves)
     }
 }

@@ -36,6 +36,8 @@
 //! - `refit`: the nodes' boxes from the primitives', bottom up (after a build, or a refit);
 //! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
 //! - `stack`: [`TraversalStack`], the fixed stacks of a ray's and a packet's traversal;
+//! - `leaves`: [`Leaves`], what a traversal tests in its leaves, and a hint to load a leaf
+//!   early;
 //! - `traverse`: [`BvhView`], the nearest-hit traversal;
 //! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes;
@@ -47,6 +49,7 @@ mod build;
 mod export;
 mod hierarchy;
 mod lanes;
+mod leaves;
 mod links;
 mod packet;
 mod refit;
@@ -66,6 +69,8 @@ pub use export::{Child, ChildKind};
 pub(crate) use hierarchy::BYTES_PER_PRIMITIVE;
 pub use hierarchy::Bvh;
 pub(crate) use hierarchy::MOVING_NODE_BYTES;
+pub use leaves::Leaves;
+pub(crate) use leaves::PacketLeaves;
 pub(crate) use packet::PacketRay;
 pub(crate) use stack::PACKET;
 pub use stack::TraversalStack;

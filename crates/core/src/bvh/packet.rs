@@ -12,6 +12,7 @@
 use glam::DVec3;
 
 use super::lanes::{LANES, Lanes};
+use super::leaves::{OneOf, PacketLeaves};
 use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{PACKET, TraversalStack};
@@ -28,8 +29,8 @@ pub(crate) struct PacketRay {
 
 impl BvhView<'_> {
     /// [`BvhView::closest_hit`] for up to [`PACKET`] rays at once: per ray `r` of `rays`, the
-    /// closest primitive it hits at `t` in `(0, t_max[r])`, with `hit(r, pos, t_max)` the
-    /// primitive test of ray `r`. The same hits, distance for distance, as one call of
+    /// closest primitive it hits at `t` in `(0, t_max[r])`, with `leaves` the primitive test
+    /// of ray `r` ([`PacketLeaves::hit`]: a closure `hit(r, pos, t_max)`). The same hits, distance for distance, as one call of
     /// `closest_hit` per ray (a test checks); cheaper for rays that enter the same nodes.
     #[inline]
     pub(crate) fn closest_hits(
@@ -37,7 +38,7 @@ impl BvhView<'_> {
         rays: &[PacketRay],
         t_max: [f64; PACKET],
         stack: &mut TraversalStack,
-        hit: impl FnMut(usize, u32, f64) -> Option<f64>,
+        leaves: impl PacketLeaves,
     ) -> [Option<(f64, u32)>; PACKET] {
         assert!(rays.len() <= PACKET, "more rays than a packet holds");
         if self.topology.links.is_empty() {
@@ -47,21 +48,21 @@ impl BvhView<'_> {
         {
             use super::lanes::{Avx, Sse};
             match pulp::x86::V3::try_new() {
-                // The closure holds references and `hit` (keep it small: up to eight words
-                // in all are passed in registers, see `BvhView::closest_hit`); `hit` is moved
-                // in, not borrowed, which the compiler inlines where a borrow was not.
+                // The closure holds references and `leaves` (keep it small: up to eight words
+                // in all are passed in registers, see `BvhView::closest_hit`); `leaves` is
+                // moved in, not borrowed, which the compiler inlines where a borrow was not.
                 Some(v3) => {
                     let t_max = &t_max;
                     v3.vectorize(
                         #[inline(always)]
-                        move || self.closest_hits_on(Avx(v3), rays, *t_max, stack, hit),
+                        move || self.closest_hits_on(Avx(v3), rays, *t_max, stack, leaves),
                     )
                 }
-                None => self.closest_hits_on(Sse, rays, t_max, stack, hit),
+                None => self.closest_hits_on(Sse, rays, t_max, stack, leaves),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        self.closest_hits_on(super::lanes::Plain, rays, t_max, stack, hit)
+        self.closest_hits_on(super::lanes::Plain, rays, t_max, stack, leaves)
     }
 
     /// [`BvhView::closest_hits`] on the lanes of machine `m`.
@@ -78,7 +79,7 @@ impl BvhView<'_> {
         rays: &[PacketRay],
         mut t_max: [f64; PACKET],
         stack: &mut TraversalStack,
-        mut hit: impl FnMut(usize, u32, f64) -> Option<f64>,
+        mut leaves: impl PacketLeaves,
     ) -> [Option<(f64, u32)>; PACKET] {
         let mut best = [None; PACKET];
         // The rays the `f32` test takes; the rare others (an origin beyond 1e30, a direction
@@ -104,8 +105,10 @@ impl BvhView<'_> {
                         ray.s,
                         t_max[r],
                         stack,
-                        #[inline(always)]
-                        |pos, t| hit(r, pos, t),
+                        &mut OneOf {
+                            packet: &mut leaves,
+                            r,
+                        },
                     )
                 }
             }
@@ -140,13 +143,14 @@ impl BvhView<'_> {
             // Per child, the rays entering it (transposed: byte k of `by_child`).
             let by_child = transpose8(entered);
             let any = by_child_nonzero(by_child);
-            // Every node child entered is asked for now, as in a ray's traversal.
+            // Every child entered is asked for now, as in a ray's traversal.
             let mut bits = any;
             while bits != 0 {
                 let w = node.child[bits.trailing_zeros() as usize];
                 bits &= bits - 1;
-                if w >> COUNT_SHIFT == 0 {
-                    self.boxes.prefetch(m, w as usize);
+                match w >> COUNT_SHIFT {
+                    0 => self.boxes.prefetch(m, w as usize),
+                    count => leaves.prefetch(w & POSITION_MASK, count),
                 }
             }
             // The children entered, nearest first by their smallest entry distance; all but
@@ -216,7 +220,7 @@ impl BvhView<'_> {
                         let r = b.trailing_zeros() as usize;
                         b &= b - 1;
                         for pos in first..first + count {
-                            if let Some(t) = hit(r, pos, t_max[r]) {
+                            if let Some(t) = leaves.hit(r, pos, t_max[r]) {
                                 t_max[r] = t;
                                 limit[r] = widened_limit(t);
                                 best[r] = Some((t, pos));

@@ -356,7 +356,7 @@ fn every_kernel_visits_the_same_primitives() {
             ray.time,
             f64::INFINITY,
             stack,
-            |p, t_max| {
+            &mut |p: u32, t_max: f64| {
                 seen.push((p, t_max.to_bits()));
                 let (c, v, rad) = spheres[order[p as usize] as usize];
                 crate::sphere::intersect(c + v * ray.time, rad, ray, t_max)
@@ -446,7 +446,7 @@ fn packets_find_what_each_ray_finds_alone() {
                 s: ray.time,
             })
             .collect();
-        let got = view.closest_hits_on(m, &packet, t_max, stack, |lane, p, t| {
+        let got = view.closest_hits_on(m, &packet, t_max, stack, |lane: usize, p: u32, t: f64| {
             test(&rays[lane], p, t)
         });
         let mut hits = 0;
@@ -458,7 +458,7 @@ fn packets_find_what_each_ray_finds_alone() {
                 ray.time,
                 t_max[lane],
                 stack,
-                |p, t| test(ray, p, t),
+                &mut |p: u32, t: f64| test(ray, p, t),
             );
             assert_eq!(got[lane], alone, "lane {lane} of {}: {ray:?}", rays.len());
             hits += usize::from(alone.is_some());

@@ -5,6 +5,7 @@ use glam::DVec3;
 
 use super::boxes::Boxes;
 use super::lanes::{LANES, Lanes};
+use super::leaves::Leaves;
 use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
 use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
 use super::stack::TraversalStack;
@@ -30,12 +31,13 @@ impl<'a> BvhView<'a> {
     }
 
     /// Finds the closest primitive hit by the ray `origin + t dir`, `t` in `(0, t_max)`, at
-    /// shutter time `s` in [0, 1] (ignored by a still hierarchy). `hit(pos, t_max)` returns
-    /// the hit distance in `(0, t_max)` of the primitive at position `pos` of
-    /// [`Topology::order`], if any. Returns the distance and position.
+    /// shutter time `s` in [0, 1] (ignored by a still hierarchy). `leaves` tests the
+    /// primitives ([`Leaves::hit`]: a closure `hit(pos, t_max)` returning the hit distance in
+    /// `(0, t_max)` of the primitive at position `pos` of [`Topology::order`], if any).
+    /// Returns the distance and position.
     ///
     /// Runs on AVX where the processor has AVX2 and FMA (checked once per process), on SSE
-    /// otherwise (on other targets, plain arrays): the same hits, the same bits. `hit` is
+    /// otherwise (on other targets, plain arrays): the same hits, the same bits. `leaves` is
     /// compiled into each, inlined.
     #[inline]
     pub fn closest_hit(
@@ -45,7 +47,7 @@ impl<'a> BvhView<'a> {
         s: f64,
         t_max: f64,
         stack: &mut TraversalStack,
-        hit: impl FnMut(u32, f64) -> Option<f64>,
+        mut leaves: impl Leaves,
     ) -> Option<(f64, u32)> {
         // An empty hierarchy (a scene's static part, when everything moves) costs no
         // dispatch.
@@ -59,22 +61,34 @@ impl<'a> BvhView<'a> {
                 // The closure holds references (four words; `vectorize` passes up to eight in
                 // registers, larger closures through a copy in memory).
                 Some(v3) => {
-                    let mut hit = hit;
-                    let hit = &mut hit;
+                    let leaves = &mut leaves;
                     let ray = &(origin, dir, s, t_max);
                     v3.vectorize(
                         #[inline(always)]
                         move || {
                             let (origin, dir, s, t_max) = *ray;
-                            self.closest_hit_on(Avx(v3), origin, dir, s, t_max, stack, hit)
+                            // Moved out, not reborrowed: the closure is then `FnOnce` only,
+                            // whose call the compiler inlines into `vectorize`'s AVX code (an
+                            // `FnMut` closure's is a shim it left out of line, with the lanes'
+                            // intrinsics called one by one: 2.5 times slower).
+                            let leaves = leaves;
+                            self.closest_hit_on(Avx(v3), origin, dir, s, t_max, stack, leaves)
                         },
                     )
                 }
-                None => self.closest_hit_on(Sse, origin, dir, s, t_max, stack, hit),
+                None => self.closest_hit_on(Sse, origin, dir, s, t_max, stack, &mut leaves),
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        self.closest_hit_on(super::lanes::Plain, origin, dir, s, t_max, stack, hit)
+        self.closest_hit_on(
+            super::lanes::Plain,
+            origin,
+            dir,
+            s,
+            t_max,
+            stack,
+            &mut leaves,
+        )
     }
 
     /// [`BvhView::closest_hit`] on the lanes of machine `m`.
@@ -88,7 +102,7 @@ impl<'a> BvhView<'a> {
         s: f64,
         t_max: f64,
         stack: &mut TraversalStack,
-        hit: impl FnMut(u32, f64) -> Option<f64>,
+        leaves: &mut impl Leaves,
     ) -> Option<(f64, u32)> {
         // A ray with a NaN or infinite origin or direction has no meaningful hit, and its
         // slab tests give NaN everywhere (which the tests ignore): it would enter every box.
@@ -98,12 +112,12 @@ impl<'a> BvhView<'a> {
             return None;
         }
         match RayLanes::new(m, origin, dir, s) {
-            Some(ray) => self.traverse(stack, t_max, hit, &ray),
+            Some(ray) => self.traverse(stack, t_max, leaves, &ray),
             // Rare: an origin beyond 1e30 or a direction with a component below 1e-30 (an
             // axis-parallel ray), whose reciprocal has no `f32`.
             None => {
                 let ray = RayF64::new(origin, dir, s);
-                self.traverse(stack, t_max, hit, &ray)
+                self.traverse(stack, t_max, leaves, &ray)
             }
         }
     }
@@ -119,7 +133,7 @@ impl<'a> BvhView<'a> {
         &self,
         stack: &mut TraversalStack,
         mut t_max: f64,
-        mut hit: impl FnMut(u32, f64) -> Option<f64>,
+        leaves: &mut impl Leaves,
         ray: &impl SlabTest,
     ) -> Option<(f64, u32)> {
         let links = &self.topology.links[..];
@@ -130,15 +144,17 @@ impl<'a> BvhView<'a> {
         let mut node = links[0];
         loop {
             let (mask, near) = ray.test(self.boxes, current, limit, t_max);
-            // Every node child entered is asked for now: the loads of its boxes overlap this
-            // node's sorting and pushing and the descent, where a hierarchy far larger than
-            // the cache would wait for each (a fifth of a render of a million points).
+            // Every child entered is asked for now, a node's boxes or a leaf's primitives:
+            // the loads overlap this node's sorting and pushing and the descent, where a
+            // hierarchy far larger than the cache would wait for each (a fifth of a render
+            // of a million points).
             let mut bits = mask;
             while bits != 0 {
                 let w = node.child[bits.trailing_zeros() as usize];
                 bits &= bits - 1;
-                if w >> COUNT_SHIFT == 0 {
-                    ray.prefetch(self.boxes, w as usize);
+                match w >> COUNT_SHIFT {
+                    0 => ray.prefetch(self.boxes, w as usize),
+                    count => leaves.prefetch(w & POSITION_MASK, count),
                 }
             }
             // The child to go to next (a child slot, 0 for none): the nearest child hit. The
@@ -197,7 +213,7 @@ impl<'a> BvhView<'a> {
                 } else {
                     let first = next & POSITION_MASK;
                     for pos in first..first + count {
-                        if let Some(t) = hit(pos, t_max) {
+                        if let Some(t) = leaves.hit(pos, t_max) {
                             t_max = t;
                             limit = widened_limit(t);
                             best = Some((t, pos));
