@@ -41,7 +41,7 @@ use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 /// Default samples per pixel of each reference render.
 pub(crate) const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
 /// Default seeds a point is rendered with.
-const DEFAULT_SEEDS: u32 = 3;
+pub(crate) const DEFAULT_SEEDS: u32 = 3;
 /// Default most renders of a point for its time.
 const DEFAULT_REPEATS: u32 = 7;
 /// Fewest renders of a point for its time: a median and quartiles need a few.
@@ -320,7 +320,7 @@ fn series_kinds(args: &ConvergeArgs) -> Vec<SeriesKind> {
 }
 
 /// The `count` seeds a point is rendered with: the scene's, then seeds of their own.
-fn measured_seeds(scene: &Scene, count: usize) -> Vec<u64> {
+pub(crate) fn measured_seeds(scene: &Scene, count: usize) -> Vec<u64> {
     (0..count as u64)
         .map(|k| match k {
             0 => scene.render.seed,

@@ -9,7 +9,7 @@
 //! mean per pixel by their estimated errors, and states its own error
 //! (`denoise::estimate`, derived there).
 //!
-//! **History** (`History`, `--temporal`): the written frame is combined with the two frames
+//! **History** (`History`, measured by `converge --flicker`, set by no option): the written frame is combined with the two frames
 //! before it, carried to its pixels along the motion vectors, each weighed by its estimated
 //! error (`denoise::history`, derived there). A frame reads the frames before it as they were
 //! written before their own history, so it depends on those two frames' renders and no
@@ -45,10 +45,10 @@ use raytrace_denoise::estimate;
 use raytrace_denoise::reproject::{self, HISTORY};
 
 /// The passes the finishing stages of `scene` read from the film, written or not: with
-/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
+/// history, the depth, normal and motion that carry a pixel to earlier frames.
 pub fn passes_read(scene: &Scene) -> PassSet {
     match scene.output.denoise {
-        Some(d) if d.temporal => history_passes(),
+        Some(d) if d.history => history_passes(),
         _ => PassSet::EMPTY,
     }
 }
@@ -70,7 +70,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
     let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
-    let history = match settings.temporal {
+    let history = match settings.history {
         true => {
             estimate::written_bytes(pixels)
                 + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
@@ -109,7 +109,8 @@ pub struct Finishing<'d> {
 
 impl<'d> Finishing<'d> {
     /// The stages `scene` asks for: denoising by `denoiser` when `[output] denoise` is set
-    /// (`Devices::finishing` gives the run's denoiser then), history with `--temporal`.
+    /// (`Devices::finishing` gives the run's denoiser then), history when its denoise
+    /// settings ask for it (`DenoiseSettings::history`).
     pub fn new(scene: &Scene, denoiser: Option<&'d Denoiser>) -> Result<Finishing<'d>, Error> {
         let denoising = match (&scene.output.denoise, denoiser) {
             (Some(settings), Some(d)) => Some(Denoising::new(
@@ -123,7 +124,7 @@ impl<'d> Finishing<'d> {
         let history = scene
             .output
             .denoise
-            .filter(|d| d.temporal)
+            .filter(|d| d.history)
             .map(|_| History::default());
         Ok(Finishing {
             denoising,
