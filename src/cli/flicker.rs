@@ -10,9 +10,9 @@ use std::time::Instant;
 use raytrace_core::image::Image;
 
 use super::args::ConvergeArgs;
-use super::converge::{DEFAULT_SEEDS, measured_seeds};
 use super::frames::Selection;
 use super::progress::print_line;
+use super::seeds::{DEFAULT_SEEDS, measured_seeds};
 use raytrace_core::error::Error;
 use raytrace_core::metrics::{self, FlickerSum};
 use raytrace_core::renderer::{FrameJob, FrameResult, ShotTracer};
