@@ -42,16 +42,23 @@ pub(crate) enum Route {
     StableHistory,
     /// The same sample points every frame, each frame denoised alone: `--temporal`.
     Temporal,
+    /// New samples every frame, each frame's raw film pooled with the two frames' before it
+    /// where they agree, then denoised (`DenoiseSettings::accumulate`).
+    Accumulated,
 }
+
+/// How many routes [`Route::ALL`] lists.
+const ROUTES: usize = 6;
 
 impl Route {
     /// Every route, in the order the table lists them.
-    pub(crate) const ALL: [Route; 5] = [
+    pub(crate) const ALL: [Route; ROUTES] = [
         Route::Raw,
         Route::Denoised,
         Route::History,
         Route::StableHistory,
         Route::Temporal,
+        Route::Accumulated,
     ];
 
     /// The route's name in the table.
@@ -62,20 +69,27 @@ impl Route {
             Route::History => "history",
             Route::StableHistory => "stable + history",
             Route::Temporal => "--temporal",
+            Route::Accumulated => "accumulated",
         }
     }
 
     /// The sample pattern the route's frames are sampled with.
     fn pattern(self) -> SamplePattern {
         match self {
-            Route::Raw | Route::Denoised | Route::History => SamplePattern::PerFrame,
+            Route::Raw | Route::Denoised | Route::History | Route::Accumulated => {
+                SamplePattern::PerFrame
+            }
             Route::StableHistory | Route::Temporal => SamplePattern::Stable,
         }
     }
 
-    /// Whether a frame is combined with its history.
-    fn has_history(self) -> bool {
-        matches!(self, Route::History | Route::StableHistory)
+    /// Which of a seed's scenes ([`SeedRenders::scenes`]) gives the route's finishing.
+    fn finishing_scene(self) -> usize {
+        match self {
+            Route::History | Route::StableHistory => 2,
+            Route::Accumulated => 3,
+            _ => 0,
+        }
     }
 }
 
@@ -149,9 +163,13 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             if let Some(d) = &mut historic.output.denoise {
                 d.history = true;
             }
-            Ok([denoised, with(samples, seed, true)?, historic])
+            let mut pooled = denoised.clone();
+            if let Some(d) = &mut pooled.output.denoise {
+                d.accumulate = true;
+            }
+            Ok([denoised, with(samples, seed, true)?, historic, pooled])
         })
-        .collect::<Result<Vec<[Scene; 3]>, Error>>()?;
+        .collect::<Result<Vec<[Scene; 4]>, Error>>()?;
     let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
     let reference_seed = hash_words(&[base.render.seed, 0x0066_6c69_636b_6572]) >> 1;
@@ -178,8 +196,9 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
 struct SeedRenders<'a> {
     /// The scenes of [`SamplePattern::PerFrame`] (`--denoise`, which also finishes the
     /// routes without history), [`SamplePattern::Stable`] (`--temporal`) and the first with
-    /// history (which finishes the routes with history), in that order.
-    scenes: &'a [Scene; 3],
+    /// history (which finishes the routes with history) and the one with accumulation, in
+    /// that order.
+    scenes: &'a [Scene; 4],
     tracers: [Box<dyn ShotTracer>; 2],
     /// Each route's finishing, in [`Route::ALL`]'s order (`None` for the raw route).
     finishings: Vec<Option<Finishing<'a>>>,
@@ -194,16 +213,14 @@ fn slot(pattern: SamplePattern) -> usize {
 }
 
 impl<'a> SeedRenders<'a> {
-    fn open(scenes: &'a [Scene; 3], devices: &'a Devices) -> Result<SeedRenders<'a>, Error> {
+    fn open(scenes: &'a [Scene; 4], devices: &'a Devices) -> Result<SeedRenders<'a>, Error> {
         let finishings = Route::ALL
             .iter()
             .map(|route| match route {
                 Route::Raw => Ok(None),
                 // Which pattern a frame was sampled with is the route's; the stages are the
                 // scene's.
-                r => devices
-                    .finishing(&scenes[if r.has_history() { 2 } else { 0 }])
-                    .map(Some),
+                r => devices.finishing(&scenes[r.finishing_scene()]).map(Some),
             })
             .collect::<Result<_, Error>>()?;
         Ok(SeedRenders {
@@ -235,7 +252,7 @@ impl<'a> SeedRenders<'a> {
         &mut self,
         frame: u32,
         caches: &mut ShotPoints,
-    ) -> Result<([Image; 5], [f64; 5]), Error> {
+    ) -> Result<([Image; ROUTES], [f64; ROUTES]), Error> {
         for (r, route) in Route::ALL.into_iter().enumerate() {
             let Some(finishing) = &self.finishings[r] else {
                 continue;
@@ -256,7 +273,7 @@ impl<'a> SeedRenders<'a> {
             sampled.push((raw, start.elapsed().as_secs_f64()));
         }
         let mut images = Vec::with_capacity(Route::ALL.len());
-        let mut seconds = [0.0; 5];
+        let mut seconds = [0.0; ROUTES];
         for (r, route) in Route::ALL.into_iter().enumerate() {
             let (raw, sampling) = &sampled[slot(route.pattern())];
             let start = Instant::now();
@@ -281,16 +298,16 @@ struct Reference {
 
 /// One seed's frame as measured: every route's image, and its seconds.
 struct Measured {
-    images: [Image; 5],
-    seconds: [f64; 5],
+    images: [Image; ROUTES],
+    seconds: [f64; ROUTES],
 }
 
 /// One seed's sums over the frames measured so far, a route at a time.
 #[derive(Default)]
 struct Sums {
-    seconds: [f64; 5],
-    errors: [f64; 5],
-    flicker: [FlickerSum; 5],
+    seconds: [f64; ROUTES],
+    errors: [f64; ROUTES],
+    flicker: [FlickerSum; ROUTES],
 }
 
 impl Sums {
@@ -331,7 +348,7 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
 /// Renders the frames of `selection` with every seed's scenes, and measures every route
 /// against a reference of each frame rendered from `reference`.
 fn measure(
-    scenes: &[[Scene; 3]],
+    scenes: &[[Scene; 4]],
     reference: &Scene,
     selection: &Selection,
     devices: &Devices,

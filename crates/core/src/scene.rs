@@ -52,6 +52,10 @@ pub struct DenoiseSettings {
     /// a route of its own beside `--temporal`'s, which it did not improve at its cost
     /// (docs/denoising.md).
     pub history: bool,
+    /// Whether each frame's raw film is pooled with its two predecessors' raw films,
+    /// reprojected, before it is denoised (`raytrace_denoise::accumulate`). No option sets it:
+    /// `converge --flicker` measures it as a route of its own.
+    pub accumulate: bool,
     /// `--denoise-device`: where the denoiser runs.
     pub device: DenoiseDevice,
 }

@@ -5,6 +5,7 @@
 //! when a frame is first denoised, from beside the binary ([`library`]).
 #![forbid(unsafe_code)]
 
+pub mod accumulate;
 pub mod denoiser;
 pub mod device;
 pub mod estimate;

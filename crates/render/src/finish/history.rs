@@ -33,7 +33,7 @@ impl History {
                 self.frames.iter().find(|(j, _)| *j == k).map(|(_, f)| f)
             })
             .collect();
-        let reprojected = reproject(&current, &earlier);
+        let reprojected = reproject(&current, &earlier, &COLOUR.0);
         let blend = history::combine(written, &reprojected);
         self.frames
             .retain(|(k, _)| *k < frame && frame - *k < HISTORY as u32);

@@ -533,6 +533,7 @@ impl<'a> Validator<'a> {
                 quality: o.denoise_quality.map(|q| q.0).unwrap_or_default(),
                 temporal,
                 history: false,
+                accumulate: false,
                 device: self.overrides.denoise_device.unwrap_or_default(),
             }),
             path,
