@@ -33,11 +33,11 @@ use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicates, replicate_
 /// How many standard deviations of the difference of two raw means an earlier frame may be
 /// off a pixel's own and still be pooled with it: a normal difference passes 99.7% of the
 /// time, so history is seldom lost to noise alone (the usual three-sigma rule).
-pub const REJECT_SIGMAS: f64 = 3.0;
+pub(crate) const REJECT_SIGMAS: f64 = 3.0;
 
 /// The float channel of a held frame that carries its samples (the replicates image's
 /// [`SAMPLES`] are counts, which are not read between pixels).
-pub const TAKEN: &str = "taken";
+pub(crate) const TAKEN: &str = "taken";
 
 /// The channels a held frame carries to a later frame: its replicates and samples.
 const CARRIED: [&str; 7] = [
