@@ -20,6 +20,7 @@ use std::time::Instant;
 
 use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::progress::print_line;
+use super::seeds::{DEFAULT_SEEDS, measured_seeds};
 use crate::analysis::stats::{Figure, settled};
 use crate::analysis::{flip, plot};
 use raytrace_core::error::Error;
@@ -40,8 +41,6 @@ use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
 
 /// Default samples per pixel of each reference render.
 pub(crate) const DEFAULT_REFERENCE_SAMPLES: u32 = 4096;
-/// Default seeds a point is rendered with.
-const DEFAULT_SEEDS: u32 = 3;
 /// Default most renders of a point for its time.
 const DEFAULT_REPEATS: u32 = 7;
 /// Fewest renders of a point for its time: a median and quartiles need a few.
@@ -49,10 +48,9 @@ const MIN_RENDERS: usize = 3;
 /// A point's times have settled when their interquartile range is within this fraction of
 /// their median.
 const SETTLED: f64 = 0.05;
-/// Words hashed with the scene's seed into the references' seeds and the measured renders'
-/// further seeds, so that all are independent.
+/// A word hashed with the scene's seed into the references' seeds, so that they are
+/// independent of the measured renders' (`seeds::measured_seeds`).
 const REFERENCE_SEED: u64 = 0x7265_6665_7265_6e63;
-const MEASURED_SEED: u64 = 0x6d65_6173_7572_6564;
 
 /// Runs `raytrace converge`, printing its table to stdout unless `--quiet`.
 pub(crate) fn converge(args: &ConvergeArgs) -> Result<Report, Error> {
@@ -317,16 +315,6 @@ fn series_kinds(args: &ConvergeArgs) -> Vec<SeriesKind> {
         }
     }
     kinds
-}
-
-/// The `count` seeds a point is rendered with: the scene's, then seeds of their own.
-fn measured_seeds(scene: &Scene, count: usize) -> Vec<u64> {
-    (0..count as u64)
-        .map(|k| match k {
-            0 => scene.render.seed,
-            _ => hash_words(&[scene.render.seed, MEASURED_SEED, k]) >> 1,
-        })
-        .collect()
 }
 
 /// Measures the points of `plan`, a step at a time (each series' next setting), printing a

@@ -1,8 +1,9 @@
 //! `converge --flicker FRAMES`: how far a sequence is from the truth and how much it
-//! flickers, rendered raw, denoised frame by frame, and denoised with `--temporal`, against a
-//! reference of every frame (`metrics::flicker`), every render on the scene's
-//! device (`--device`). Each frame is sampled once, keeping what `--temporal` reads, and
-//! finished three ways: raw, denoised, and denoised with its history.
+//! flickers, by each route a clip can be finished by ([`Route`]), against a reference of
+//! every frame (`metrics::flicker`), every render on the scene's device (`--device`). Each
+//! frame is sampled once with each sample pattern, keeping what history reads, and finished
+//! by every route of that pattern; with `--seeds K` the whole is repeated with K seeds (the
+//! references are shared) and every figure is given as its mean and its spread over them.
 
 use std::time::Instant;
 
@@ -11,10 +12,12 @@ use raytrace_core::image::Image;
 use super::args::ConvergeArgs;
 use super::frames::Selection;
 use super::progress::print_line;
+use super::seeds::{DEFAULT_SEEDS, measured_seeds};
 use raytrace_core::error::Error;
 use raytrace_core::metrics::{self, FlickerSum};
-use raytrace_core::renderer::{FrameJob, ShotTracer};
+use raytrace_core::renderer::{FrameJob, FrameResult, ShotTracer};
 use raytrace_core::rng::hash_words;
+use raytrace_core::sampler::SamplePattern;
 use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Devices, supported};
 use raytrace_render::finish::Finishing;
@@ -24,22 +27,109 @@ use raytrace_scene::scene_file::{Overrides, SceneSource};
 /// Samples of each frame's reference, unless --reference-samples says otherwise.
 const DEFAULT_REFERENCE_SAMPLES: u32 = 1024;
 
-/// One variant's figures over the sequence.
+/// A way of making a clip's frames: a sample pattern and the stages that finish a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Route {
+    /// New samples every frame, not denoised.
+    Raw,
+    /// New samples every frame, each frame denoised alone (`--denoise`).
+    Denoised,
+    /// New samples every frame, denoised and combined with the two frames before it
+    /// (`DenoiseSettings::history`).
+    History,
+    /// The same sample points every frame, denoised and combined with the two frames before
+    /// it.
+    StableHistory,
+    /// The same sample points every frame, each frame denoised alone: `--temporal`.
+    Temporal,
+    /// New samples every frame, each frame's raw film pooled with the two frames' before it
+    /// where they agree, then denoised (`DenoiseSettings::accumulate`).
+    Accumulated,
+}
+
+/// How many routes [`Route::ALL`] lists.
+const ROUTES: usize = 6;
+
+impl Route {
+    /// Every route, in the order the table lists them.
+    pub(crate) const ALL: [Route; ROUTES] = [
+        Route::Raw,
+        Route::Denoised,
+        Route::History,
+        Route::StableHistory,
+        Route::Temporal,
+        Route::Accumulated,
+    ];
+
+    /// The route's name in the table.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Route::Raw => "raw",
+            Route::Denoised => "denoised",
+            Route::History => "history",
+            Route::StableHistory => "stable + history",
+            Route::Temporal => "--temporal",
+            Route::Accumulated => "accumulated",
+        }
+    }
+
+    /// The sample pattern the route's frames are sampled with.
+    fn pattern(self) -> SamplePattern {
+        match self {
+            Route::Raw | Route::Denoised | Route::History | Route::Accumulated => {
+                SamplePattern::PerFrame
+            }
+            Route::StableHistory | Route::Temporal => SamplePattern::Stable,
+        }
+    }
+
+    /// Which of a seed's scenes ([`SeedRenders::scenes`]) gives the route's finishing.
+    fn finishing_scene(self) -> usize {
+        match self {
+            Route::History | Route::StableHistory => 2,
+            Route::Accumulated => 3,
+            _ => 0,
+        }
+    }
+}
+
+/// One route's figures over the sequence: means over the seeds, and their spread.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Variant {
-    pub(crate) name: &'static str,
+    pub(crate) route: Route,
     /// The mean over the frames of the true relative error (less the reference's own).
-    pub(crate) error: f64,
+    pub(crate) error: Spread,
     /// The flicker of the frames: [`FlickerSum::flicker`](raytrace_core::metrics::FlickerSum::flicker).
-    pub(crate) flicker: f64,
-    /// Wall seconds a frame, on average.
+    pub(crate) flicker: Spread,
+    /// Wall seconds a frame, on average: its sampling and its finishing.
     pub(crate) seconds: f64,
 }
 
+/// A figure's mean over the seeds and its sample standard deviation (0 with one seed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Spread {
+    pub(crate) mean: f64,
+    pub(crate) sd: f64,
+}
+
+impl Spread {
+    fn of(values: impl Iterator<Item = f64> + Clone) -> Spread {
+        let n = values.clone().count() as f64;
+        let mean = values.clone().sum::<f64>() / n;
+        let squares: f64 = values.map(|v| (v - mean).powi(2)).sum();
+        let sd = if n > 1.0 {
+            (squares / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        };
+        Spread { mean, sd }
+    }
+}
+
 /// Measures the frames `spec` of the scene of `args` (see the module's notes), printing the
-/// table unless --quiet; returns raw, denoised and temporal, in that order. Frames are taken
-/// one at a time, their reference rendered beside them, so that a sequence of any length is
-/// measured holding two frames.
+/// table unless --quiet; returns the routes' figures in [`Route::ALL`]'s order. Frames are
+/// taken one at a time, their reference rendered beside them, so that a sequence of any
+/// length is measured holding two frames a seed.
 pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Variant>, Error> {
     let source = SceneSource::read(&args.scene)?;
     let overrides = args.scene_args.overrides();
@@ -53,21 +143,37 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         ));
     }
     let samples = args.max_samples.unwrap_or(base.render.samples);
-    let with = |samples: u32, seed: Option<u64>, temporal: Option<bool>| {
+    let with = |samples: u32, seed: u64, temporal: bool| {
         source.scene(&Overrides {
             samples: Some(samples),
-            seed: seed.or(overrides.seed),
+            seed: Some(seed),
             denoise: Some(true),
-            temporal,
+            temporal: Some(temporal),
             ..overrides.clone()
         })
     };
-    let scene = with(samples, None, None)?;
-    let temporal = with(samples, None, Some(true))?;
+    let seeds = measured_seeds(&base, args.seeds.unwrap_or(DEFAULT_SEEDS) as usize);
+    // Per seed, the scene of each pattern, per frame (--denoise) and stable (--temporal),
+    // and the first with history.
+    let scenes = seeds
+        .iter()
+        .map(|&seed| {
+            let denoised = with(samples, seed, false)?;
+            let mut historic = denoised.clone();
+            if let Some(d) = &mut historic.output.denoise {
+                d.history = true;
+            }
+            let mut pooled = denoised.clone();
+            if let Some(d) = &mut pooled.output.denoise {
+                d.accumulate = true;
+            }
+            Ok([denoised, with(samples, seed, true)?, historic, pooled])
+        })
+        .collect::<Result<Vec<[Scene; 4]>, Error>>()?;
     let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
-    let reference_seed = hash_words(&[scene.render.seed, 0x0066_6c69_636b_6572]) >> 1;
-    let reference = with(reference_samples, Some(reference_seed), None)?;
+    let reference_seed = hash_words(&[base.render.seed, 0x0066_6c69_636b_6572]) >> 1;
+    let reference = with(reference_samples, reference_seed, false)?;
     let say = |s: &str| {
         if !args.scene_args.quiet {
             print_line(s);
@@ -75,205 +181,231 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     };
     super::threads::thread_pool(args.scene_args.threads)?.install(|| {
         // The scene's device and the denoiser, opened before anything is measured.
-        let devices = Devices::for_scenes([&scene, &temporal, &reference])?;
+        let devices = Devices::for_scenes(scenes.iter().flatten().chain([&reference]))?;
         say(&format!(
-            "flicker: frames {spec} at {samples} samples a pixel, against references of {reference_samples}"
+            "flicker: frames {spec} at {samples} samples a pixel, {} seed{}, against references of {reference_samples}",
+            seeds.len(),
+            if seeds.len() == 1 { "" } else { "s" }
         ));
-        let scenes = Scenes {
-            denoised: &scene,
-            temporal: &temporal,
-            reference: &reference,
-        };
-        measure(scenes, &selection, &devices, &say)
+        measure(&scenes, &reference, &selection, &devices, &say)
     })
 }
 
-/// The scenes a flicker measurement renders.
-struct Scenes<'a> {
-    /// Denoised frame by frame.
-    denoised: &'a Scene,
-    /// The same with `--temporal`: every frame is sampled from it, keeping what history reads.
-    temporal: &'a Scene,
-    /// Many samples and a seed of its own.
-    reference: &'a Scene,
+/// One seed's renders: a tracer and a scene for each sample pattern, and each route's
+/// finishing.
+struct SeedRenders<'a> {
+    /// The scenes of [`SamplePattern::PerFrame`] (`--denoise`, which also finishes the
+    /// routes without history), [`SamplePattern::Stable`] (`--temporal`) and the first with
+    /// history (which finishes the routes with history) and the one with accumulation, in
+    /// that order.
+    scenes: &'a [Scene; 4],
+    tracers: [Box<dyn ShotTracer>; 2],
+    /// Each route's finishing, in [`Route::ALL`]'s order (`None` for the raw route).
+    finishings: Vec<Option<Finishing<'a>>>,
 }
 
-/// One frame as measured: its reference, the reference's variances and its own error, and
-/// the three finishes with the seconds each took.
-struct Measured {
-    reference: Image,
-    variances: Image,
-    /// The reference's own relative MSE, which the finishes' errors leave out.
-    own: f64,
-    images: [Image; 3],
-    seconds: [f64; 3],
+/// Index of a pattern's scene and tracer.
+fn slot(pattern: SamplePattern) -> usize {
+    match pattern {
+        SamplePattern::PerFrame => 0,
+        SamplePattern::Stable => 1,
+    }
 }
 
-/// What a flicker measurement renders with: the scenes on their device, the two ways the
-/// sampled frames are finished, and the sequence's point caches, surveyed.
-struct Renders<'a> {
-    scenes: Scenes<'a>,
-    /// The shot of `scenes.temporal`, which every frame is sampled from.
-    tracer: Box<dyn ShotTracer>,
-    /// The shot of `scenes.reference`.
-    reference_tracer: Box<dyn ShotTracer>,
-    /// As `scenes.denoised` finishes a frame.
-    denoised: Finishing<'a>,
-    /// As `scenes.temporal` finishes a frame, with its history.
-    history: Finishing<'a>,
-    caches: ShotPoints,
-}
-
-impl<'a> Renders<'a> {
-    /// The renders of `scenes` on `devices`, with the point caches of the frames of
-    /// `selection` surveyed.
-    fn open(
-        scenes: Scenes<'a>,
-        selection: &Selection,
-        devices: &'a Devices,
-    ) -> Result<Renders<'a>, Error> {
-        let tracer = devices.shot(scenes.temporal)?;
-        let reference_tracer = devices.shot(scenes.reference)?;
-        let denoised = devices.finishing(scenes.denoised)?;
-        let history = devices.finishing(scenes.temporal)?;
-        let frames = || point_cache::Frames {
-            first: selection.first().expect("two frames or more"),
-            last: selection.last().expect("two frames or more"),
-            each: Box::new(selection.iter()),
-        };
-        let caches = ShotPoints::survey(
-            scenes.temporal,
-            Some(frames()),
-            Some(frames()),
-            point_cache::SurveyDepth::Files,
-        )?;
-        Ok(Renders {
+impl<'a> SeedRenders<'a> {
+    fn open(scenes: &'a [Scene; 4], devices: &'a Devices) -> Result<SeedRenders<'a>, Error> {
+        let finishings = Route::ALL
+            .iter()
+            .map(|route| match route {
+                Route::Raw => Ok(None),
+                // Which pattern a frame was sampled with is the route's; the stages are the
+                // scene's.
+                r => devices.finishing(&scenes[r.finishing_scene()]).map(Some),
+            })
+            .collect::<Result<_, Error>>()?;
+        Ok(SeedRenders {
             scenes,
-            tracer,
-            reference_tracer,
-            denoised,
-            history,
-            caches,
+            tracers: [devices.shot(&scenes[0])?, devices.shot(&scenes[1])?],
+            finishings,
         })
     }
 
-    /// `frame` sampled once, finished raw, denoised and with its history, and its reference
-    /// (first, the frames before it that its history reads and has not: rendered, not
-    /// measured).
-    fn measure_frame(&mut self, frame: u32) -> Result<Measured, Error> {
-        let Scenes {
-            temporal,
-            reference,
-            ..
-        } = self.scenes;
-        for earlier in self.history.needs(frame) {
-            let points = self.caches.read_frame(temporal, earlier)?;
-            self.history.render(
-                FrameJob::new(temporal, earlier).points(&points),
-                self.tracer.as_ref(),
-            )?;
+    /// `frame` sampled with `pattern`, keeping what history reads.
+    fn sample(
+        &self,
+        pattern: SamplePattern,
+        frame: u32,
+        points: &raytrace_core::points::FramePoints,
+    ) -> Result<FrameResult, Error> {
+        let k = slot(pattern);
+        let read = raytrace_render::finish::passes_read(&self.scenes[2]);
+        FrameJob::new(&self.scenes[k], frame)
+            .points(points)
+            .reading(read)
+            .sample(self.tracers[k].as_ref())
+    }
+
+    /// `frame` sampled once with each pattern and finished by every route, with each
+    /// route's seconds (first, the frames before it that a route's history reads and has
+    /// not: rendered, not measured).
+    fn measure(
+        &mut self,
+        frame: u32,
+        caches: &mut ShotPoints,
+    ) -> Result<([Image; ROUTES], [f64; ROUTES]), Error> {
+        for (r, route) in Route::ALL.into_iter().enumerate() {
+            let Some(finishing) = &self.finishings[r] else {
+                continue;
+            };
+            for earlier in finishing.needs(frame) {
+                let points = caches.read_frame(&self.scenes[1], earlier)?;
+                let raw = self.sample(route.pattern(), earlier, &points)?;
+                if let Some(f) = &mut self.finishings[r] {
+                    f.finish(raw)?;
+                }
+            }
         }
-        let points = self.caches.read_frame(temporal, frame)?;
-        // Sampled and not finished: a reference is the raw frame.
-        let r = FrameJob::new(reference, frame)
-            .points(&points)
-            .sample(self.reference_tracer.as_ref())?;
-        let start = Instant::now();
-        let raw = FrameJob::new(temporal, frame)
-            .points(&points)
-            .reading(self.history.passes_read())
-            .sample(self.tracer.as_ref())?;
-        let sampled = start.elapsed().as_secs_f64();
-        let mut seconds = [sampled, 0.0, 0.0];
-        let mut finished = Vec::with_capacity(2);
-        for finishing in [&mut self.denoised, &mut self.history] {
+        let points = caches.read_frame(&self.scenes[1], frame)?;
+        let mut sampled = Vec::with_capacity(2);
+        for pattern in [SamplePattern::PerFrame, SamplePattern::Stable] {
             let start = Instant::now();
-            let result = finishing.finish(raw.clone())?;
-            seconds[finished.len() + 1] = sampled + start.elapsed().as_secs_f64();
-            finished.push(result.image);
+            let raw = self.sample(pattern, frame, &points)?;
+            sampled.push((raw, start.elapsed().as_secs_f64()));
         }
-        let [denoised_image, history_image]: [Image; 2] =
-            finished.try_into().expect("two finishes");
-        Ok(Measured {
-            own: r.stats.relative_error.powi(2),
-            variances: r.film.variances(),
-            reference: r.image,
-            images: [raw.image, denoised_image, history_image],
-            seconds,
-        })
+        let mut images = Vec::with_capacity(Route::ALL.len());
+        let mut seconds = [0.0; ROUTES];
+        for (r, route) in Route::ALL.into_iter().enumerate() {
+            let (raw, sampling) = &sampled[slot(route.pattern())];
+            let start = Instant::now();
+            let image = match &mut self.finishings[r] {
+                None => raw.image.clone(),
+                Some(f) => f.finish(raw.clone())?.image,
+            };
+            seconds[r] = sampling + start.elapsed().as_secs_f64();
+            images.push(image);
+        }
+        Ok((images.try_into().expect("an image a route"), seconds))
     }
 }
 
-/// The three finishes' sums over the frames measured so far, raw, denoised and temporal in
-/// that order.
+/// A frame's reference: its colour, its pixels' variances and its own relative MSE, which
+/// the routes' errors leave out.
+struct Reference {
+    image: Image,
+    variances: Image,
+    own: f64,
+}
+
+/// One seed's frame as measured: every route's image, and its seconds.
+struct Measured {
+    images: [Image; ROUTES],
+    seconds: [f64; ROUTES],
+}
+
+/// One seed's sums over the frames measured so far, a route at a time.
 #[derive(Default)]
 struct Sums {
-    seconds: [f64; 3],
-    errors: [f64; 3],
-    flicker: [FlickerSum; 3],
+    seconds: [f64; ROUTES],
+    errors: [f64; ROUTES],
+    flicker: [FlickerSum; ROUTES],
 }
 
 impl Sums {
-    /// Adds frame `now`: its seconds, its true errors (less its reference's own), and its
-    /// flicker from the frame measured before it, `last`.
-    fn add(&mut self, now: &Measured, last: Option<&Measured>) {
-        for k in 0..3 {
-            self.seconds[k] += now.seconds[k];
-            self.errors[k] += (metrics::rel_mse(&now.images[k], &now.reference) - now.own)
+    /// Adds frame `now` of reference `reference`: its seconds, its true errors (less the
+    /// reference's own), and its flicker from the frame measured before it, `last`.
+    fn add(&mut self, now: (&Measured, &Reference), last: Option<(&Measured, &Reference)>) {
+        let (m, r) = now;
+        for k in 0..Route::ALL.len() {
+            self.seconds[k] += m.seconds[k];
+            self.errors[k] += (metrics::rel_mse(&m.images[k], &r.image) - r.own)
                 .max(0.0)
                 .sqrt();
-            if let Some(before) = last {
+            if let Some((bm, br)) = last {
                 self.flicker[k].add(
-                    (&before.images[k], &before.reference, &before.variances),
-                    (&now.images[k], &now.reference, &now.variances),
+                    (&bm.images[k], &br.image, &br.variances),
+                    (&m.images[k], &r.image, &r.variances),
                 );
             }
         }
     }
-
-    /// The variants' figures: the means over `frames` frames, and the flicker.
-    fn variants(&self, frames: u64) -> Vec<Variant> {
-        let names = ["raw", "denoised", "denoised --temporal"];
-        let n = frames as f64;
-        (0..3)
-            .map(|k| Variant {
-                name: names[k],
-                error: self.errors[k] / n,
-                flicker: self.flicker[k].flicker(),
-                seconds: self.seconds[k] / n,
-            })
-            .collect()
-    }
 }
 
-/// Renders the frames of `selection`, each sampled once from `scenes.temporal`, and measures
-/// them finished raw, as `scenes.denoised` finishes them and as `scenes.temporal` does,
-/// against a reference of each.
+/// The routes' figures from every seed's sums over `frames` frames.
+fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
+    let n = frames as f64;
+    Route::ALL
+        .into_iter()
+        .enumerate()
+        .map(|(k, route)| Variant {
+            route,
+            error: Spread::of(sums.iter().map(move |s| s.errors[k] / n)),
+            flicker: Spread::of(sums.iter().map(move |s| s.flicker[k].flicker())),
+            seconds: sums.iter().map(|s| s.seconds[k] / n).sum::<f64>() / sums.len() as f64,
+        })
+        .collect()
+}
+
+/// Renders the frames of `selection` with every seed's scenes, and measures every route
+/// against a reference of each frame rendered from `reference`.
 fn measure(
-    scenes: Scenes<'_>,
+    scenes: &[[Scene; 4]],
+    reference: &Scene,
     selection: &Selection,
     devices: &Devices,
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
-    let mut renders = Renders::open(scenes, selection, devices)?;
-    let mut sums = Sums::default();
-    let mut last: Option<Measured> = None;
+    let frames = || point_cache::Frames {
+        first: selection.first().expect("two frames or more"),
+        last: selection.last().expect("two frames or more"),
+        each: Box::new(selection.iter()),
+    };
+    let mut caches = ShotPoints::survey(
+        &scenes[0][1],
+        Some(frames()),
+        Some(frames()),
+        point_cache::SurveyDepth::Files,
+    )?;
+    let reference_tracer = devices.shot(reference)?;
+    let mut renders = scenes
+        .iter()
+        .map(|s| SeedRenders::open(s, devices))
+        .collect::<Result<Vec<_>, Error>>()?;
+    let mut sums: Vec<Sums> = scenes.iter().map(|_| Sums::default()).collect();
+    let mut last: Option<(Vec<Measured>, Reference)> = None;
     for frame in selection.iter() {
-        let now = renders.measure_frame(frame)?;
-        sums.add(&now, last.as_ref());
-        last = Some(now);
+        let points = caches.read_frame(reference, frame)?;
+        // Sampled and not finished: a reference is the raw frame.
+        let r = FrameJob::new(reference, frame)
+            .points(&points)
+            .sample(reference_tracer.as_ref())?;
+        drop(points);
+        let now_ref = Reference {
+            own: r.stats.relative_error.powi(2),
+            variances: r.film.variances(),
+            image: r.image,
+        };
+        let mut now = Vec::with_capacity(renders.len());
+        for (s, seed) in renders.iter_mut().enumerate() {
+            let (images, seconds) = seed.measure(frame, &mut caches)?;
+            let m = Measured { images, seconds };
+            sums[s].add((&m, &now_ref), last.as_ref().map(|(ms, lr)| (&ms[s], lr)));
+            now.push(m);
+        }
+        last = Some((now, now_ref));
     }
     say(&format!(
-        "{:<22} {:>11} {:>9} {:>14}",
-        "", "rel. error", "flicker", "seconds/frame"
+        "{:<16} {:>19} {:>19} {:>14}",
+        "", "rel. error (sd)", "flicker (sd)", "seconds/frame"
     ));
-    let variants = sums.variants(selection.len());
+    let variants = variants(&sums, selection.len());
     for v in &variants {
         say(&format!(
-            "{:<22} {:>10.3}% {:>8.3}% {:>14.3}",
-            v.name,
-            100.0 * v.error,
-            100.0 * v.flicker,
+            "{:<16} {:>9.3}% ({:.3}%) {:>9.3}% ({:.3}%) {:>14.3}",
+            v.route.name(),
+            100.0 * v.error.mean,
+            100.0 * v.error.sd,
+            100.0 * v.flicker.mean,
+            100.0 * v.flicker.sd,
             v.seconds
         ));
     }

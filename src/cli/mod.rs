@@ -21,6 +21,7 @@ mod jobs;
 mod preview;
 mod progress;
 mod render;
+mod seeds;
 mod small;
 mod threads;
 

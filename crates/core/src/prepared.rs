@@ -6,7 +6,7 @@
 
 use crate::camera::View;
 use crate::points::FramePoints;
-use crate::sampler::SamplerKind;
+use crate::sampler::{SamplePattern, SamplerKind};
 use crate::scene::Scene;
 use crate::shutter::{FrameTimes, Interval};
 use crate::world::{StaticGeometry, World};
@@ -33,8 +33,8 @@ pub struct PreparedFrame<'a> {
     /// Whether a sample draws a lens position: the lens has an aperture (which does not
     /// change over time, so any instant's view answers).
     pub has_lens: bool,
-    /// The sampler's kind and its key for the scene's seed and this frame
-    /// ([`SamplerKind::key`]).
+    /// The sampler's kind and its key for the scene's seed and this frame, under the
+    /// scene's sample pattern ([`SamplePattern::key`]).
     pub sampler: SamplerKind,
     pub key: u64,
 }
@@ -68,7 +68,7 @@ impl<'a> PreparedFrame<'a> {
             camera_moves,
             fixed_view,
             sampler,
-            key: sampler.key(scene.render.seed, frame),
+            key: SamplePattern::of(scene).key(sampler, scene.render.seed, frame),
         }
     }
 

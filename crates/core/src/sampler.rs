@@ -145,10 +145,16 @@ impl SamplerKind {
     /// from: the one place it is made, for the CPU's samplers ([`IndependentSampler::from_key`],
     /// [`SobolSampler::from_key`]) and the GPU's, which draw the same numbers.
     pub fn key(self, seed: u64, frame: u32) -> u64 {
+        self.key_of_words(seed, frame as u64)
+    }
+
+    /// The key of [`key`](Self::key) with `frame_word` in the frame's place
+    /// ([`SamplePattern::key`] gives a stable pattern's).
+    fn key_of_words(self, seed: u64, frame_word: u64) -> u64 {
         match self {
-            SamplerKind::Independent => hash_words(&[seed, frame as u64]),
+            SamplerKind::Independent => hash_words(&[seed, frame_word]),
             // Distinct from the independent sampler's key, so the two never share numbers.
-            SamplerKind::Sobol => hash_words(&[seed, frame as u64, 0x0005_0b01]),
+            SamplerKind::Sobol => hash_words(&[seed, frame_word, 0x0005_0b01]),
         }
     }
 }
@@ -172,6 +178,47 @@ impl FromStr for SamplerKind {
                     names.join(", ")
                 )
             })
+    }
+}
+
+/// Whether a frame's sample points change from frame to frame.
+///
+/// With [`SamplePattern::Stable`] every frame of a shot draws the same numbers at the same
+/// (pixel, sample index): randomness still derives from the seed, the pixel and the sample,
+/// deterministically, but not from the frame. A region that holds still then carries the same
+/// noise in every frame, and the denoiser sees the same input there, so it does not flicker
+/// (the advice of Blender's studio for denoised clips); where things move, the pattern stays
+/// fixed to the screen. `--temporal` takes it ([`SamplePattern::of`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SamplePattern {
+    /// New sample points every frame: the frame is one of the sampler's key's words.
+    #[default]
+    PerFrame,
+    /// The same sample points every frame.
+    Stable,
+}
+
+/// The word a stable pattern's key takes in place of the frame: no frame's number, so a
+/// stable pattern shares no numbers with any frame of a per-frame one (frames are `u32`).
+const STABLE_WORD: u64 = 1 << 40;
+
+impl SamplePattern {
+    /// The pattern a frame of `scene` samples with: stable with `--temporal`, per frame
+    /// otherwise (the one place that decides it).
+    pub fn of(scene: &crate::scene::Scene) -> SamplePattern {
+        match scene.output.denoise {
+            Some(d) if d.temporal => SamplePattern::Stable,
+            _ => SamplePattern::PerFrame,
+        }
+    }
+
+    /// The key `kind` starts every hash of frame `frame` of a render with seed `seed` from,
+    /// under this pattern: [`SamplerKind::key`] of the frame, or of no frame when stable.
+    pub fn key(self, kind: SamplerKind, seed: u64, frame: u32) -> u64 {
+        match self {
+            SamplePattern::PerFrame => kind.key(seed, frame),
+            SamplePattern::Stable => kind.key_of_words(seed, STABLE_WORD),
+        }
     }
 }
 
@@ -838,6 +885,30 @@ mod tests {
                 direct.reverse_bits().to_f32_norm()
             );
         }
+    }
+
+    #[test]
+    fn a_stable_pattern_draws_the_same_numbers_every_frame() {
+        // Per frame: the key is the sampler's own, so frames without --temporal are the bytes
+        // they were, and frames differ. Stable: one key for every frame, none of a per-frame
+        // one, and the numbers at a (pixel, sample) are the same in any frame.
+        for kind in SamplerKind::ALL {
+            let per_frame = |f| SamplePattern::PerFrame.key(kind, 7, f);
+            let stable = |f| SamplePattern::Stable.key(kind, 7, f);
+            assert_eq!(per_frame(3), kind.key(7, 3));
+            assert_ne!(per_frame(3), per_frame(4));
+            assert_eq!(stable(1), stable(u32::MAX));
+            assert_ne!(stable(1), SamplePattern::Stable.key(kind, 8, 1));
+            assert!((0..1000).all(|f| per_frame(f) != stable(f)));
+        }
+        let draw_in = |key| {
+            let mut s = SobolSampler::from_key(key);
+            draw(&mut s, 5, 6, 9)
+        };
+        let stable = |f| SamplePattern::Stable.key(SamplerKind::Sobol, 7, f);
+        assert_eq!(draw_in(stable(1)), draw_in(stable(2)));
+        let per_frame = |f| SamplePattern::PerFrame.key(SamplerKind::Sobol, 7, f);
+        assert_ne!(draw_in(per_frame(1)), draw_in(per_frame(2)));
     }
 
     #[test]

@@ -44,8 +44,18 @@ pub struct OutputSettings {
 pub struct DenoiseSettings {
     /// `[output] denoise_quality` (or `--denoise-quality`).
     pub quality: DenoiseQuality,
-    /// `--temporal`: keep the denoised sequence from flickering.
+    /// `--temporal`: keep the denoised sequence from flickering, by sampling every frame
+    /// with the same sample points (`sampler::SamplePattern::Stable`).
     pub temporal: bool,
+    /// Whether each written frame is combined with its two predecessors, reprojected
+    /// (`raytrace_denoise::history`). No option sets it: `converge --flicker` measures it as
+    /// a route of its own beside `--temporal`'s, which it did not improve at its cost
+    /// (docs/denoising.md).
+    pub history: bool,
+    /// Whether each frame's raw film is pooled with its two predecessors' raw films,
+    /// reprojected, before it is denoised (`raytrace_denoise::accumulate`). No option sets it:
+    /// `converge --flicker` measures it as a route of its own.
+    pub accumulate: bool,
     /// `--denoise-device`: where the denoiser runs.
     pub device: DenoiseDevice,
 }

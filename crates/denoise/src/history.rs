@@ -1,6 +1,6 @@
 //! A written frame combined with its earlier frames' written colours, carried to its pixels
-//! along the motion vectors (`denoise::reproject`): `--temporal`, so that a denoised sequence
-//! does not flicker.
+//! along the motion vectors (`denoise::reproject`), so that a denoised sequence flickers less:
+//! the history route `converge --flicker` measures beside `--temporal`'s stable samples.
 //!
 //! Per pixel and channel there are up to three estimates of the frame's true value `T`: the
 //! written frame `X_0 = W = w D̄ + (1 - w) F` (`denoise::estimate`) and the earlier frames'

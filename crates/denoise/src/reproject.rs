@@ -1,6 +1,7 @@
-//! An earlier frame's written colour carried to a frame's pixels along their motion vectors,
-//! where it shows the same surface: what `denoise::history` combines with the frame, so that
-//! a denoised sequence does not flicker.
+//! An earlier frame's channels carried to a frame's pixels along their motion vectors, where it
+//! shows the same surface: its written colour, which `denoise::history` combines with the
+//! frame, or its raw replicates, which `denoise::accumulate` adds to the frame's, so that a
+//! denoised sequence does not flicker.
 //!
 //! Each pixel follows its backward motion vector (where its surface was one frame period
 //! earlier, in pixels) into the frame before, then that frame's vector into the one before
@@ -12,9 +13,9 @@
 //! catch (a shadow or a reflection moving over a still surface, shading that changes) the
 //! combination weighs by its estimated error (`denoise::history`).
 
-use glam::Vec3;
-
-use raytrace_core::image::{COLOUR, Image};
+#[cfg(doc)]
+use raytrace_core::image::COLOUR;
+use raytrace_core::image::{Image, Precision, Values};
 use raytrace_core::pass::{BACKWARD, DEPTH, NORMAL};
 
 /// The frames before a frame that its temporal denoising reads.
@@ -33,10 +34,10 @@ pub(crate) const DEPTH_TOLERANCE: f32 = 0.1;
 /// hit).
 const BACKGROUND_DEPTH: f32 = 1e9;
 
-/// An earlier frame's colour at a frame's pixels ([`reproject`]).
+/// An earlier frame's channels at a frame's pixels ([`reproject`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reprojected {
-    /// The colour ([`COLOUR`]); 0 where not found.
+    /// The channels carried (for history, [`COLOUR`]); 0 where not found.
     pub image: Image,
     /// Whether the pixel's surface was found in the earlier frame.
     pub found: Vec<bool>,
@@ -83,19 +84,20 @@ fn bilinear<const N: usize>(
     Some(out)
 }
 
-/// The planes a frame's history reads of it (see [`reproject`]).
+/// The planes a frame's history reads of it: the channels carried (none of the frame
+/// itself), its depth, normal and backward motion (see [`reproject`]).
 struct Planes<'a> {
-    colour: [&'a [f32]; 3],
+    carried: Vec<[&'a [f32]; 1]>,
     depth: [&'a [f32]; 1],
     normal: [&'a [f32]; 3],
     backward: [&'a [f32]; 2],
 }
 
 impl<'a> Planes<'a> {
-    fn of(frame: &'a Image) -> Planes<'a> {
+    fn of(frame: &'a Image, carried: &[&str]) -> Planes<'a> {
         let plane = |name: &str| frame.floats(name).expect("a frame's history channels");
         Planes {
-            colour: COLOUR.0.map(plane),
+            carried: carried.iter().map(|name| [plane(name)]).collect(),
             depth: [plane(DEPTH)],
             normal: NORMAL.0.map(plane),
             backward: BACKWARD.map(plane),
@@ -144,13 +146,18 @@ impl Surface {
     }
 }
 
-/// The colours of `earlier` (the frame before `current` first, then the one before that)
-/// carried to `current`'s pixels, where each pixel's surface is found there (see the module's
-/// notes). Every frame has `current`'s size and holds what a frame's history reads: the
-/// colour written before its own history ([`COLOUR`]), the first hit's depth ([`DEPTH`]; the
+/// The float channels `carried` of `earlier` (the frame before `current` first, then the one
+/// before that) carried to `current`'s pixels, where each pixel's surface is found there (see
+/// the module's notes). Every frame has `current`'s size and holds what a frame's history
+/// reads: the channels carried (the colour written before its own history, [`COLOUR`], or
+/// the raw replicates), the first hit's depth ([`DEPTH`]; the
 /// background's: 1e10 or more), its mean shading normal ([`NORMAL`]; zero for the
 /// background) and its backward motion ([`BACKWARD`]).
-pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
+pub fn reproject(
+    current: &Image,
+    earlier: &[&Image],
+    carried: &[&'static str],
+) -> Vec<Reprojected> {
     let (w, h) = (current.width() as usize, current.height() as usize);
     assert!(
         earlier
@@ -159,9 +166,12 @@ pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
         "frames of different sizes"
     );
     let n = w * h;
-    let here_planes = Planes::of(current);
-    let planes: Vec<Planes> = earlier.iter().map(|f| Planes::of(f)).collect();
-    let mut colours: Vec<Vec<Vec3>> = earlier.iter().map(|_| vec![Vec3::ZERO; n]).collect();
+    let here_planes = Planes::of(current, &[]);
+    let planes: Vec<Planes> = earlier.iter().map(|f| Planes::of(f, carried)).collect();
+    let mut values: Vec<Vec<Vec<f32>>> = earlier
+        .iter()
+        .map(|_| carried.iter().map(|_| vec![0.0; n]).collect())
+        .collect();
     let mut found: Vec<Vec<bool>> = earlier.iter().map(|_| vec![false; n]).collect();
     for i in 0..n {
         let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
@@ -169,14 +179,13 @@ pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
         let mut here = Surface::new(here_planes.depth[0][i], at(here_planes.normal));
         let mut motion = [here_planes.backward[0][i], here_planes.backward[1][i]];
         let mut pos = (x, y);
-        for ((frame, colour), found) in planes.iter().zip(&mut colours).zip(&mut found) {
+        for ((frame, value), found) in planes.iter().zip(&mut values).zip(&mut found) {
             // u right, v up; rows grow downward.
             pos = (pos.0 + motion[0], pos.1 - motion[1]);
             let read = |p: [&[f32]; 3]| bilinear(p, w, h, pos.0, pos.1);
-            let (Some(normal), Some([depth]), Some(c), Some(m)) = (
+            let (Some(normal), Some([depth]), Some(m)) = (
                 read(frame.normal),
                 bilinear(frame.depth, w, h, pos.0, pos.1),
-                read(frame.colour),
                 bilinear(frame.backward, w, h, pos.0, pos.1),
             ) else {
                 break;
@@ -185,18 +194,23 @@ pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
             if !here.same_as(&there) {
                 break;
             }
-            colour[i] = Vec3::from_array(c);
+            for (v, plane) in value.iter_mut().zip(&frame.carried) {
+                // Inside the image: the depth was read there.
+                v[i] = bilinear(*plane, w, h, pos.0, pos.1).map_or(0.0, |[c]| c);
+            }
             found[i] = true;
             here = there;
             motion = m;
         }
     }
-    colours
+    values
         .into_iter()
         .zip(found)
-        .map(|(colour, found)| {
+        .map(|(value, found)| {
             let mut image = Image::new(current.width(), current.height());
-            image.set_rgb(COLOUR, colour.into_iter());
+            for (name, plane) in carried.iter().zip(value) {
+                image.set(name, Precision::Float, Values::Float(plane));
+            }
             Reprojected { image, found }
         })
         .collect()
@@ -205,7 +219,8 @@ pub fn reproject(current: &Image, earlier: &[&Image]) -> Vec<Reprojected> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raytrace_core::image::{Precision, Values};
+    use glam::Vec3;
+    use raytrace_core::image::COLOUR;
 
     /// A frame of `w` x `h` whose colour at pixel (x, y) is `colour(x, y)`, at depth 5 with
     /// normal +z everywhere, moving by `motion` (u, v) pixels a frame.
@@ -245,7 +260,7 @@ mod tests {
         let cur = frame(4, 3, |_, _| 3.0, [0.0, 0.0]);
         let one = frame(4, 3, |_, _| 6.0, [0.0, 0.0]);
         let two = frame(4, 3, |_, _| 0.5, [0.0, 0.0]);
-        let r = reproject(&cur, &[&one, &two]);
+        let r = reproject(&cur, &[&one, &two], &COLOUR.0);
         assert!(r.iter().all(|r| r.found.iter().all(|&v| v)));
         assert!(red(&r[0]).iter().all(|&v| v == 6.0));
         assert!(red(&r[1]).iter().all(|&v| v == 0.5));
@@ -260,7 +275,7 @@ mod tests {
         let cur = frame(w, h, ramp(0.0), [-1.0, 0.0]);
         let one = frame(w, h, ramp(-1.0), [-1.0, 0.0]);
         let two = frame(w, h, ramp(-2.0), [-1.0, 0.0]);
-        let r = reproject(&cur, &[&one, &two]);
+        let r = reproject(&cur, &[&one, &two], &COLOUR.0);
         for x in 0..w {
             // Pixels 0 and 1 leave the image two and one steps back.
             assert_eq!(r[0].found[x], x >= 1, "pixel {x}");
@@ -282,14 +297,14 @@ mod tests {
         let mut tilted = frame(3, 1, |_, _| 3.0, [0.0, 0.0]);
         // Pixel 2's normal turned 90 degrees in the frame two back.
         tilted.set_rgb(NORMAL, [Vec3::Z, Vec3::Z, Vec3::X].into_iter());
-        let r = reproject(&cur, &[&nearer, &tilted]);
+        let r = reproject(&cur, &[&nearer, &tilted], &COLOUR.0);
         assert_eq!(r[0].found, vec![true, false, true]);
         assert_eq!(r[1].found, vec![true, false, false]);
         // The background matches only the background.
         let mut sky = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
         set(&mut sky, DEPTH, vec![1e10; 3]);
         sky.set_rgb(NORMAL, [Vec3::ZERO; 3].into_iter());
-        let r = reproject(&sky, &[&sky.clone(), &cur]);
+        let r = reproject(&sky, &[&sky.clone(), &cur], &COLOUR.0);
         assert_eq!(r[0].found, vec![true; 3]);
         assert_eq!(r[1].found, vec![false; 3]);
     }

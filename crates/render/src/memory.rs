@@ -197,10 +197,15 @@ mod tests {
         };
         let raw = memory_estimate(&scene(None, None), 0.into());
         let denoised = memory_estimate(&scene(Some(true), None), 0.into());
+        // --temporal samples differently and finishes as --denoise does.
         let temporal = memory_estimate(&scene(Some(true), Some(true)), 0.into());
+        let mut historic = scene(Some(true), None);
+        historic.output.denoise.as_mut().unwrap().history = true;
+        let history = memory_estimate(&historic, 0.into());
         // OIDN's scratch alone is 355 bytes a pixel at the default quality.
         assert!(denoised - raw > 200 * 100 * 355, "{raw} {denoised}");
-        assert!(temporal > denoised);
+        assert_eq!(temporal, denoised);
+        assert!(history > denoised);
         assert_eq!(finish::bytes_for(&scene(None, None)), 0);
     }
 }

@@ -107,6 +107,18 @@ impl<'d> Denoising<'d> {
         Ok(self.blend(&replicates, samples))
     }
 
+    /// The frame written from `replicates` (a film's replicates pooled with its earlier
+    /// frames', `raytrace_denoise::accumulate`): a denoise of them, blended with them.
+    pub(super) fn written_pooled(&mut self, replicates: &Image) -> Result<Written, Error> {
+        let samples = Replicates::of(replicates)
+            .taken()
+            .iter()
+            .map(|&n| n as u64)
+            .sum();
+        self.denoise(replicates, samples)?;
+        Ok(self.blend(replicates, samples))
+    }
+
     /// The frame written from `film` without another denoise where it has one: the one the
     /// last round judged if the film has taken no sample since, else its last denoise
     /// blended with the film as it is now. For a frame stopped at its time limit, which a

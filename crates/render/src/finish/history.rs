@@ -1,4 +1,4 @@
-//! The history stage of `--temporal`: the frames finished last, as a later frame's history
+//! The history stage (`DenoiseSettings::history`): the frames finished last, as a later frame's history
 //! reads them (`raytrace_denoise::history` combines them).
 
 use super::history_passes;
@@ -33,7 +33,7 @@ impl History {
                 self.frames.iter().find(|(j, _)| *j == k).map(|(_, f)| f)
             })
             .collect();
-        let reprojected = reproject(&current, &earlier);
+        let reprojected = reproject(&current, &earlier, &COLOUR.0);
         let blend = history::combine(written, &reprojected);
         self.frames
             .retain(|(k, _)| *k < frame && frame - *k < HISTORY as u32);

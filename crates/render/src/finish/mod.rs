@@ -9,11 +9,18 @@
 //! mean per pixel by their estimated errors, and states its own error
 //! (`denoise::estimate`, derived there).
 //!
-//! **History** (`History`, `--temporal`): the written frame is combined with the two frames
+//! **History** (`History`, measured by `converge --flicker`, set by no option): the written frame is combined with the two frames
 //! before it, carried to its pixels along the motion vectors, each weighed by its estimated
 //! error (`denoise::history`, derived there). A frame reads the frames before it as they were
 //! written before their own history, so it depends on those two frames' renders and no
 //! others': the command renders them first where its run does not ([`Finishing::needs`]).
+//!
+//! **Accumulation** (`Accumulation`, measured by `converge --flicker`, set by no option): before
+//! the denoise, the frame's raw replicates are pooled with the two frames' before it, carried
+//! along the motion vectors, where they agree with the frame's own within their noise
+//! (`denoise::accumulate`, derived there). A frame pools the raw films of those two frames
+//! only, which the command renders first where its run does not ([`Finishing::needs`]). The
+//! stop rule under a noise threshold judges the frame's own film.
 //!
 //! **Under a noise threshold, a denoise when it pays.** Once every pixel has its first
 //! samples, the frame is denoised and its written error measured. After every later round the
@@ -25,12 +32,14 @@
 //! save (`when`, derived there). The rounds' samples go where the written frame's estimated
 //! error is largest ([`StopRule::weights`]).
 
+mod accumulation;
 mod denoising;
 mod history;
 mod when;
 
 use std::time::Instant;
 
+use accumulation::Accumulation;
 use denoising::Denoising;
 use history::History;
 use raytrace_core::error::Error;
@@ -45,10 +54,10 @@ use raytrace_denoise::estimate;
 use raytrace_denoise::reproject::{self, HISTORY};
 
 /// The passes the finishing stages of `scene` read from the film, written or not: with
-/// `--temporal`, the depth, normal and motion that carry a pixel to earlier frames.
+/// history, the depth, normal and motion that carry a pixel to earlier frames.
 pub fn passes_read(scene: &Scene) -> PassSet {
     match scene.output.denoise {
-        Some(d) if d.temporal => history_passes(),
+        Some(d) if d.history || d.accumulate => history_passes(),
         _ => PassSet::EMPTY,
     }
 }
@@ -70,13 +79,17 @@ pub fn bytes_for(scene: &Scene) -> u64 {
     let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
-    let history = match settings.temporal {
+    let history = match settings.history {
         true => {
             estimate::written_bytes(pixels)
                 + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
                 + reproject::reprojected_bytes(pixels)
                 + raytrace_denoise::history::bytes_for(pixels)
         }
+        false => 0,
+    };
+    let accumulation = match settings.accumulate {
+        true => raytrace_denoise::accumulate::bytes_for(pixels),
         false => 0,
     };
     oidn_scratch(
@@ -87,6 +100,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         + snapshot
         + pixels * 8
         + denoise.max(blend).max(history)
+        + accumulation
 }
 
 /// The passes history reads.
@@ -101,6 +115,7 @@ pub(crate) fn history_passes() -> PassSet {
 pub struct Finishing<'d> {
     denoising: Option<Denoising<'d>>,
     history: Option<History>,
+    accumulation: Option<Accumulation>,
     first_frame: u32,
     /// The passes the stages read ([`passes_read`]).
     read: PassSet,
@@ -109,7 +124,8 @@ pub struct Finishing<'d> {
 
 impl<'d> Finishing<'d> {
     /// The stages `scene` asks for: denoising by `denoiser` when `[output] denoise` is set
-    /// (`Devices::finishing` gives the run's denoiser then), history with `--temporal`.
+    /// (`Devices::finishing` gives the run's denoiser then), history when its denoise
+    /// settings ask for it (`DenoiseSettings::history`).
     pub fn new(scene: &Scene, denoiser: Option<&'d Denoiser>) -> Result<Finishing<'d>, Error> {
         let denoising = match (&scene.output.denoise, denoiser) {
             (Some(settings), Some(d)) => Some(Denoising::new(
@@ -123,11 +139,17 @@ impl<'d> Finishing<'d> {
         let history = scene
             .output
             .denoise
-            .filter(|d| d.temporal)
+            .filter(|d| d.history)
             .map(|_| History::default());
+        let accumulation = scene
+            .output
+            .denoise
+            .filter(|d| d.accumulate)
+            .map(|_| Accumulation::default());
         Ok(Finishing {
             denoising,
             history,
+            accumulation,
             first_frame: scene.shot.first_frame,
             read: passes_read(scene),
             raw: RawStop,
@@ -165,11 +187,13 @@ impl<'d> Finishing<'d> {
     /// history, the [`HISTORY`] frames before it (of the shot); none otherwise. A command
     /// renders and finishes them first, without writing them.
     pub fn needs(&self, frame: u32) -> Vec<u32> {
-        let Some(history) = &self.history else {
-            return Vec::new();
-        };
         let from = frame.saturating_sub(HISTORY as u32).max(self.first_frame);
-        (from..frame).filter(|k| !history.holds(*k)).collect()
+        let held = |k: u32| match (&self.history, &self.accumulation) {
+            (Some(h), _) => h.holds(k),
+            (None, Some(a)) => a.holds(k),
+            (None, None) => true,
+        };
+        (from..frame).filter(|k| !held(*k)).collect()
     }
 
     /// `result`, sampled (with [`stop_rule`](Self::stop_rule) as its stop rule, or none),
@@ -181,14 +205,25 @@ impl<'d> Finishing<'d> {
         };
         let frame = result.frame;
         let start = Instant::now();
-        let written = match result.stats.stop {
-            StopReason::TimeLimit => d.written_within_time(&result.film),
-            _ => d.written(&result.film),
-        }
-        .map_err(|e| e.in_frame(frame))?;
-        let blend = match &mut self.history {
-            None => written.blend,
-            Some(h) => h.combine(&result, &written.terms),
+        let (written, pooled_share) = match (&mut self.accumulation, result.stats.stop) {
+            (Some(a), _) => {
+                let pooled = a.pool(&result);
+                (
+                    d.written_pooled(&pooled.replicates),
+                    Some(pooled.history_share),
+                )
+            }
+            (None, StopReason::TimeLimit) => (d.written_within_time(&result.film), None),
+            (None, _) => (d.written(&result.film), None),
+        };
+        let written = written.map_err(|e| e.in_frame(frame))?;
+        let (blend, history_share) = match &mut self.history {
+            None => (written.blend, pooled_share),
+            Some(h) => {
+                let blend = h.combine(&result, &written.terms);
+                let share = blend.history_share;
+                (blend, Some(share))
+            }
         };
         let st = &mut result.stats;
         // The frame's time holds its finishing, as it holds the denoises its rounds took.
@@ -202,7 +237,7 @@ impl<'d> Finishing<'d> {
         result.denoised = Some(Denoised {
             relative_error: blend.relative_error,
             denoised_share: blend.denoised_share,
-            history_share: self.history.as_ref().map(|_| blend.history_share),
+            history_share,
             quality: d.quality(),
         });
         d.begin();

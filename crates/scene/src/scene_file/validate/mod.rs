@@ -520,7 +520,7 @@ impl<'a> Validator<'a> {
         let temporal = self.overrides.temporal.unwrap_or(false);
         if temporal && !denoise {
             return self.err(format_args!(
-                "{} is off, and {} blends a denoised frame with its history: turn denoising on (--denoise or [output] denoise = true), or leave {} out",
+                "{} is off, and {} keeps a denoised sequence from flickering: turn denoising on (--denoise or [output] denoise = true), or leave {} out",
                 self.name("output.denoise"),
                 self.name("output.temporal"),
                 self.name("output.temporal")
@@ -532,6 +532,8 @@ impl<'a> Validator<'a> {
             denoise: denoise.then(|| DenoiseSettings {
                 quality: o.denoise_quality.map(|q| q.0).unwrap_or_default(),
                 temporal,
+                history: false,
+                accumulate: false,
                 device: self.overrides.denoise_device.unwrap_or_default(),
             }),
             path,
