@@ -14,6 +14,9 @@
 //! their own, which the GPU's sphere records do not, and a frame's points are read per frame
 //! and may be far more than one GPU buffer holds. A scene with point caches is refused too.
 
+use super::context::pages_here;
+use super::pages::Pages;
+use super::shot::mib;
 use raytrace_core::motion::Motion;
 use raytrace_core::scene::Scene;
 use raytrace_core::show::{show, show_approx};
@@ -45,10 +48,6 @@ pub(crate) const MIN_PIXEL_ANGLE: f64 = 1.0 / 131_072.0;
 /// `f32`, resolved to `2^-24` of it (4e-6 radians at 3600 degrees).
 pub(crate) const MAX_SWEEP_DEGREES: f64 = 3600.0;
 
-/// Bytes one GPU buffer may hold: 128 MiB, what WebGPU guarantees a storage buffer binding
-/// on every device (wgpu's default `max_storage_buffer_binding_size`).
-pub(crate) const MAX_BUFFER_BYTES: u64 = 128 << 20;
-
 /// Why the GPU path does not render a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Unsupported {
@@ -73,13 +72,14 @@ pub enum Unsupported {
     NarrowView { pixel_angle: f64 },
     /// An orbit sweeping more than [`MAX_SWEEP_DEGREES`] over a frame's widened exposure.
     FastOrbit { what: String, sweep: f64 },
-    /// The frame's (or the shot's) buffer could need more than [`MAX_BUFFER_BYTES`].
-    TooLarge { bytes: u64 },
+    /// The frame's (or the shot's) words could need more bytes than the pages of the
+    /// adapter a render would take hold ([`Pages::bytes`]).
+    TooLarge { bytes: u64, pages: Pages },
 }
 
 /// Why the GPU path does not render `scene`, if it does not: the first limit it passes, in
 /// the order of [`Unsupported`]'s kinds (point caches, spheres in order, then the camera,
-/// then the size).
+/// then the size, against the adapter's limits: [`too_large`]).
 pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
     if !scene.points.is_empty() {
         return Some(Unsupported::PointCaches {
@@ -131,10 +131,19 @@ pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
             });
         }
     }
-    camera(scene, times, sweep_time).or_else(|| {
-        let bytes = buffer_bytes(scene);
-        (bytes > MAX_BUFFER_BYTES).then_some(Unsupported::TooLarge { bytes })
-    })
+    camera(scene, times, sweep_time).or_else(|| too_large(scene))
+}
+
+/// Whether `scene`'s words could take more than the pages of the adapter a render would take
+/// hold. Only a scene beyond what every device binds (WebGPU's limits, within
+/// [`MAX_BINDING_VARIABLE`](super::MAX_BINDING_VARIABLE)) looks for the adapter (once a process).
+fn too_large(scene: &Scene) -> Option<Unsupported> {
+    let bytes = buffer_bytes(scene);
+    if bytes <= Pages::guaranteed().bytes() {
+        return None;
+    }
+    let pages = pages_here();
+    (bytes > pages.bytes()).then_some(Unsupported::TooLarge { bytes, pages })
 }
 
 /// The camera's limits.
@@ -314,10 +323,13 @@ impl std::fmt::Display for Unsupported {
                 show_approx(*sweep),
                 show(MAX_SWEEP_DEGREES)
             ),
-            Unsupported::TooLarge { bytes } => format!(
-                "its spheres could need {} MiB in one GPU buffer, more than the {} MiB every GPU offers",
-                bytes.div_ceil(1 << 20),
-                MAX_BUFFER_BYTES >> 20
+            Unsupported::TooLarge { bytes, pages } => format!(
+                "its spheres could need {} in one of the GPU's two buffers of words, more than the {} this GPU binds for one ({} bindings of {}; the adapter binds at most {} a storage buffer)",
+                mib(*bytes),
+                mib(pages.bytes()),
+                pages.count(),
+                mib(4 * pages.page_words() as u64),
+                mib(pages.binding())
             ),
         };
         f.write_str(&text)
