@@ -68,19 +68,35 @@ impl From<GpuError> for raytrace_core::error::Error {
 pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
-    pub(super) pipeline: wgpu::ComputePipeline,
-    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
-    #[cfg(test)]
-    pub(super) numbers: wgpu::ComputePipeline,
-    pub(super) layout: wgpu::BindGroupLayout,
-    /// How the shot's and the frame's words lie over bindings.
-    pub(super) pages: Pages,
+    /// The tracer this handle dispatches: compiled for [`Tracer::pages`] pages of words.
+    pub(super) tracer: Arc<Tracer>,
+    /// The tracers compiled so far, by their pages less one, shared by the clones
+    /// ([`Gpu::fitting`]).
+    tracers: Arc<Mutex<Vec<Option<Arc<Tracer>>>>>,
+    /// How the shot's and the frame's words may lie over bindings at most.
+    pages: Pages,
+    counting: Counting,
     adapter: wgpu::Adapter,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
     fault: Arc<Mutex<Option<GpuError>>>,
     /// Dispatches so far, and after how many the device is lost on purpose.
     dispatches: Arc<Mutex<(u64, Option<u64>)>>,
+}
+
+/// The tracer's pipeline compiled for words over some number of pages: each page more is a
+/// branch at every read of the words, which lavapipe's compiler pays for in memory (the
+/// empty scene's peak: 145 MiB with one page, 214 MiB with four), so a shot takes the
+/// fewest pages its words need.
+#[derive(Debug)]
+pub(super) struct Tracer {
+    pub(super) pipeline: wgpu::ComputePipeline,
+    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
+    #[cfg(test)]
+    pub(super) numbers: wgpu::ComputePipeline,
+    pub(super) layout: wgpu::BindGroupLayout,
+    /// How the shot's and the frame's words lie over its bindings.
+    pub(super) pages: Pages,
 }
 
 /// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
@@ -208,36 +224,17 @@ impl Gpu {
         }))
         .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
         let fault = watch_faults(&device);
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tracer"),
-            source: wgpu::ShaderSource::Wgsl(
-                format!("{}{SHADERS}", wgsl_prelude(counting, &pages)).into(),
-            ),
-        });
-        let layout = bind_group_layout(&device, &pages);
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tracer"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = entry_pipeline(&device, &pipeline_layout, &module, "tracer", "trace");
-        #[cfg(test)]
-        let numbers = entry_pipeline(&device, &pipeline_layout, &module, "numbers", "numbers");
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
-        }
+        let tracer = Arc::new(compile(&device, counting, pages.holding(0))?);
         let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
             .ok()
             .and_then(|v| v.parse().ok());
         Ok(Gpu {
             device,
             queue,
-            pipeline,
-            #[cfg(test)]
-            numbers,
-            layout,
+            tracers: Arc::new(Mutex::new(vec![Some(tracer.clone())])),
+            tracer,
             pages,
+            counting,
             adapter,
             info,
             fault,
@@ -250,9 +247,33 @@ impl Gpu {
         self.adapter().describe()
     }
 
-    /// How the shot's and the frame's words lie over the device's bindings.
+    /// How the shot's and the frame's words may lie over the device's bindings at most.
     pub fn pages(&self) -> Pages {
         self.pages
+    }
+
+    /// This device with the tracer for `bytes` of words (the larger of a shot's and its
+    /// frames'): compiled for the fewest pages that hold them ([`Pages::holding`]), once a
+    /// device for each number of pages.
+    pub(super) fn fitting(&self, bytes: u64) -> Result<Gpu, GpuError> {
+        let pages = self.pages.holding(bytes);
+        let mut tracers = self.tracers.lock().unwrap();
+        let k = pages.count() as usize - 1;
+        if tracers.len() <= k {
+            tracers.resize(k + 1, None);
+        }
+        let tracer = match &tracers[k] {
+            Some(t) => t.clone(),
+            None => {
+                let t = Arc::new(compile(&self.device, self.counting, pages)?);
+                tracers[k] = Some(t.clone());
+                t
+            }
+        };
+        Ok(Gpu {
+            tracer,
+            ..self.clone()
+        })
     }
 
     /// The adapter's name (`NVIDIA H100 80GB HBM3`) and its PCI address as the platform
@@ -360,6 +381,36 @@ fn binding_cap() -> Option<u64> {
         .parse()
         .ok()?;
     Some(cap.max(16))
+}
+
+/// The tracer for words over `pages`, compiled on `device`: an invalid shader is an error.
+fn compile(device: &wgpu::Device, counting: Counting, pages: Pages) -> Result<Tracer, GpuError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("tracer"),
+        source: wgpu::ShaderSource::Wgsl(
+            format!("{}{SHADERS}", wgsl_prelude(counting, &pages)).into(),
+        ),
+    });
+    let layout = bind_group_layout(device, &pages);
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("tracer"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = entry_pipeline(device, &pipeline_layout, &module, "tracer", "trace");
+    #[cfg(test)]
+    let numbers = entry_pipeline(device, &pipeline_layout, &module, "numbers", "numbers");
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
+    }
+    Ok(Tracer {
+        pipeline,
+        #[cfg(test)]
+        numbers,
+        layout,
+        pages,
+    })
 }
 
 /// The compute pipeline `label` of `module`'s function `entry`.

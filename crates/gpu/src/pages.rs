@@ -72,6 +72,15 @@ impl Pages {
         self.binding
     }
 
+    /// These pages cut to the fewest that hold `bytes` (at least one).
+    pub(crate) fn holding(&self, bytes: u64) -> Pages {
+        let page_bytes = 4 * self.page_words as u64;
+        Pages {
+            count: bytes.div_ceil(page_bytes).clamp(1, self.count as u64) as u32,
+            ..*self
+        }
+    }
+
     /// Bytes a word buffer may hold over its pages.
     pub fn bytes(&self) -> u64 {
         4 * self.count as u64 * self.page_words as u64
@@ -132,5 +141,9 @@ mod tests {
         assert_eq!(p.split(&words[..5]).unwrap(), [&words[..5]]);
         assert!(p.split(&[0; 32]).is_some());
         assert!(p.split(&[0; 33]).is_none());
+        // The fewest pages that hold the bytes: 64 bytes a page.
+        let counts = [0, 1, 64, 65, 128, 129].map(|b| p.holding(b).count());
+        assert_eq!(counts, [1, 1, 1, 2, 2, 2]);
+        assert_eq!(p.holding(65).page_words(), 16);
     }
 }

@@ -17,6 +17,7 @@ use super::context::{Gpu, GpuError, classify};
 use super::device_film::{DeviceFilm, SLOTS, Submitted, merge};
 use super::layout::{MAX_STRIDE, Words};
 use super::schedule::{Pace, Windows};
+use super::support::buffer_bytes;
 use super::upload::{FrameWords, ShotWords};
 use raytrace_core::error::Error;
 use raytrace_core::film::Film;
@@ -45,11 +46,12 @@ impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
     /// that never move, with their hierarchy (built here).
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
+        let gpu = gpu.fitting(buffer_bytes(scene))?;
         let statics = StaticGeometry::new(scene);
         let words = ShotWords::new(scene, &statics).map_err(GpuError::Failed)?;
-        let pages = upload(gpu, "shot", &words.words)?;
+        let pages = upload(&gpu, "shot", &words.words)?;
         Ok(GpuShot {
-            gpu: gpu.clone(),
+            gpu,
             statics,
             words,
             pages,
@@ -116,7 +118,7 @@ impl ShotTracer for GpuShot {
 /// validated against the adapter's pages never gets here, `super::support`).
 fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<Vec<wgpu::Buffer>, GpuError> {
     use wgpu::util::DeviceExt;
-    let pages = gpu.pages();
+    let pages = gpu.tracer.pages;
     let Some(parts) = pages.split(&words.0) else {
         return Err(GpuError::Failed(format!(
             "the {label}'s data take {}, more than the {} this GPU binds ({} bindings of {})",

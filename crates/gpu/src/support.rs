@@ -11,8 +11,9 @@
 //! are refused.
 //!
 //! Point caches (`[[points]]`) are not traced on the GPU: their points may carry colours of
-//! their own, which the GPU's sphere records do not, and a frame's points are read per frame
-//! and may be far more than one GPU buffer holds. A scene with point caches is refused too.
+//! their own, which the GPU's sphere records do not, and they are read per frame, which no
+//! upload of the GPU's does yet (only the spheres' words are paged over bindings). A scene
+//! with point caches is refused too.
 
 use super::context::pages_here;
 use super::pages::Pages;
@@ -224,7 +225,7 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
 /// record for every animated sphere and another for the motion pass, every key twice. Where
 /// the world prepares every sphere per frame ([`raytrace_core::world::one_hierarchy`]), the still
 /// ones too are in the frame's buffer.
-fn buffer_bytes(scene: &Scene) -> u64 {
+pub(super) fn buffer_bytes(scene: &Scene) -> u64 {
     use super::layout::{
         ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
         TABLE_WORDS,
@@ -267,10 +268,9 @@ pub fn frame_bytes(scene: &Scene, stride: usize) -> u64 {
 
 /// Resident bytes the GPU path adds to the process whatever the frame: the Vulkan driver and,
 /// for a software device, its shader compiler. Measured: the peak of a 48x27 render of a
-/// scene without spheres on lavapipe is 214 MiB (121 MiB before the words were read through
-/// pages, whose reads lavapipe's compiler inlines at every call), where the CPU path's is
-/// 9 MiB.
-pub(crate) const GPU_FLOOR_BYTES: u64 = 224 << 20;
+/// scene without spheres on lavapipe is 142 MiB (the tracer compiled for one page of words,
+/// `context::Tracer`; 119.5 MiB before the words were paged), where the CPU path's is 9 MiB.
+pub(crate) const GPU_FLOOR_BYTES: u64 = 152 << 20;
 
 /// A motion's keys (0 for other kinds).
 fn keys(m: &Motion) -> u32 {
