@@ -260,6 +260,84 @@ fn the_books_scene_renders_through_the_binary_and_agrees_with_the_cpu() {
 }
 
 #[test]
+fn a_scene_beyond_one_binding_renders_over_several_and_agrees_with_the_cpu() {
+    // 3000 spheres, half of them moving, every one in the frame's words (about 0.4 MiB),
+    // with the device's bindings capped at 256 KiB (RAYTRACE_GPU_MAX_BINDING): the frame's
+    // words lie over two bindings, and the frame agrees with the CPU's within noise. Capped
+    // at 64 KiB, the device's bindings hold less than the scene could need: check and
+    // render refuse it, exit 2, naming the need and what the device binds.
+    if gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let o = raytrace(
+        dir.path(),
+        &[
+            "generate",
+            "--spheres",
+            "3000",
+            "--moving",
+            "0.5",
+            "--seed",
+            "3",
+            "-o",
+            "big.toml",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    // Paths of at most 4 bounces: seconds on lavapipe.
+    let scene = dir.path().join("big.toml");
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, toml.replace("max_depth = 50", "max_depth = 4")).unwrap();
+    let cap = |bytes: &'static str| [(raytrace_gpu::MAX_BINDING_VARIABLE, Some(bytes))];
+    for command in ["check", "render"] {
+        let o = raytrace(
+            dir.path(),
+            &[command, "big.toml", "--device", "gpu"],
+            &cap("65536"),
+        );
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{all}");
+        assert!(
+            all.contains("big.toml: --device gpu: the GPU has not the room for this scene: its spheres could need ")
+                && all.contains(" KiB in one of the GPU's two buffers of words, more than the ")
+                && all.contains(" bindings of 64.0 KiB; the adapter binds at most 64.0 KiB a storage buffer); render it with --device cpu"),
+            "{all}"
+        );
+    }
+    assert!(!dir.path().join("renders").exists());
+    let mut films = vec![];
+    for (device, seed) in [("cpu", "1"), ("gpu", "2")] {
+        let out = format!("{device}.exr");
+        let args = [
+            "render",
+            "big.toml",
+            "--device",
+            device,
+            "--width",
+            "48",
+            "--height",
+            "32",
+            "--samples",
+            "32",
+            "--seed",
+            seed,
+            "--passes",
+            "variance",
+            "--output",
+            &out,
+        ];
+        let o = raytrace(dir.path(), &args, &cap("262144"));
+        assert!(o.status.success(), "{}", text(&o));
+        films.push(exr_moments(&dir.path().join(&out)));
+    }
+    let a = agreement((&films[1].0, &films[1].1), (&films[0].0, &films[0].1), 48);
+    println!("[gpu] 3000 spheres over bindings of 256 KiB: {a:?}");
+    assert!(a.within_noise(), "{a:?}");
+}
+
+#[test]
 fn a_gpu_frame_is_the_same_bytes_on_rerun() {
     // Each run is summed in a fixed order, and runs are added in sample order, so a frame
     // is the same bytes however its batches were cut, on the same device and driver: with

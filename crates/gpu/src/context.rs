@@ -2,9 +2,12 @@
 //! device, compiling the tracer's compute shader once, and the errors a device can give.
 
 use std::fmt;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
-use super::layout::{COUNTER_WORDS, Counting, PARAMS_WORDS, WORKGROUP, wgsl_prelude};
+use super::layout::{
+    COUNTER_WORDS, Counting, FRAME_PAGES, PARAMS_WORDS, SHOT_PAGES, WORKGROUP, wgsl_prelude,
+};
+use super::pages::Pages;
 use super::quiet::without_stray_lines;
 
 /// The shaders' text, put after the layout's constants: the 64-bit words and samplers, the
@@ -21,6 +24,12 @@ const SHADERS: &str = concat!(
 /// The environment variable that makes the device lost after that many dispatches: a fault
 /// injected on purpose, for the tests of what a lost device leaves behind.
 pub const LOSE_AFTER_VARIABLE: &str = "RAYTRACE_GPU_LOSE_AFTER";
+
+/// The environment variable that caps the storage binding (and buffer) size a device is
+/// opened with, in bytes, below the adapter's own: the way the tests run the paths that
+/// split a scene's words over several bindings ([`Pages`]) and a film into parts on a device
+/// whose real limits a test scene would never reach.
+pub const MAX_BINDING_VARIABLE: &str = "RAYTRACE_GPU_MAX_BINDING";
 
 /// What can go wrong with a GPU.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -59,17 +68,35 @@ impl From<GpuError> for raytrace_core::error::Error {
 pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
-    pub(super) pipeline: wgpu::ComputePipeline,
-    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
-    #[cfg(test)]
-    pub(super) numbers: wgpu::ComputePipeline,
-    pub(super) layout: wgpu::BindGroupLayout,
+    /// The tracer this handle dispatches: compiled for [`Tracer::pages`] pages of words.
+    pub(super) tracer: Arc<Tracer>,
+    /// The tracers compiled so far, by their pages less one, shared by the clones
+    /// ([`Gpu::fitting`]).
+    tracers: Arc<Mutex<Vec<Option<Arc<Tracer>>>>>,
+    /// How the shot's and the frame's words may lie over bindings at most.
+    pages: Pages,
+    counting: Counting,
     adapter: wgpu::Adapter,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
     fault: Arc<Mutex<Option<GpuError>>>,
     /// Dispatches so far, and after how many the device is lost on purpose.
     dispatches: Arc<Mutex<(u64, Option<u64>)>>,
+}
+
+/// The tracer's pipeline compiled for words over some number of pages: each page more is a
+/// branch at every read of the words, which lavapipe's compiler pays for in memory (the
+/// empty scene's peak: 145 MiB with one page, 214 MiB with four), so a shot takes the
+/// fewest pages its words need.
+#[derive(Debug)]
+pub(super) struct Tracer {
+    pub(super) pipeline: wgpu::ComputePipeline,
+    /// The sampler's numbers alone, for the tests that compare them with the CPU's.
+    #[cfg(test)]
+    pub(super) numbers: wgpu::ComputePipeline,
+    pub(super) layout: wgpu::BindGroupLayout,
+    /// How the shot's and the frame's words lie over its bindings.
+    pub(super) pages: Pages,
 }
 
 /// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
@@ -121,6 +148,19 @@ impl Adapter {
         }
     }
 
+    /// The limits a device is opened with on this adapter: the adapter's own (not WebGPU's
+    /// floor: Vulkan on NVIDIA binds 4 GiB a storage buffer where WebGPU guarantees 128 MiB),
+    /// the binding and buffer sizes capped by [`MAX_BINDING_VARIABLE`] where it is set.
+    pub fn limits(&self) -> wgpu::Limits {
+        capped(self.adapter.limits())
+    }
+
+    /// How a device opened on this adapter lays the shot's and the frame's words over its
+    /// bindings, and so how many bytes of each it holds.
+    pub fn pages(&self) -> Pages {
+        Pages::of(&self.limits())
+    }
+
     /// The adapter, as frame lines and docs name it: `llvmpipe (LLVM 15.0.6, 256 bits)
     /// (vulkan, Mesa 22.3.6 (LLVM 15.0.6))`.
     pub fn describe(&self) -> String {
@@ -160,8 +200,17 @@ impl Gpu {
         Gpu::open(Adapter::find()?)
     }
 
-    /// Opens a device on `adapter` and compiles the tracer.
+    /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and compiles the
+    /// tracer.
     pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
+        let limits = adapter.limits();
+        Gpu::open_limited(adapter, limits)
+    }
+
+    /// Opens a device on `adapter` with `limits` (within the adapter's) and compiles the
+    /// tracer for them.
+    pub(super) fn open_limited(adapter: Adapter, limits: wgpu::Limits) -> Result<Gpu, GpuError> {
+        let pages = Pages::of(&limits);
         let Adapter { adapter, info } = adapter;
         let (counting, features) = match adapter.features().contains(wgpu::Features::SUBGROUP) {
             true => (Counting::Subgroups, wgpu::Features::SUBGROUP),
@@ -170,38 +219,22 @@ impl Gpu {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("raytrace"),
             required_features: features,
-            required_limits: wgpu::Limits::default(),
+            required_limits: limits,
             ..Default::default()
         }))
         .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
         let fault = watch_faults(&device);
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tracer"),
-            source: wgpu::ShaderSource::Wgsl(format!("{}{SHADERS}", wgsl_prelude(counting)).into()),
-        });
-        let layout = bind_group_layout(&device);
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tracer"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = entry_pipeline(&device, &pipeline_layout, &module, "tracer", "trace");
-        #[cfg(test)]
-        let numbers = entry_pipeline(&device, &pipeline_layout, &module, "numbers", "numbers");
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
-        }
+        let tracer = Arc::new(compile(&device, counting, pages.holding(0))?);
         let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
             .ok()
             .and_then(|v| v.parse().ok());
         Ok(Gpu {
             device,
             queue,
-            pipeline,
-            #[cfg(test)]
-            numbers,
-            layout,
+            tracers: Arc::new(Mutex::new(vec![Some(tracer.clone())])),
+            tracer,
+            pages,
+            counting,
             adapter,
             info,
             fault,
@@ -212,6 +245,35 @@ impl Gpu {
     /// The adapter, as [`Adapter::describe`] names it.
     pub fn describe(&self) -> String {
         self.adapter().describe()
+    }
+
+    /// How the shot's and the frame's words may lie over the device's bindings at most.
+    pub fn pages(&self) -> Pages {
+        self.pages
+    }
+
+    /// This device with the tracer for `bytes` of words (the larger of a shot's and its
+    /// frames'): compiled for the fewest pages that hold them ([`Pages::holding`]), once a
+    /// device for each number of pages.
+    pub(super) fn fitting(&self, bytes: u64) -> Result<Gpu, GpuError> {
+        let pages = self.pages.holding(bytes);
+        let mut tracers = self.tracers.lock().unwrap();
+        let k = pages.count() as usize - 1;
+        if tracers.len() <= k {
+            tracers.resize(k + 1, None);
+        }
+        let tracer = match &tracers[k] {
+            Some(t) => t.clone(),
+            None => {
+                let t = Arc::new(compile(&self.device, self.counting, pages)?);
+                tracers[k] = Some(t.clone());
+                t
+            }
+        };
+        Ok(Gpu {
+            tracer,
+            ..self.clone()
+        })
     }
 
     /// The adapter's name (`NVIDIA H100 80GB HBM3`) and its PCI address as the platform
@@ -270,26 +332,84 @@ fn watch_faults(device: &wgpu::Device) -> Arc<Mutex<Option<GpuError>>> {
     fault
 }
 
-/// The tracer's bindings, as `shaders/words.wgsl` declares them: the shot's and the frame's
-/// words (0, 1, and as quads 5, 6), the work and the film (2, 3), and at a dispatch's offset
-/// the parameters (4) and the counters (7).
-fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+/// The tracer's bindings, as `shaders/words.wgsl` and the prelude declare them: the work and
+/// the film (2, 3), at a dispatch's offset the parameters (4) and the counters (7), and the
+/// pages of the shot's and the frame's words (from [`SHOT_PAGES`] and [`FRAME_PAGES`]).
+fn bind_group_layout(device: &wgpu::Device, pages: &Pages) -> wgpu::BindGroupLayout {
+    let mut entries = vec![
+        storage(2, false),
+        storage(3, false),
+        slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
+        slot(
+            7,
+            wgpu::BufferBindingType::Storage { read_only: false },
+            COUNTER_WORDS,
+        ),
+    ];
+    for k in 0..pages.count() {
+        entries.push(storage(SHOT_PAGES + k, true));
+        entries.push(storage(FRAME_PAGES + k, true));
+    }
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("tracer"),
-        entries: &[
-            storage(0, true),
-            storage(1, true),
-            storage(2, false),
-            storage(3, false),
-            storage(5, true),
-            storage(6, true),
-            slot(4, wgpu::BufferBindingType::Uniform, PARAMS_WORDS),
-            slot(
-                7,
-                wgpu::BufferBindingType::Storage { read_only: false },
-                COUNTER_WORDS,
-            ),
-        ],
+        entries: &entries,
+    })
+}
+
+/// `limits` with the binding and buffer sizes capped by [`MAX_BINDING_VARIABLE`] where it is
+/// set.
+pub(super) fn capped(mut limits: wgpu::Limits) -> wgpu::Limits {
+    if let Some(cap) = binding_cap() {
+        limits.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size.min(cap);
+        limits.max_buffer_size = limits.max_buffer_size.min(cap);
+    }
+    limits
+}
+
+/// How the adapter a render would take ([`Adapter::find`]) lays words over its bindings,
+/// looked up once a process; without an adapter, what every device binds.
+pub(super) fn pages_here() -> Pages {
+    static PAGES: OnceLock<Pages> = OnceLock::new();
+    *PAGES.get_or_init(|| Adapter::find().map_or_else(|_| Pages::guaranteed(), |a| a.pages()))
+}
+
+/// The cap [`MAX_BINDING_VARIABLE`] sets, bytes, if any (at least a quad: 16 bytes).
+fn binding_cap() -> Option<u64> {
+    let cap: u64 = std::env::var(MAX_BINDING_VARIABLE)
+        .ok()?
+        .trim()
+        .parse()
+        .ok()?;
+    Some(cap.max(16))
+}
+
+/// The tracer for words over `pages`, compiled on `device`: an invalid shader is an error.
+fn compile(device: &wgpu::Device, counting: Counting, pages: Pages) -> Result<Tracer, GpuError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("tracer"),
+        source: wgpu::ShaderSource::Wgsl(
+            format!("{}{SHADERS}", wgsl_prelude(counting, &pages)).into(),
+        ),
+    });
+    let layout = bind_group_layout(device, &pages);
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("tracer"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = entry_pipeline(device, &pipeline_layout, &module, "tracer", "trace");
+    #[cfg(test)]
+    let numbers = entry_pipeline(device, &pipeline_layout, &module, "numbers", "numbers");
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
+    }
+    Ok(Tracer {
+        pipeline,
+        #[cfg(test)]
+        numbers,
+        layout,
+        pages,
     })
 }
 

@@ -78,16 +78,22 @@ pub(super) struct Submitted {
 
 impl DeviceFilm {
     /// The film of a frame of `pixels` pixels with `stride` pass sums each, bound with the
-    /// shot's and the frame's buffers.
+    /// pages of the shot's and the frame's words (`words`, in that order).
     pub(super) fn new(
         gpu: &Gpu,
-        shot: &wgpu::Buffer,
-        frame: &wgpu::Buffer,
+        words: [&[wgpu::Buffer]; 2],
         pixels: usize,
         stride: u32,
     ) -> Result<DeviceFilm, GpuError> {
         let planes = film_planes(stride);
-        let part = part_pixels(pixels as u64, planes, &gpu.device.limits()) as u32;
+        // Parts within WebGPU's binding size too, whatever the device binds: the memory
+        // estimate ([`film_bytes`]) counts parts of at most that size, and larger parts
+        // would only save a read-back now and then.
+        let mut limits = gpu.device.limits();
+        limits.max_storage_buffer_binding_size = limits
+            .max_storage_buffer_binding_size
+            .min(wgpu::Limits::default().max_storage_buffer_binding_size);
+        let part = part_pixels(pixels as u64, planes, &limits) as u32;
         let budget = if gpu.is_software() {
             SOFTWARE_BUDGET
         } else {
@@ -117,19 +123,24 @@ impl DeviceFilm {
                 U::MAP_READ | U::COPY_DST,
             )
         });
+        // A page the words do not reach is bound to a quad of nothing.
+        let unused = buffer("no words", 16, U::STORAGE);
+        let mut entries = vec![
+            whole(2, &work),
+            whole(3, &sums),
+            slot(4, &params, PARAMS_WORDS),
+            slot(7, &counts, COUNTER_WORDS),
+        ];
+        for (first, pages) in [SHOT_PAGES, FRAME_PAGES].into_iter().zip(words) {
+            for k in 0..gpu.tracer.pages.count() {
+                let page = pages.get(k as usize).unwrap_or(&unused);
+                entries.push(whole(first + k, page));
+            }
+        }
         let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tracer"),
-            layout: &gpu.layout,
-            entries: &[
-                whole(0, shot),
-                whole(1, frame),
-                whole(2, &work),
-                whole(3, &sums),
-                slot(4, &params, PARAMS_WORDS),
-                whole(5, shot),
-                whole(6, frame),
-                slot(7, &counts, COUNTER_WORDS),
-            ],
+            layout: &gpu.tracer.layout,
+            entries: &entries,
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(classify(&e));
@@ -208,7 +219,7 @@ impl DeviceFilm {
                 label: Some("trace"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&gpu.pipeline);
+            pass.set_pipeline(&gpu.tracer.pipeline);
             let dynamic = offset as u32;
             pass.set_bind_group(0, &self.bind, &[dynamic, dynamic]);
             pass.dispatch_workgroups(workgroups(dispatch.count), 1, 1);
@@ -320,7 +331,7 @@ impl DeviceFilm {
                 label: Some("numbers"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&gpu.numbers);
+            pass.set_pipeline(&gpu.tracer.numbers);
             pass.set_bind_group(0, &self.bind, &[0, 0]);
             pass.dispatch_workgroups(workgroups(n as u32), 1, 1);
         }

@@ -15,6 +15,8 @@
 //! them: the film on the device (its sums), a round's work entries, each dispatch's
 //! parameters and counts.
 
+use super::pages::Pages;
+
 /// A word that stands for no offset or no slot.
 pub(super) const NONE: u32 = u32::MAX;
 
@@ -223,6 +225,13 @@ pub(super) const MAX_STRIDE: u32 = 12;
 /// Threads of a workgroup.
 pub(super) const WORKGROUP: u32 = 64;
 
+/// Bindings the shot's words, and the frame's, may each span at most ([`super::pages`]).
+pub(super) const MAX_PAGES: u32 = 4;
+/// The binding of the shot's first page; its others follow.
+pub(super) const SHOT_PAGES: u32 = 8;
+/// The binding of the frame's first page; its others follow.
+pub(super) const FRAME_PAGES: u32 = SHOT_PAGES + MAX_PAGES;
+
 // Records' fields lie inside their records; every record is whole quads, and a three-word
 // field never straddles two quads.
 const _: () = {
@@ -371,17 +380,20 @@ pub(super) enum Counting {
 }
 
 /// What the shaders' text is put after: the constants as WGSL declarations
-/// (`const H_WIDTH: u32 = 0u;`);
+/// (`const H_WIDTH: u32 = 0u;`); the pages of the shot's and the frame's words as `pages`
+/// lays them on the device, and `quad(src, i)`, which reads the quad of word `i` (a multiple
+/// of four) of the shot's (`src` 0) or the frame's (1) words from its page;
 /// `store_passes(i, px)`, which stores pixel `i`'s pass sums one by one without a loop
 /// (trace.wgsl, window: a loop there could be cut halfway); `count(k, v)`, which adds an
 /// invocation's `v` to the dispatch's count `k` (trace.wgsl, dispatch_add).
-pub(super) fn wgsl_prelude(counting: Counting) -> String {
+pub(super) fn wgsl_prelude(counting: Counting, pages: &Pages) -> String {
     // (naga takes subgroup operations where the device was opened with wgpu's `SUBGROUP`
     // feature, without WGSL's `enable subgroups`, which it does not parse yet.)
     let mut text = String::new();
     for (name, value) in CONSTANTS {
         text += &format!("const {name}: u32 = {value}u;\n");
     }
+    text += &paged_reads(pages);
     text += "fn store_passes(i: u32, px: u32) {\n";
     for k in 0..MAX_STRIDE {
         text += &format!("    if g_stride > {k}u {{ store_pass({k}u, i, px); }}\n");
@@ -414,6 +426,42 @@ pub(super) fn wgsl_prelude(counting: Counting) -> String {
 "
         }
     }
+}
+
+/// The page bindings of the shot's and the frame's words (`shot_page0`, ...) and `quad`,
+/// which finds a quad's page by a shift and its place in the page by a mask: a page holds
+/// `2^k` words, a power of two ([`Pages`]).
+fn paged_reads(pages: &Pages) -> String {
+    let mut text = String::new();
+    let quads = pages.page_words() / 4;
+    let shift = quads.trailing_zeros();
+    text += "fn quad(src: u32, i: u32) -> vec4<u32> {\n    let q = i >> 2u;\n";
+    if pages.count() > 1 {
+        text += &format!(
+            "    let page = q >> {shift}u;\n    let at = q & {}u;\n",
+            quads - 1
+        );
+    } else {
+        text += "    let at = q;\n";
+    }
+    for (src, name, first) in [(0, "shot", SHOT_PAGES), (1, "frame", FRAME_PAGES)] {
+        for k in 0..pages.count() {
+            text = format!(
+                "@group(0) @binding({}) var<storage, read> {name}_page{k}: array<vec4<u32>>;\n{text}",
+                first + k
+            );
+        }
+        // The last page takes what the others do not: no branch is left without a return.
+        text += &format!("    if src == {src}u {{\n");
+        for k in 0..pages.count() - 1 {
+            text += &format!("        if page == {k}u {{ return {name}_page{k}[at]; }}\n");
+        }
+        text += &format!(
+            "        return {name}_page{}[at];\n    }}\n",
+            pages.count() - 1
+        );
+    }
+    text + "    return vec4<u32>(0u);\n}\n"
 }
 
 /// A buffer's words as it is written, with the offsets of what was appended.
@@ -461,11 +509,6 @@ impl Words {
 
     pub(super) fn set_f(&mut self, i: u32, x: f64) {
         self.set(i, (x as f32).to_bits());
-    }
-
-    /// The words as bytes, in the machine's order (as the GPU reads them).
-    pub(super) fn bytes(&self) -> Vec<u8> {
-        self.0.iter().flat_map(|w| w.to_ne_bytes()).collect()
     }
 }
 
@@ -520,7 +563,7 @@ mod tests {
         }
         assert_eq!(next, HEADER_WORDS);
         for counting in [Counting::Subgroups, Counting::Atomics] {
-            let text = wgsl_prelude(counting);
+            let text = wgsl_prelude(counting, &Pages::guaranteed());
             assert!(text.contains("const H_VIEW: u32 = 21u;\n"));
             assert!(text.contains("if g_stride > 11u { store_pass(11u, i, px); }"));
             assert!(!text.contains("12u, i"));

@@ -8,6 +8,7 @@
 //!   [`Gpu`], [`GpuError`]);
 //! - `support`: what the GPU path refuses before rendering ([`unsupported`]);
 //! - `layout`: where everything lies in the GPU's buffers, for the CPU and the shaders;
+//! - `pages`: the shot's and the frame's words over several bindings ([`Pages`]);
 //! - `flatten`: a hierarchy flattened for the GPU, its only reader of one;
 //! - `upload`: a shot's and a frame's words, serialised from the CPU's preparation;
 //! - `shot`: a shot and its frames on the GPU, rounds of samples into the film ([`GpuShot`]);
@@ -23,6 +24,7 @@ mod context;
 mod device_film;
 mod flatten;
 mod layout;
+mod pages;
 mod quiet;
 mod schedule;
 mod shot;
@@ -32,6 +34,7 @@ mod upload;
 #[cfg(test)]
 mod tests;
 
-pub use context::{Adapter, Gpu, GpuError, LOSE_AFTER_VARIABLE};
+pub use context::{Adapter, Gpu, GpuError, LOSE_AFTER_VARIABLE, MAX_BINDING_VARIABLE};
+pub use pages::Pages;
 pub use shot::GpuShot;
 pub use support::{Unsupported, frame_bytes, unsupported};

@@ -17,6 +17,7 @@ use super::context::{Gpu, GpuError, classify};
 use super::device_film::{DeviceFilm, SLOTS, Submitted, merge};
 use super::layout::{MAX_STRIDE, Words};
 use super::schedule::{Pace, Windows};
+use super::support::buffer_bytes;
 use super::upload::{FrameWords, ShotWords};
 use raytrace_core::error::Error;
 use raytrace_core::film::Film;
@@ -34,7 +35,8 @@ pub struct GpuShot {
     gpu: Gpu,
     statics: StaticGeometry,
     words: ShotWords,
-    buffer: wgpu::Buffer,
+    /// The shot's words, page by page.
+    pages: Vec<wgpu::Buffer>,
     /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
     /// the threads of a run, one frame at a time).
     pace: Mutex<Pace>,
@@ -44,14 +46,15 @@ impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
     /// that never move, with their hierarchy (built here).
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
+        let gpu = gpu.fitting(buffer_bytes(scene))?;
         let statics = StaticGeometry::new(scene);
         let words = ShotWords::new(scene, &statics).map_err(GpuError::Failed)?;
-        let buffer = upload(gpu, "shot", &words.words)?;
+        let pages = upload(&gpu, "shot", &words.words)?;
         Ok(GpuShot {
-            gpu: gpu.clone(),
+            gpu,
             statics,
             words,
-            buffer,
+            pages,
             pace: Mutex::new(Pace::default()),
         })
     }
@@ -73,19 +76,18 @@ impl GpuShot {
             "more pass sums than the GPU keeps"
         );
         let words = FrameWords::new(prepared, &self.words, layout);
-        let buffer = upload(&self.gpu, "frame", &words.words)?;
+        let pages = upload(&self.gpu, "frame", &words.words)?;
         let scene = prepared.scene;
         let pixels = scene.output.width as usize * scene.output.height as usize;
         let film = DeviceFilm::new(
             &self.gpu,
-            &self.buffer,
-            &buffer,
+            [&self.pages, &pages],
             pixels,
             layout.stride as u32,
         )?;
         Ok(GpuFrame {
             shot: self,
-            _buffer: buffer,
+            _pages: pages,
             film,
             stride: layout.stride,
             max_depth: scene.render.max_depth,
@@ -111,37 +113,56 @@ impl ShotTracer for GpuShot {
     }
 }
 
-/// A buffer holding `words`, for the shaders to read.
-fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<wgpu::Buffer, GpuError> {
+/// Buffers holding `words` page by page ([`Pages`](super::pages::Pages)), for the shaders to
+/// read; more words than the device's pages hold is an error naming both in MiB (a scene
+/// validated against the adapter's pages never gets here, `super::support`).
+fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<Vec<wgpu::Buffer>, GpuError> {
     use wgpu::util::DeviceExt;
-    let limit = gpu.device.limits().max_storage_buffer_binding_size;
-    let bytes = words.0.len() as u64 * 4;
-    if bytes > limit {
+    let pages = gpu.tracer.pages;
+    let Some(parts) = pages.split(&words.0) else {
         return Err(GpuError::Failed(format!(
-            "the {label}'s data take {} MiB, more than the {} MiB a GPU buffer may hold here",
-            bytes >> 20,
-            limit >> 20
+            "the {label}'s data take {}, more than the {} this GPU binds ({} bindings of {})",
+            mib(4 * words.0.len() as u64),
+            mib(pages.bytes()),
+            pages.count(),
+            mib(4 * pages.page_words() as u64)
         )));
-    }
+    };
     let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-    let buffer = gpu
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: &words.bytes(),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
+    let buffers = parts
+        .into_iter()
+        .map(|part| {
+            // Whole quads: the shaders read a page as an array of them.
+            let mut bytes: Vec<u8> = part.iter().flat_map(|w| w.to_ne_bytes()).collect();
+            bytes.resize(bytes.len().next_multiple_of(16), 0);
+            gpu.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: &bytes,
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
+        })
+        .collect();
     match pollster::block_on(scope.pop()) {
         Some(e) => Err(classify(&e)),
-        None => Ok(buffer),
+        None => Ok(buffers),
+    }
+}
+
+/// Bytes in MiB to a tenth (`266.4 MiB`), or in KiB below a MiB (`64.0 KiB`, the sizes
+/// of limits forced low).
+pub(super) fn mib(bytes: u64) -> String {
+    match bytes < 1 << 20 {
+        true => format!("{:.1} KiB", bytes as f64 / 1024.0),
+        false => format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64),
     }
 }
 
 /// One frame prepared on the GPU.
 pub(crate) struct GpuFrame<'s> {
     shot: &'s GpuShot,
-    /// The frame's words, bound in the film's dispatches.
-    _buffer: wgpu::Buffer,
+    /// The frame's words, page by page, bound in the film's dispatches.
+    _pages: Vec<wgpu::Buffer>,
     film: DeviceFilm,
     stride: usize,
     max_depth: u32,
@@ -320,6 +341,14 @@ impl GpuShot {
     /// Sets the device's pace the next frame begins with.
     pub(super) fn set_pace(&self, pace: Pace) {
         *self.pace.lock().unwrap_or_else(|e| e.into_inner()) = pace;
+    }
+}
+
+#[cfg(test)]
+impl GpuShot {
+    /// The shot's words, as uploaded.
+    pub(super) fn words(&self) -> &ShotWords {
+        &self.words
     }
 }
 

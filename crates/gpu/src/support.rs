@@ -11,9 +11,13 @@
 //! are refused.
 //!
 //! Point caches (`[[points]]`) are not traced on the GPU: their points may carry colours of
-//! their own, which the GPU's sphere records do not, and a frame's points are read per frame
-//! and may be far more than one GPU buffer holds. A scene with point caches is refused too.
+//! their own, which the GPU's sphere records do not, and they are read per frame, which no
+//! upload of the GPU's does yet (only the spheres' words are paged over bindings). A scene
+//! with point caches is refused too.
 
+use super::context::pages_here;
+use super::pages::Pages;
+use super::shot::mib;
 use raytrace_core::motion::Motion;
 use raytrace_core::scene::Scene;
 use raytrace_core::show::{show, show_approx};
@@ -45,10 +49,6 @@ pub(crate) const MIN_PIXEL_ANGLE: f64 = 1.0 / 131_072.0;
 /// `f32`, resolved to `2^-24` of it (4e-6 radians at 3600 degrees).
 pub(crate) const MAX_SWEEP_DEGREES: f64 = 3600.0;
 
-/// Bytes one GPU buffer may hold: 128 MiB, what WebGPU guarantees a storage buffer binding
-/// on every device (wgpu's default `max_storage_buffer_binding_size`).
-pub(crate) const MAX_BUFFER_BYTES: u64 = 128 << 20;
-
 /// Why the GPU path does not render a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Unsupported {
@@ -73,13 +73,14 @@ pub enum Unsupported {
     NarrowView { pixel_angle: f64 },
     /// An orbit sweeping more than [`MAX_SWEEP_DEGREES`] over a frame's widened exposure.
     FastOrbit { what: String, sweep: f64 },
-    /// The frame's (or the shot's) buffer could need more than [`MAX_BUFFER_BYTES`].
-    TooLarge { bytes: u64 },
+    /// The frame's (or the shot's) words could need more bytes than the pages of the
+    /// adapter a render would take hold ([`Pages::bytes`]).
+    TooLarge { bytes: u64, pages: Pages },
 }
 
 /// Why the GPU path does not render `scene`, if it does not: the first limit it passes, in
 /// the order of [`Unsupported`]'s kinds (point caches, spheres in order, then the camera,
-/// then the size).
+/// then the size, against the adapter's limits: [`too_large`]).
 pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
     if !scene.points.is_empty() {
         return Some(Unsupported::PointCaches {
@@ -131,10 +132,19 @@ pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
             });
         }
     }
-    camera(scene, times, sweep_time).or_else(|| {
-        let bytes = buffer_bytes(scene);
-        (bytes > MAX_BUFFER_BYTES).then_some(Unsupported::TooLarge { bytes })
-    })
+    camera(scene, times, sweep_time).or_else(|| too_large(scene))
+}
+
+/// Whether `scene`'s words could take more than the pages of the adapter a render would take
+/// hold. Only a scene beyond what every device binds (WebGPU's limits, within
+/// [`MAX_BINDING_VARIABLE`](super::MAX_BINDING_VARIABLE)) looks for the adapter (once a process).
+fn too_large(scene: &Scene) -> Option<Unsupported> {
+    let bytes = buffer_bytes(scene);
+    if bytes <= Pages::guaranteed().bytes() {
+        return None;
+    }
+    let pages = pages_here();
+    (bytes > pages.bytes()).then_some(Unsupported::TooLarge { bytes, pages })
 }
 
 /// The camera's limits.
@@ -215,7 +225,7 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
 /// record for every animated sphere and another for the motion pass, every key twice. Where
 /// the world prepares every sphere per frame ([`raytrace_core::world::one_hierarchy`]), the still
 /// ones too are in the frame's buffer.
-fn buffer_bytes(scene: &Scene) -> u64 {
+pub(super) fn buffer_bytes(scene: &Scene) -> u64 {
     use super::layout::{
         ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
         TABLE_WORDS,
@@ -258,8 +268,9 @@ pub fn frame_bytes(scene: &Scene, stride: usize) -> u64 {
 
 /// Resident bytes the GPU path adds to the process whatever the frame: the Vulkan driver and,
 /// for a software device, its shader compiler. Measured: the peak of a 48x27 render of a
-/// scene without spheres on lavapipe is 121 MiB, where the CPU path's is 9 MiB.
-pub(crate) const GPU_FLOOR_BYTES: u64 = 128 << 20;
+/// scene without spheres on lavapipe is 142 MiB (the tracer compiled for one page of words,
+/// `context::Tracer`; 119.5 MiB before the words were paged), where the CPU path's is 9 MiB.
+pub(crate) const GPU_FLOOR_BYTES: u64 = 152 << 20;
 
 /// A motion's keys (0 for other kinds).
 fn keys(m: &Motion) -> u32 {
@@ -314,10 +325,13 @@ impl std::fmt::Display for Unsupported {
                 show_approx(*sweep),
                 show(MAX_SWEEP_DEGREES)
             ),
-            Unsupported::TooLarge { bytes } => format!(
-                "its spheres could need {} MiB in one GPU buffer, more than the {} MiB every GPU offers",
-                bytes.div_ceil(1 << 20),
-                MAX_BUFFER_BYTES >> 20
+            Unsupported::TooLarge { bytes, pages } => format!(
+                "its spheres could need {} in one of the GPU's two buffers of words, more than the {} this GPU binds for one ({} bindings of {}; the adapter binds at most {} a storage buffer)",
+                mib(*bytes),
+                mib(pages.bytes()),
+                pages.count(),
+                mib(4 * pages.page_words() as u64),
+                mib(pages.binding())
             ),
         };
         f.write_str(&text)

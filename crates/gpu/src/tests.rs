@@ -173,3 +173,55 @@ fn paths_take_max_depth_bounces_or_the_device_says_it_cannot() {
         (software, r) => panic!("software {software}: {:?}", r.map(|r| r.stats)),
     }
 }
+
+#[test]
+fn a_frame_split_over_several_bindings_is_the_same_bits() {
+    // A device opened with bindings of 128 KiB: the frame's words (1500 spheres, half of
+    // them moving, all in the frame's hierarchy) lie over two pages, and the film
+    // is cut into parts (64 x 48 pixels of 19 planes: 228 KiB). The frame is the same bits
+    // as on the device opened with the adapter's limits, where everything is in one binding:
+    // only where words are read from changed.
+    let Some(gpu) = gpu() else { return };
+    let binding = 128 << 10;
+    let limits = wgpu::Limits {
+        max_storage_buffer_binding_size: binding,
+        max_buffer_size: binding,
+        ..super::context::Adapter::find().unwrap().limits()
+    };
+    let small = Gpu::open_limited(super::context::Adapter::find().unwrap(), limits).unwrap();
+    let pages = small.pages();
+    assert_eq!(pages.page_words(), 32768);
+    assert!(pages.count() >= 2, "{pages:?}");
+    let mut text = String::from(
+        "[shot]\nframes = 3\n[output]\npath = \"f_####.exr\"\nwidth = 64\nheight = 48\npasses = [\"depth\", \"normal\"]\n[render]\nsamples = 2\nmax_depth = 4\n[camera]\nlook_from = [0.0, 0.0, 6.0]\nlook_at = [0.0, 0.0, 0.0]\n",
+    );
+    let mut r = raytrace_core::rng::Pcg32::new(3, 7);
+    for i in 0..1500 {
+        let c = [0; 3].map(|_| (r.next_f64() - 0.5) * 4.0);
+        let material = [
+            "lambertian\", albedo = [0.6, 0.5, 0.4]",
+            "metal\", albedo = [0.8, 0.8, 0.8], fuzz = 0.1",
+        ][i % 2];
+        text += &format!(
+            "[[sphere]]\ncenter = {c:?}\nradius = 0.08\nmaterial = {{ type = \"{material} }}\n"
+        );
+        if i % 2 == 0 {
+            text += "velocity = [0.0, 0.3, 0.0]\n";
+        }
+    }
+    let scene = on_gpu(&text);
+    let shot = GpuShot::new(&small, &scene).unwrap();
+    let none = FramePoints::none();
+    let prepared = PreparedFrame::new(&scene, shot.statics(), &none, 2);
+    let words =
+        super::upload::FrameWords::new(&prepared, shot.words(), &SumLayout::new(PassSet::EMPTY));
+    let split = pages
+        .split(&words.words.0)
+        .expect("within the small device's pages");
+    assert!(split.len() >= 2, "{} pages", split.len());
+    let a = render(gpu, &scene, 2, None);
+    let b = render(&small, &scene, 2, None);
+    assert_eq!(a.film.pixel(0, 0).taken(), 2);
+    assert!(a.film.means() == b.film.means());
+    assert!(a.film.variances() == b.film.variances());
+}

@@ -161,6 +161,11 @@ pub fn supported(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
             "{chosen}: the GPU does not render point caches, and this scene has {tables}; render it with --device cpu"
         )));
     }
+    if let Unsupported::TooLarge { .. } = why {
+        return Err(Error::Scene(format!(
+            "{chosen}: the GPU has not the room for this scene: {why}; render it with --device cpu"
+        )));
+    }
     Err(Error::Scene(format!(
         "{chosen}: the GPU computes in 32-bit floats and does not render this scene: {why}; render it with --device cpu"
     )))

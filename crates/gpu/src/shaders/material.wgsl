@@ -53,7 +53,7 @@ fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) ->
     if !front {
         n = -outward;
     }
-    let q0 = shot_quads[m >> 2u];
+    let q0 = quad(0u, m);
     let kind = q0.x;
     let albedo = bitcast<vec3<f32>>(q0.yzw);
     if kind == LAMBERTIAN {
@@ -64,7 +64,7 @@ fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) ->
         }
         return Scatter(normalize(dir), albedo, front, false);
     }
-    let q1 = bitcast<vec4<f32>>(shot_quads[(m >> 2u) + 1u]);
+    let q1 = bitcast<vec4<f32>>(quad(0u, m + 4u));
     if kind == METAL {
         var dir = mirror(dir_in, n);
         let fuzz = q1.x;
@@ -92,7 +92,7 @@ fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) ->
 
 // The material's albedo as a denoiser takes it (glass: 1).
 fn albedo_of(m: u32) -> vec3<f32> {
-    let q0 = shot_quads[m >> 2u];
+    let q0 = quad(0u, m);
     if q0.x == DIELECTRIC {
         return vec3<f32>(1.0);
     }

@@ -123,7 +123,7 @@ fn start_sample(x: u32, y: u32, index: u32) {
 
 // The Sobol table's entry `i` (four words).
 fn sobol_table(i: u32) -> vec4<u32> {
-    return shot_quads[(g_tables >> 2u) + i];
+    return quad(0u, g_tables + 4u * i);
 }
 
 // The current sample's point of Sobol domain `d`: its first four dimensions.

@@ -2,10 +2,12 @@
 // 64-bit integers, so the CPU samplers' 64-bit hashes and PCG32 state are pairs of u32
 // (low, high), with the same results bit for bit.
 
-// What every frame of the shot shares: materials, Sobol tables, still spheres, their hierarchy.
-@group(0) @binding(0) var<storage, read> shot_words: array<u32>;
-// This frame's header, curve, camera motion, animated spheres, their hierarchy and motions.
-@group(0) @binding(1) var<storage, read> frame_words: array<u32>;
+// The shot's words (what every frame of the shot shares: materials, Sobol tables, still
+// spheres, their hierarchy) and the frame's (its header, curve, camera motion, animated
+// spheres, their hierarchy and motions) are bound as pages of quads, which the prelude
+// declares with `quad(src, i)`, the quad holding word `i` (a multiple of four) of the shot's
+// (`src` 0) or the frame's (1) words (pages.rs). Records start at multiples of four words
+// and are read a quad at a time (one load instead of four).
 // The round's work in this part of the film, an entry per pixel with samples to take (layout.rs,
 // W_*); an entry's next sample advances as samples are added.
 @group(0) @binding(2) var<storage, read_write> work: array<vec4<u32>>;
@@ -13,37 +15,15 @@
 @group(0) @binding(3) var<storage, read_write> film: array<u32>;
 // This dispatch's parameters (layout.rs, P_*).
 @group(0) @binding(4) var<uniform> params: array<vec4<u32>, 2>;
-// The shot's and the frame's buffers again, four words at a time: records start at multiples
-// of four words and are read a quad at a time (one load instead of four).
-@group(0) @binding(5) var<storage, read> shot_quads: array<vec4<u32>>;
-@group(0) @binding(6) var<storage, read> frame_quads: array<vec4<u32>>;
 // This dispatch's counts (layout.rs, C_*), summed with atomics: integer sums, the same in any
 // order.
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>, COUNTER_WORDS>;
 
-// A word, a float and three floats of the frame buffer.
-fn fu(i: u32) -> u32 { return frame_words[i]; }
-fn ff(i: u32) -> f32 { return bitcast<f32>(frame_words[i]); }
+// A word, a float and three floats of the frame's words.
+fn fu(i: u32) -> u32 { return quad(1u, i & ~3u)[i & 3u]; }
+fn ff(i: u32) -> f32 { return bitcast<f32>(fu(i)); }
 fn fv(i: u32) -> vec3<f32> { return vec3<f32>(ff(i), ff(i + 1u), ff(i + 2u)); }
-
-// The same in the shot buffer (`src` 0) or the frame buffer (`src` 1).
-fn word(src: u32, i: u32) -> u32 {
-    if src == 0u {
-        return shot_words[i];
-    }
-    return frame_words[i];
-}
-fn wf(src: u32, i: u32) -> f32 { return bitcast<f32>(word(src, i)); }
-fn wv(src: u32, i: u32) -> vec3<f32> { return vec3<f32>(wf(src, i), wf(src, i + 1u), wf(src, i + 2u)); }
-
-// The quad holding word `i` (a multiple of four) of buffer `src`, or of the frame buffer.
-fn quad(src: u32, i: u32) -> vec4<u32> {
-    if src == 0u {
-        return shot_quads[i >> 2u];
-    }
-    return frame_quads[i >> 2u];
-}
-fn fquad(i: u32) -> vec4<u32> { return frame_quads[i >> 2u]; }
+fn fquad(i: u32) -> vec4<u32> { return quad(1u, i); }
 fn xyz(q: vec4<u32>) -> vec3<f32> { return bitcast<vec3<f32>>(q.xyz); }
 
 // The header's words used per sample, read once per run (every load costs on a software
