@@ -18,7 +18,7 @@ use raytrace_core::metrics::{self, FlickerSum};
 use raytrace_core::renderer::{FrameJob, FrameResult, ShotTracer};
 use raytrace_core::rng::hash_words;
 use raytrace_core::sampler::SamplePattern;
-use raytrace_core::scene::Scene;
+use raytrace_core::scene::{Carry, Scene};
 use raytrace_render::devices::{Devices, supported};
 use raytrace_render::finish::Finishing;
 use raytrace_scene::point_cache::{self, ShotPoints};
@@ -35,7 +35,7 @@ pub(crate) enum Route {
     /// New samples every frame, each frame denoised alone (`--denoise`).
     Denoised,
     /// New samples every frame, denoised and combined with the two frames before it
-    /// (`DenoiseSettings::history`).
+    /// (`Carry::Written`).
     History,
     /// The same sample points every frame, denoised and combined with the two frames before
     /// it.
@@ -43,7 +43,7 @@ pub(crate) enum Route {
     /// The same sample points every frame, each frame denoised alone: `--temporal`.
     Temporal,
     /// New samples every frame, each frame's raw film pooled with the two frames' before it
-    /// where they agree, then denoised (`DenoiseSettings::accumulate`).
+    /// where they agree, then denoised (`Carry::Raw`).
     Accumulated,
 }
 
@@ -161,11 +161,11 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             let denoised = with(samples, seed, false)?;
             let mut historic = denoised.clone();
             if let Some(d) = &mut historic.output.denoise {
-                d.history = true;
+                d.carry = Carry::Written;
             }
             let mut pooled = denoised.clone();
             if let Some(d) = &mut pooled.output.denoise {
-                d.accumulate = true;
+                d.carry = Carry::Raw;
             }
             Ok([denoised, with(samples, seed, true)?, historic, pooled])
         })

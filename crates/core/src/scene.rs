@@ -47,17 +47,27 @@ pub struct DenoiseSettings {
     /// `--temporal`: keep the denoised sequence from flickering, by sampling every frame
     /// with the same sample points (`sampler::SamplePattern::Stable`).
     pub temporal: bool,
-    /// Whether each written frame is combined with its two predecessors, reprojected
-    /// (`raytrace_denoise::history`). No option sets it: `converge --flicker` measures it as
-    /// a route of its own beside `--temporal`'s, which it did not improve at its cost
-    /// (docs/denoising.md).
-    pub history: bool,
-    /// Whether each frame's raw film is pooled with its two predecessors' raw films,
-    /// reprojected, before it is denoised (`raytrace_denoise::accumulate`). No option sets it:
-    /// `converge --flicker` measures it as a route of its own.
-    pub accumulate: bool,
+    /// What a frame takes from the frames before it. No option sets it: `converge --flicker`
+    /// measures each way as a route of its own beside `--temporal`'s, which none improved at
+    /// its cost (docs/denoising.md).
+    pub carry: Carry,
     /// `--denoise-device`: where the denoiser runs.
     pub device: DenoiseDevice,
+}
+
+/// What a denoised frame takes from the two frames before it, carried to its pixels along the
+/// motion vectors ([`DenoiseSettings::carry`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Carry {
+    /// Nothing: each frame is denoised alone.
+    #[default]
+    Nothing,
+    /// Their written frames, combined with this one's by estimated error
+    /// (`raytrace_denoise::history`).
+    Written,
+    /// Their raw films, pooled with this one's where they agree, before the denoise
+    /// (`raytrace_denoise::accumulate`).
+    Raw,
 }
 
 /// Where the denoiser runs (`--denoise-device`).

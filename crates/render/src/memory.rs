@@ -102,6 +102,7 @@ pub fn peak_memory_bytes() -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use raytrace_core::scene::Carry;
     use raytrace_scene::scene_file::SceneFile;
 
     #[test]
@@ -200,7 +201,7 @@ mod tests {
         // --temporal samples differently and finishes as --denoise does.
         let temporal = memory_estimate(&scene(Some(true), Some(true)), 0.into());
         let mut historic = scene(Some(true), None);
-        historic.output.denoise.as_mut().unwrap().history = true;
+        historic.output.denoise.as_mut().unwrap().carry = Carry::Written;
         let history = memory_estimate(&historic, 0.into());
         // OIDN's scratch alone is 355 bytes a pixel at the default quality.
         assert!(denoised - raw > 200 * 100 * 355, "{raw} {denoised}");

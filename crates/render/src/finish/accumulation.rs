@@ -1,4 +1,4 @@
-//! The accumulation stage (`DenoiseSettings::accumulate`): the raw films of the frames
+//! The accumulation stage (`Carry::Raw`): the raw films of the frames
 //! finished last, as a later frame pools them with its own before it is denoised
 //! (`raytrace_denoise::accumulate` pools them).
 

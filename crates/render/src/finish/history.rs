@@ -1,4 +1,4 @@
-//! The history stage (`DenoiseSettings::history`): the frames finished last, as a later frame's history
+//! The history stage (`Carry::Written`): the frames finished last, as a later frame's history
 //! reads them (`raytrace_denoise::history` combines them).
 
 use super::history_passes;

@@ -48,7 +48,7 @@ use raytrace_core::pass::{Pass, PassSet};
 use raytrace_core::renderer::{
     Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopReason, StopRule,
 };
-use raytrace_core::scene::Scene;
+use raytrace_core::scene::{Carry, Scene};
 use raytrace_denoise::denoiser::{Denoiser, Filter, oidn_scratch};
 use raytrace_denoise::estimate;
 use raytrace_denoise::reproject::{self, HISTORY};
@@ -57,7 +57,7 @@ use raytrace_denoise::reproject::{self, HISTORY};
 /// history, the depth, normal and motion that carry a pixel to earlier frames.
 pub fn passes_read(scene: &Scene) -> PassSet {
     match scene.output.denoise {
-        Some(d) if d.history || d.accumulate => history_passes(),
+        Some(d) if d.carry != Carry::Nothing => history_passes(),
         _ => PassSet::EMPTY,
     }
 }
@@ -79,7 +79,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
     let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
-    let history = match settings.history {
+    let history = match settings.carry == Carry::Written {
         true => {
             estimate::written_bytes(pixels)
                 + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
@@ -88,7 +88,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         }
         false => 0,
     };
-    let accumulation = match settings.accumulate {
+    let accumulation = match settings.carry == Carry::Raw {
         true => raytrace_denoise::accumulate::bytes_for(pixels),
         false => 0,
     };
@@ -125,7 +125,7 @@ pub struct Finishing<'d> {
 impl<'d> Finishing<'d> {
     /// The stages `scene` asks for: denoising by `denoiser` when `[output] denoise` is set
     /// (`Devices::finishing` gives the run's denoiser then), history when its denoise
-    /// settings ask for it (`DenoiseSettings::history`).
+    /// settings ask for it (`DenoiseSettings::carry`).
     pub fn new(scene: &Scene, denoiser: Option<&'d Denoiser>) -> Result<Finishing<'d>, Error> {
         let denoising = match (&scene.output.denoise, denoiser) {
             (Some(settings), Some(d)) => Some(Denoising::new(
@@ -139,12 +139,12 @@ impl<'d> Finishing<'d> {
         let history = scene
             .output
             .denoise
-            .filter(|d| d.history)
+            .filter(|d| d.carry == Carry::Written)
             .map(|_| History::default());
         let accumulation = scene
             .output
             .denoise
-            .filter(|d| d.accumulate)
+            .filter(|d| d.carry == Carry::Raw)
             .map(|_| Accumulation::default());
         Ok(Finishing {
             denoising,

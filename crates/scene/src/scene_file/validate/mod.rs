@@ -28,7 +28,9 @@ use raytrace_core::motion::{Key, Motion, Orbit};
 use raytrace_core::pass::{Pass, PassSet};
 use raytrace_core::path_pattern::{self, FramePattern};
 use raytrace_core::sampler::SamplerKind;
-use raytrace_core::scene::{DenoiseSettings, MAX_SIDE, OutputSettings, RenderSettings, Scene};
+use raytrace_core::scene::{
+    Carry, DenoiseSettings, MAX_SIDE, OutputSettings, RenderSettings, Scene,
+};
 use raytrace_core::show::{show, show_approx};
 use raytrace_core::shutter::{
     ReadoutDirection, RollingShutter, Shot, ShutterCurve, ShutterPosition, shutter_from_angle,
@@ -532,8 +534,7 @@ impl<'a> Validator<'a> {
             denoise: denoise.then(|| DenoiseSettings {
                 quality: o.denoise_quality.map(|q| q.0).unwrap_or_default(),
                 temporal,
-                history: false,
-                accumulate: false,
+                carry: Carry::Nothing,
                 device: self.overrides.denoise_device.unwrap_or_default(),
             }),
             path,
