@@ -1,7 +1,8 @@
 //! The denoised frame written, against the truth, on every shipped scene:
 //!
 //! - the error it states (the frame line's, and `estimatedRelativeError`) is within 25 percent
-//!   of its true relative error at 16 to 1024 samples a pixel;
+//!   of its true relative error at 16 to 1024 samples a pixel, with new sample points every
+//!   frame (`--denoise`) and with the same ones (`--temporal`'s stable pattern);
 //! - it is never further from the truth than the raw frame at 16 to 1024 samples a pixel, and
 //!   within 10% of it (in relative MSE) at 4096.
 //!
@@ -30,7 +31,8 @@ use std::path::{Path, PathBuf};
 use raytrace_core::image::Image;
 use raytrace_core::metrics::cross_rel_mse;
 use raytrace_core::renderer::{CpuShot, FrameJob};
-use raytrace_core::scene::{DenoiseSettings, Scene};
+use raytrace_core::sampler::SamplePattern;
+use raytrace_core::scene::Scene;
 use raytrace_render::devices::{Devices, Needs};
 use raytrace_scene::point_cache;
 use raytrace_scene::scene_file::Overrides;
@@ -82,7 +84,7 @@ fn scene(
     size: Option<(u32, u32)>,
     samples: u32,
     seed: Option<u64>,
-    denoise: bool,
+    finish: Finish,
 ) -> Scene {
     let full = Scene::load(path).unwrap();
     let (width, height) = size.unwrap_or((full.output.width / 2, full.output.height / 2));
@@ -91,10 +93,23 @@ fn scene(
         height: Some(height),
         samples: Some(samples),
         seed,
-        denoise: Some(denoise),
+        denoise: Some(finish != Finish::Raw),
+        temporal: Some(finish == Finish::Temporal),
         ..Overrides::default()
     };
     Scene::load_with(path, &overrides).unwrap()
+}
+
+/// How a frame of a check is finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Finish {
+    /// Not at all (the references).
+    Raw,
+    /// `--denoise`: new sample points every frame.
+    Denoise,
+    /// `--denoise --temporal`: the same sample points every frame
+    /// ([`SamplePattern::Stable`]).
+    Temporal,
 }
 
 fn shipped(name: &str) -> PathBuf {
@@ -107,7 +122,7 @@ fn shipped(name: &str) -> PathBuf {
 /// seeds of their own.
 fn references(path: &Path, size: Option<(u32, u32)>, samples: u32) -> [Image; 2] {
     [0x5eed_0f7e_u64, 0x00dd_ba11].map(|seed| {
-        let s = scene(path, size, samples, Some(seed), false);
+        let s = scene(path, size, samples, Some(seed), Finish::Raw);
         let frame = s.shot.first_frame;
         let points = point_cache::read_frame(&s, frame).unwrap();
         FrameJob::new(&s, frame)
@@ -125,9 +140,20 @@ struct Rendered {
     stated: f64,
 }
 
-fn render(path: &Path, size: Option<(u32, u32)>, samples: u32, devices: &Devices) -> Rendered {
-    let s = scene(path, size, samples, None, true);
-    assert_eq!(s.output.denoise, Some(DenoiseSettings::default()));
+fn render(
+    path: &Path,
+    size: Option<(u32, u32)>,
+    samples: u32,
+    finish: Finish,
+    devices: &Devices,
+) -> Rendered {
+    let s = scene(path, size, samples, None, finish);
+    let pattern = match finish {
+        Finish::Temporal => SamplePattern::Stable,
+        _ => SamplePattern::PerFrame,
+    };
+    assert_eq!(SamplePattern::of(&s), pattern);
+    assert!(s.output.denoise.is_some());
     let frame = s.shot.first_frame;
     let points = point_cache::read_frame(&s, frame).unwrap();
     let mut finishing = devices.finishing(&s).unwrap();
@@ -156,14 +182,18 @@ fn check(path: &Path, run: &Run) {
     .unwrap();
     let refs = references(path, None, run.references);
     let mut worst: f64 = 0.0;
-    for &n in run.samples {
-        let r = render(path, None, n, &devices);
+    for (n, finish) in run
+        .samples
+        .iter()
+        .flat_map(|&n| [(n, Finish::Denoise), (n, Finish::Temporal)])
+    {
+        let r = render(path, None, n, finish, &devices);
         // Against the truth, cross-estimated from two references.
         let [a, b] = &refs;
         let (raw, written) = (cross_rel_mse(&r.raw, a, b), cross_rel_mse(&r.written, a, b));
         let truth = written.max(0.0).sqrt();
         eprintln!(
-            "{name} {n:>4} spp: raw {:.3}%, written {:.3}%, stated {:.3}% ({:.3})",
+            "{name} {n:>4} spp {finish:?}: raw {:.3}%, written {:.3}%, stated {:.3}% ({:.3})",
             100.0 * raw.max(0.0).sqrt(),
             100.0 * truth,
             100.0 * r.stated,
@@ -172,12 +202,12 @@ fn check(path: &Path, run: &Run) {
         worst = worst.max((r.stated / truth - 1.0).abs());
         assert!(
             (r.stated / truth - 1.0).abs() < BOUND,
-            "{name} at {n} samples: stated {}, true {truth}",
+            "{name} at {n} samples, {finish:?}: stated {}, true {truth}",
             r.stated
         );
         assert!(
             written <= raw,
-            "{name} at {n} samples: written {written}, raw {raw} (relative MSE)"
+            "{name} at {n} samples, {finish:?}: written {written}, raw {raw} (relative MSE)"
         );
     }
     eprintln!("{name}: worst |stated / true - 1| = {worst:.3}");
@@ -186,7 +216,7 @@ fn check(path: &Path, run: &Run) {
     }
     let small = Some((64, 36));
     let refs = references(path, small, 4096);
-    let r = render(path, small, 4096, &devices);
+    let r = render(path, small, 4096, Finish::Denoise, &devices);
     // Against the truth, cross-estimated from two references.
     let [a, b] = &refs;
     let (raw, written) = (cross_rel_mse(&r.raw, a, b), cross_rel_mse(&r.written, a, b));
