@@ -5,7 +5,8 @@ use std::fmt;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::layout::{
-    COUNTER_WORDS, Counting, FRAME_PAGES, PARAMS_WORDS, SHOT_PAGES, WORKGROUP, wgsl_prelude,
+    COUNTER_WORDS, Counting, FRAME_PAGES, FRAME_WORDS, PARAMS_WORDS, SHOT_PAGES, WORKGROUP,
+    wgsl_prelude,
 };
 use super::pages::Pages;
 use super::quiet::without_stray_lines;
@@ -86,7 +87,7 @@ pub struct Gpu {
 
 /// The tracer's pipeline compiled for words over some number of pages: each page more is a
 /// branch at every read of the words, which lavapipe's compiler pays for in memory (the
-/// empty scene's peak: 145 MiB with one page, 214 MiB with four), so a shot takes the
+/// empty scene's peak: 127 MiB with one page, 214 MiB with four), so a shot takes the
 /// fewest pages its words need.
 #[derive(Debug)]
 pub(super) struct Tracer {
@@ -334,7 +335,8 @@ fn watch_faults(device: &wgpu::Device) -> Arc<Mutex<Option<GpuError>>> {
 
 /// The tracer's bindings, as `shaders/words.wgsl` and the prelude declare them: the work and
 /// the film (2, 3), at a dispatch's offset the parameters (4) and the counters (7), and the
-/// pages of the shot's and the frame's words (from [`SHOT_PAGES`] and [`FRAME_PAGES`]).
+/// pages of the shot's and the frame's words (from [`SHOT_PAGES`] and [`FRAME_PAGES`]), and
+/// on a tracer of one page the frame's words again as words ([`FRAME_WORDS`]).
 fn bind_group_layout(device: &wgpu::Device, pages: &Pages) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         storage(2, false),
@@ -349,6 +351,9 @@ fn bind_group_layout(device: &wgpu::Device, pages: &Pages) -> wgpu::BindGroupLay
     for k in 0..pages.count() {
         entries.push(storage(SHOT_PAGES + k, true));
         entries.push(storage(FRAME_PAGES + k, true));
+    }
+    if pages.count() == 1 {
+        entries.push(storage(FRAME_WORDS, true));
     }
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("tracer"),

@@ -137,6 +137,9 @@ impl DeviceFilm {
                 entries.push(whole(first + k, page));
             }
         }
+        if gpu.tracer.pages.count() == 1 {
+            entries.push(whole(FRAME_WORDS, words[1].first().unwrap_or(&unused)));
+        }
         let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tracer"),
             layout: &gpu.tracer.layout,

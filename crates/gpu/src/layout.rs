@@ -231,6 +231,10 @@ pub(super) const MAX_PAGES: u32 = 4;
 pub(super) const SHOT_PAGES: u32 = 8;
 /// The binding of the frame's first page; its others follow.
 pub(super) const FRAME_PAGES: u32 = SHOT_PAGES + MAX_PAGES;
+/// The binding of the frame's words read a word at a time (`fu`) by a tracer of one page: its
+/// one page again, as `array<u32>`, so that a word is one load rather than an element picked
+/// out of a quad by a dynamic index.
+pub(super) const FRAME_WORDS: u32 = 1;
 
 // Records' fields lie inside their records; every record is whole quads, and a three-word
 // field never straddles two quads.
@@ -430,7 +434,8 @@ pub(super) fn wgsl_prelude(counting: Counting, pages: &Pages) -> String {
 
 /// The page bindings of the shot's and the frame's words (`shot_page0`, ...) and `quad`,
 /// which finds a quad's page by a shift and its place in the page by a mask: a page holds
-/// `2^k` words, a power of two ([`Pages`]).
+/// `2^k` words, a power of two ([`Pages`]); and `fu(i)`, word `i` of the frame's words, read
+/// from the one page's word view ([`FRAME_WORDS`]) where there is one page.
 fn paged_reads(pages: &Pages) -> String {
     let mut text = String::new();
     let quads = pages.page_words() / 4;
@@ -461,7 +466,17 @@ fn paged_reads(pages: &Pages) -> String {
             pages.count() - 1
         );
     }
-    text + "    return vec4<u32>(0u);\n}\n"
+    text += "    return vec4<u32>(0u);\n}\n";
+    // A word of the frame's: where its words are one page, read from that page's word view.
+    if pages.count() == 1 {
+        text += &format!(
+            "@group(0) @binding({FRAME_WORDS}) var<storage, read> frame_words: array<u32>;\n\
+             fn fu(i: u32) -> u32 {{ return frame_words[i]; }}\n"
+        );
+    } else {
+        text += "fn fu(i: u32) -> u32 { return quad(1u, i & ~3u)[i & 3u]; }\n";
+    }
+    text
 }
 
 /// A buffer's words as it is written, with the offsets of what was appended.

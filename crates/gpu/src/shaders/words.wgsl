@@ -19,8 +19,7 @@
 // order.
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>, COUNTER_WORDS>;
 
-// A word, a float and three floats of the frame's words.
-fn fu(i: u32) -> u32 { return quad(1u, i & ~3u)[i & 3u]; }
+// A word (`fu`, which the prelude declares), a float and three floats of the frame's words.
 fn ff(i: u32) -> f32 { return bitcast<f32>(fu(i)); }
 fn fv(i: u32) -> vec3<f32> { return vec3<f32>(ff(i), ff(i + 1u), ff(i + 2u)); }
 fn fquad(i: u32) -> vec4<u32> { return quad(1u, i); }
