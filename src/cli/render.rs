@@ -86,7 +86,7 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
         && args.stats
         && !args.scene_args.quiet
     {
-        super::progress::print_line(&format!("gpu: {}", g.describe()));
+        super::progress::print_line(&format!("gpu: {}, {}", g.describe(), g.startup()));
     }
     let total: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
     let progress = Progress::new(total, args.scene_args.quiet);

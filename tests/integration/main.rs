@@ -20,6 +20,7 @@ mod denoise_estimate;
 mod docs;
 mod flicker;
 mod gpu;
+mod gpu_cache;
 mod gpu_check;
 mod hostile;
 mod hostile_gpu_memory;

@@ -3,6 +3,9 @@
 
 use std::fmt;
 use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
+
+use super::disk_cache::DiskCache;
 
 use super::layout::{
     COUNTER_WORDS, Counting, FRAME_PAGES, FRAME_WORDS, PARAMS_WORDS, SHOT_PAGES, WORKGROUP,
@@ -10,6 +13,7 @@ use super::layout::{
 };
 use super::pages::Pages;
 use super::quiet::without_stray_lines;
+use super::startup::Startup;
 
 /// The shaders' text, put after the layout's constants: the 64-bit words and samplers, the
 /// geometry (motions, spheres, hierarchies), the camera and time, the materials, the tracer.
@@ -77,6 +81,10 @@ pub struct Gpu {
     /// How the shot's and the frame's words may lie over bindings at most.
     pages: Pages,
     counting: Counting,
+    /// The pipeline cache the tracers are created with, and its file.
+    cache: Arc<DiskCache>,
+    /// How long the device and its first tracer took.
+    startup: Startup,
     adapter: wgpu::Adapter,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
@@ -198,7 +206,11 @@ impl Gpu {
     /// Opens the adapter [`Adapter::find`] takes and compiles the tracer. Without an
     /// adapter: [`GpuError::NoAdapter`], naming what was looked for and how to get it.
     pub fn new() -> Result<Gpu, GpuError> {
-        Gpu::open(Adapter::find()?)
+        let start = Instant::now();
+        let mut gpu = Gpu::open(Adapter::find()?)?;
+        // The adapter's search counts with the device's opening.
+        gpu.startup.device_seconds = start.elapsed().as_secs_f64() - gpu.startup.pipelines_seconds;
+        Ok(gpu)
     }
 
     /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and compiles the
@@ -211,12 +223,14 @@ impl Gpu {
     /// Opens a device on `adapter` with `limits` (within the adapter's) and compiles the
     /// tracer for them.
     pub(super) fn open_limited(adapter: Adapter, limits: wgpu::Limits) -> Result<Gpu, GpuError> {
+        let start = Instant::now();
         let pages = Pages::of(&limits);
         let Adapter { adapter, info } = adapter;
         let (counting, features) = match adapter.features().contains(wgpu::Features::SUBGROUP) {
             true => (Counting::Subgroups, wgpu::Features::SUBGROUP),
             false => (Counting::Atomics, wgpu::Features::empty()),
         };
+        let features = features | DiskCache::features(&adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("raytrace"),
             required_features: features,
@@ -225,7 +239,15 @@ impl Gpu {
         }))
         .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
         let fault = watch_faults(&device);
-        let tracer = Arc::new(compile(&device, counting, pages.holding(0))?);
+        let opened = Instant::now();
+        let cache = DiskCache::open(&device, &info, features);
+        let tracer = Arc::new(compile(&device, counting, pages.holding(0), &cache)?);
+        cache.save();
+        let startup = Startup {
+            device_seconds: (opened - start).as_secs_f64(),
+            pipelines_seconds: opened.elapsed().as_secs_f64(),
+            cache: cache.used(),
+        };
         let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
             .ok()
             .and_then(|v| v.parse().ok());
@@ -236,6 +258,8 @@ impl Gpu {
             tracer,
             pages,
             counting,
+            cache: Arc::new(cache),
+            startup,
             adapter,
             info,
             fault,
@@ -246,6 +270,18 @@ impl Gpu {
     /// The adapter, as [`Adapter::describe`] names it.
     pub fn describe(&self) -> String {
         self.adapter().describe()
+    }
+
+    /// How long the device and its first tracer took to start, and whether the pipeline
+    /// cache served ([`Startup`]).
+    pub fn startup(&self) -> Startup {
+        self.startup
+    }
+
+    /// What the user should know of the pipeline cache: the directory named for it cannot
+    /// be made (the shaders are then compiled without one).
+    pub fn cache_note(&self) -> Option<&str> {
+        self.cache.note()
     }
 
     /// How the shot's and the frame's words may lie over the device's bindings at most.
@@ -266,7 +302,8 @@ impl Gpu {
         let tracer = match &tracers[k] {
             Some(t) => t.clone(),
             None => {
-                let t = Arc::new(compile(&self.device, self.counting, pages)?);
+                let t = Arc::new(compile(&self.device, self.counting, pages, &self.cache)?);
+                self.cache.save();
                 tracers[k] = Some(t.clone());
                 t
             }
@@ -388,8 +425,14 @@ fn binding_cap() -> Option<u64> {
     Some(cap.max(16))
 }
 
-/// The tracer for words over `pages`, compiled on `device`: an invalid shader is an error.
-fn compile(device: &wgpu::Device, counting: Counting, pages: Pages) -> Result<Tracer, GpuError> {
+/// The tracer for words over `pages`, compiled on `device` with `cache`'s pipeline cache:
+/// an invalid shader is an error.
+fn compile(
+    device: &wgpu::Device,
+    counting: Counting,
+    pages: Pages,
+    cache: &DiskCache,
+) -> Result<Tracer, GpuError> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("tracer"),
@@ -403,9 +446,16 @@ fn compile(device: &wgpu::Device, counting: Counting, pages: Pages) -> Result<Tr
         bind_group_layouts: &[Some(&layout)],
         immediate_size: 0,
     });
-    let pipeline = entry_pipeline(device, &pipeline_layout, &module, "tracer", "trace");
+    let entry = |label, function| Entry {
+        layout: &pipeline_layout,
+        module: &module,
+        label,
+        function,
+        cache: cache.cache(),
+    };
+    let pipeline = entry_pipeline(device, entry("tracer", "trace"));
     #[cfg(test)]
-    let numbers = entry_pipeline(device, &pipeline_layout, &module, "numbers", "numbers");
+    let numbers = entry_pipeline(device, entry("numbers", "numbers"));
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(GpuError::Failed(format!("the tracer's shader: {e}")));
     }
@@ -418,21 +468,24 @@ fn compile(device: &wgpu::Device, counting: Counting, pages: Pages) -> Result<Tr
     })
 }
 
-/// The compute pipeline `label` of `module`'s function `entry`.
-fn entry_pipeline(
-    device: &wgpu::Device,
-    layout: &wgpu::PipelineLayout,
-    module: &wgpu::ShaderModule,
-    label: &str,
-    entry: &str,
-) -> wgpu::ComputePipeline {
+/// A compute pipeline to create: `module`'s `function`, named `label`.
+struct Entry<'a> {
+    layout: &'a wgpu::PipelineLayout,
+    module: &'a wgpu::ShaderModule,
+    label: &'a str,
+    function: &'a str,
+    cache: Option<&'a wgpu::PipelineCache>,
+}
+
+/// The compute pipeline `entry` describes.
+fn entry_pipeline(device: &wgpu::Device, entry: Entry<'_>) -> wgpu::ComputePipeline {
     device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        module,
-        entry_point: Some(entry),
+        label: Some(entry.label),
+        layout: Some(entry.layout),
+        module: entry.module,
+        entry_point: Some(entry.function),
         compilation_options: Default::default(),
-        cache: None,
+        cache: entry.cache,
     })
 }
 

@@ -14,20 +14,26 @@
 //! - `shot`: a shot and its frames on the GPU, rounds of samples into the film ([`GpuShot`]);
 //! - `device_film`: the film on the device, its dispatches and what comes back;
 //! - `schedule`: a round's windows of dispatches, sized by the device's pace;
+//! - `disk_cache`: the tracer's pipeline cache on disk ([`CACHE_VARIABLE`], [`CacheUse`]);
+//! - `startup`: how long a GPU took to start ([`Startup`]);
 //! - `quiet`: keeping a driver's stray `XDG_RUNTIME_DIR` line out of the output;
 //! - `shaders/`: the WGSL, included in the binary.
 //!
 //! This file only declares and re-exports: the children import each other directly.
-#![forbid(unsafe_code)]
+// `deny`, not `forbid`: one function (`disk_cache::created`) allows wgpu's one unsafe call a
+// pipeline cache needs, with its reasoning beside it.
+#![deny(unsafe_code)]
 
 mod context;
 mod device_film;
+mod disk_cache;
 mod flatten;
 mod layout;
 mod pages;
 mod quiet;
 mod schedule;
 mod shot;
+mod startup;
 mod support;
 mod upload;
 
@@ -35,6 +41,8 @@ mod upload;
 mod tests;
 
 pub use context::{Adapter, Gpu, GpuError, LOSE_AFTER_VARIABLE, MAX_BINDING_VARIABLE};
+pub use disk_cache::{CACHE_VARIABLE, CacheUse};
 pub use pages::Pages;
 pub use shot::GpuShot;
+pub use startup::Startup;
 pub use support::{Unsupported, frame_bytes, unsupported};

@@ -75,6 +75,9 @@ impl Devices {
             if let Some(note) = gpu.software_note() {
                 eprintln!("warning: {note}");
             }
+            if let Some(note) = gpu.cache_note() {
+                eprintln!("note: {note}");
+            }
             self.gpu = Some(gpu);
         }
         if needs.denoiser && self.denoiser.is_none() {
