@@ -19,7 +19,7 @@ fn render(dir: &Path, cache: &Path) -> (Output, Vec<u8>) {
     let o = Command::new(env!("CARGO_BIN_EXE_raytrace"))
         .args(["render", "s.toml", "--stats"])
         .current_dir(dir)
-        .env("RAYTRACE_GPU_CACHE", cache)
+        .env(raytrace_gpu::CACHE_VARIABLE, cache)
         .output()
         .expect("run raytrace");
     assert!(o.status.success(), "{}", text(&o));

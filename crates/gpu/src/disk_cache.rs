@@ -18,7 +18,7 @@ pub const CACHE_VARIABLE: &str = "RAYTRACE_GPU_CACHE";
 
 /// How the tracer's pipelines were created, as `--stats` says it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CacheUse {
+pub(crate) enum CacheUse {
     /// From a cache file the device took.
     Hit,
     /// With a cache, but nothing usable in it yet (no file, or one wgpu refused).

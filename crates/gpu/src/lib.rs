@@ -14,8 +14,8 @@
 //! - `shot`: a shot and its frames on the GPU, rounds of samples into the film ([`GpuShot`]);
 //! - `device_film`: the film on the device, its dispatches and what comes back;
 //! - `schedule`: a round's windows of dispatches, sized by the device's pace;
-//! - `disk_cache`: the tracer's pipeline cache on disk ([`CACHE_VARIABLE`], [`CacheUse`]);
-//! - `startup`: how long a GPU took to start ([`Startup`]);
+//! - `disk_cache`: the tracer's pipeline cache on disk ([`CACHE_VARIABLE`]);
+//! - `startup`: how long a GPU took to start (`Startup`);
 //! - `quiet`: keeping a driver's stray `XDG_RUNTIME_DIR` line out of the output;
 //! - `shaders/`: the WGSL, included in the binary.
 //!
@@ -41,8 +41,7 @@ mod upload;
 mod tests;
 
 pub use context::{Adapter, Gpu, GpuError, LOSE_AFTER_VARIABLE, MAX_BINDING_VARIABLE};
-pub use disk_cache::{CACHE_VARIABLE, CacheUse};
+pub use disk_cache::CACHE_VARIABLE;
 pub use pages::Pages;
 pub use shot::GpuShot;
-pub use startup::Startup;
 pub use support::{Unsupported, frame_bytes, unsupported};

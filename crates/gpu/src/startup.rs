@@ -5,15 +5,16 @@ use std::fmt;
 
 use super::disk_cache::CacheUse;
 
-/// A GPU's start-up, timed by [`Gpu::new`](super::Gpu::new).
+/// A GPU's start-up, timed by [`Gpu::new`](super::Gpu::new) and said by
+/// [`Gpu::startup`](super::Gpu::startup).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Startup {
+pub(crate) struct Startup {
     /// Seconds to find the adapter and open the device.
-    pub device_seconds: f64,
+    pub(crate) device_seconds: f64,
     /// Seconds to compile the tracer's shader and create its pipelines.
-    pub pipelines_seconds: f64,
+    pub(crate) pipelines_seconds: f64,
     /// Whether the pipelines came from the cache on disk.
-    pub cache: CacheUse,
+    pub(crate) cache: CacheUse,
 }
 
 impl fmt::Display for Startup {
