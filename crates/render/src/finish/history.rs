@@ -1,24 +1,26 @@
 //! The history stage (`Carry::Written`): the frames finished last, as a later frame's history
 //! reads them (`raytrace_denoise::history` combines them).
 
+use super::held::Held;
 use super::history_passes;
 use raytrace_core::image::{COLOUR, Image};
 use raytrace_core::passes::add_pass_channels;
 use raytrace_core::renderer::FrameResult;
 use raytrace_denoise::estimate::Blend;
 use raytrace_denoise::history;
-use raytrace_denoise::reproject::{HISTORY, reproject};
+use raytrace_denoise::reproject::reproject;
 
 /// The history stage: the last frames finished, as their history reads them.
 #[derive(Default)]
 pub(super) struct History {
-    /// At most [`HISTORY`] frames, oldest first.
-    frames: Vec<(u32, Image)>,
+    /// The written frames finished last.
+    frames: Held,
 }
 
 impl History {
+    /// Whether frame `frame` is held.
     pub(super) fn holds(&self, frame: u32) -> bool {
-        self.frames.iter().any(|(k, _)| *k == frame)
+        self.frames.holds(frame)
     }
 
     /// The written frame of `result` (its terms, `written`) combined with the frames before
@@ -27,17 +29,9 @@ impl History {
     pub(super) fn combine(&mut self, result: &FrameResult, written: &Image) -> Blend {
         let frame = result.frame;
         let current = temporal_frame(result, written);
-        let earlier: Vec<&Image> = (1..=HISTORY as u32)
-            .map_while(|back| {
-                let k = frame.checked_sub(back)?;
-                self.frames.iter().find(|(j, _)| *j == k).map(|(_, f)| f)
-            })
-            .collect();
-        let reprojected = reproject(&current, &earlier, &COLOUR.0);
+        let reprojected = reproject(&current, &self.frames.before(frame), &COLOUR.0);
         let blend = history::combine(written, &reprojected);
-        self.frames
-            .retain(|(k, _)| *k < frame && frame - *k < HISTORY as u32);
-        self.frames.push((frame, current));
+        self.frames.keep(frame, current);
         blend
     }
 }

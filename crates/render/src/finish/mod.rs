@@ -34,6 +34,7 @@
 
 mod accumulation;
 mod denoising;
+mod held;
 mod history;
 mod when;
 
