@@ -50,17 +50,24 @@ const CARRIED: [&str; 7] = [
     TAKEN,
 ];
 
-/// A frame as a later frame's accumulation reads it: `replicates` (a film's replicates image)
-/// with its samples as floats ([`TAKEN`]); the caller adds the passes `reproject` reads.
-pub fn held_frame(replicates: &Image) -> Image {
-    let mut frame = replicates.select(&CARRIED[..6]);
-    let taken = Replicates::of(replicates).taken();
-    frame.set(
+/// A frame as a later frame's accumulation reads it: `frame` (a film's replicates image with
+/// the passes `reproject` reads, as [`accumulate`] takes it) with its samples as floats
+/// ([`TAKEN`]) in place of counts, and without its variance, which no later frame reads.
+pub fn held_frame(frame: &Image) -> Image {
+    let kept: Vec<&str> = frame
+        .channels()
+        .iter()
+        .map(|c| c.name)
+        .filter(|name| *name != SAMPLES && !VARIANCE.0.contains(name))
+        .collect();
+    let mut held = frame.select(&kept);
+    let taken = Replicates::of(frame).taken();
+    held.set(
         TAKEN,
         Precision::Float,
         Values::Float(taken.iter().map(|&n| n as f32).collect()),
     );
-    frame
+    held
 }
 
 /// A frame's replicates pooled with its earlier frames' ([`accumulate`]).
@@ -72,7 +79,7 @@ pub struct Accumulated {
 }
 
 /// The replicates of `current` (a film's replicates image with the passes `reproject` reads)
-/// pooled with `earlier` (frames made by [`held_frame`] with those passes, the frame before
+/// pooled with `earlier` (frames made by [`held_frame`], the frame before
 /// first, at most [`HISTORY`]) where each is found and passes the test: see the module's
 /// notes.
 pub fn accumulate(current: &Image, earlier: &[&Image]) -> Accumulated {
@@ -198,7 +205,7 @@ pub fn accumulate(current: &Image, earlier: &[&Image]) -> Accumulated {
 }
 
 /// The bytes accumulating a frame of `pixels` pixels holds at its peak beyond its inputs: the
-/// frames held (each a [`held_frame`] with the passes `reproject` reads, 7 + 6 channels; the
+/// frames held (each a [`held_frame`]: 7 channels and the 6 of the passes `reproject` reads; the
 /// frame's own too), the earlier frames carried to it (7 channels and where each was found),
 /// the per-sample variance (a `DVec3` a pixel, twice while smoothed), the pooled replicates
 /// as they are made (three `Vec3`s and a count) and the image made of them (10 channels).
@@ -256,23 +263,6 @@ mod tests {
         image
     }
 
-    /// `frame` as a later frame holds it.
-    fn held(frame: &Image) -> Image {
-        let mut h = held_frame(frame);
-        for name in [
-            DEPTH,
-            NORMAL.0[0],
-            NORMAL.0[1],
-            NORMAL.0[2],
-            BACKWARD[0],
-            BACKWARD[1],
-        ] {
-            let values = frame.floats(name).unwrap().to_vec();
-            h.set(name, Precision::Float, Values::Float(values));
-        }
-        h
-    }
-
     /// The mean over the pixels and channels of the squared difference of the pooled mean
     /// from `truth`, and of its stated variance.
     fn squared_error_and_stated(pooled: &Image, truth: f64) -> (f64, f64) {
@@ -291,7 +281,7 @@ mod tests {
         let (w, h, sd) = (64, 48, 0.1);
         let mut rng = Pcg32::new(3, 7);
         let frames: Vec<Image> = (0..3).map(|_| frame(w, h, 1.0, sd, &mut rng)).collect();
-        let earlier = [held(&frames[1]), held(&frames[2])];
+        let earlier = [held_frame(&frames[1]), held_frame(&frames[2])];
         let pooled = accumulate(&frames[0], &[&earlier[0], &earlier[1]]);
         assert!(pooled.history_share > 0.6, "{}", pooled.history_share);
         // Noise alone rejects an earlier frame at few pixels: each of the two tests passes a
@@ -323,7 +313,7 @@ mod tests {
         let (w, h) = (32, 32);
         let mut rng = Pcg32::new(11, 2);
         let now = frame(w, h, 1.0, 0.05, &mut rng);
-        let before = held(&frame(w, h, 2.0, 0.05, &mut rng));
+        let before = held_frame(&frame(w, h, 2.0, 0.05, &mut rng));
         let pooled = accumulate(&now, &[&before]);
         assert_eq!(pooled.history_share, 0.0);
         let own = Replicates::of(&now);

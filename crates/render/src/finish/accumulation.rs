@@ -30,9 +30,7 @@ impl Accumulation {
         let mut current = result.film.replicates();
         add_pass_channels(&mut current, history_passes(), &result.layout, &result.film);
         let pooled = accumulate(&current, &self.frames.before(frame));
-        let mut held = held_frame(&current);
-        add_pass_channels(&mut held, history_passes(), &result.layout, &result.film);
-        self.frames.keep(frame, held);
+        self.frames.keep(frame, held_frame(&current));
         pooled
     }
 }
