@@ -4,18 +4,22 @@
 //! frame is sampled once with each sample pattern, keeping what history reads, and finished
 //! by every route of that pattern; with `--seeds K` the whole is repeated with K seeds (the
 //! references are shared) and every figure is given as its mean and its spread over them.
+//! With `--thresholds E` every frame is sampled to the noise threshold `E` instead (up to
+//! `--max-samples`, else 65536 samples a pixel), each route's frame stopped by its own
+//! written frame's estimate as `render --noise-threshold E` stops it, so each route samples
+//! a frame of its own.
 
 use std::time::Instant;
 
 use raytrace_core::image::Image;
 
-use super::args::ConvergeArgs;
+use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
 use super::frames::Selection;
 use super::progress::print_line;
 use super::seeds::{DEFAULT_SEEDS, measured_seeds};
 use raytrace_core::error::Error;
 use raytrace_core::metrics::{self, FlickerSum};
-use raytrace_core::renderer::{FrameJob, FrameResult, ShotTracer};
+use raytrace_core::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
 use raytrace_core::rng::hash_words;
 use raytrace_core::sampler::SamplePattern;
 use raytrace_core::scene::{Carry, Scene};
@@ -143,6 +147,22 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
         ));
     }
     let samples = args.max_samples.unwrap_or(base.render.samples);
+    let budget = match args.thresholds[..] {
+        [] => Budget::default(),
+        [e] => Budget {
+            noise_threshold: Some(e),
+            max_samples: Some(
+                args.max_samples
+                    .unwrap_or(DEFAULT_MAX_SAMPLES_FOR_THRESHOLD),
+            ),
+            time_limit: None,
+        },
+        _ => {
+            return Err(bad(
+                "give one noise threshold (--thresholds E) at a time".to_string()
+            ));
+        }
+    };
     let with = |samples: u32, seed: u64, temporal: bool| {
         source.scene(&Overrides {
             samples: Some(samples),
@@ -182,12 +202,19 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     super::threads::thread_pool(args.scene_args.threads)?.install(|| {
         // The scene's device and the denoiser, opened before anything is measured.
         let devices = Devices::for_scenes(scenes.iter().flatten().chain([&reference]))?;
+        let sampled = match budget.noise_threshold {
+            Some(e) => format!(
+                "to a noise threshold of {e} (at most {} samples a pixel)",
+                budget.max_samples.unwrap_or(u32::MAX)
+            ),
+            None => format!("at {samples} samples a pixel"),
+        };
         say(&format!(
-            "flicker: frames {spec} at {samples} samples a pixel, {} seed{}, against references of {reference_samples}",
+            "flicker: frames {spec} {sampled}, {} seed{}, against references of {reference_samples}",
             seeds.len(),
             if seeds.len() == 1 { "" } else { "s" }
         ));
-        measure(&scenes, &reference, &selection, &devices, &say)
+        measure(&scenes, budget, &reference, &selection, &devices, &say)
     })
 }
 
@@ -202,6 +229,8 @@ struct SeedRenders<'a> {
     tracers: [Box<dyn ShotTracer>; 2],
     /// Each route's finishing, in [`Route::ALL`]'s order (`None` for the raw route).
     finishings: Vec<Option<Finishing<'a>>>,
+    /// When a frame stops sampling: at the scenes' samples, or at a noise threshold.
+    budget: Budget,
 }
 
 /// Index of a pattern's scene and tracer.
@@ -213,7 +242,11 @@ fn slot(pattern: SamplePattern) -> usize {
 }
 
 impl<'a> SeedRenders<'a> {
-    fn open(scenes: &'a [Scene; 4], devices: &'a Devices) -> Result<SeedRenders<'a>, Error> {
+    fn open(
+        scenes: &'a [Scene; 4],
+        budget: Budget,
+        devices: &'a Devices,
+    ) -> Result<SeedRenders<'a>, Error> {
         let finishings = Route::ALL
             .iter()
             .map(|route| match route {
@@ -227,62 +260,91 @@ impl<'a> SeedRenders<'a> {
             scenes,
             tracers: [devices.shot(&scenes[0])?, devices.shot(&scenes[1])?],
             finishings,
+            budget,
         })
     }
 
-    /// `frame` sampled with `pattern`, keeping what history reads.
-    fn sample(
+    /// `frame`'s job with `pattern`, under the budget, keeping what history reads.
+    fn job<'j>(
         &self,
         pattern: SamplePattern,
         frame: u32,
-        points: &raytrace_core::points::FramePoints,
-    ) -> Result<FrameResult, Error> {
-        let k = slot(pattern);
-        let read = raytrace_render::finish::passes_read(&self.scenes[2]);
-        FrameJob::new(&self.scenes[k], frame)
+        points: &'j raytrace_core::points::FramePoints,
+    ) -> FrameJob<'j>
+    where
+        'a: 'j,
+    {
+        // The job borrows the scenes, not `self`, whose finishing then finishes it.
+        let scenes: &'a [Scene; 4] = self.scenes;
+        let read = raytrace_render::finish::passes_read(&scenes[2]);
+        FrameJob::new(&scenes[slot(pattern)], frame)
             .points(points)
             .reading(read)
-            .sample(self.tracers[k].as_ref())
+            .budget(self.budget)
     }
 
-    /// `frame` sampled once with each pattern and finished by every route, with each
-    /// route's seconds (first, the frames before it that a route's history reads and has
-    /// not: rendered, not measured).
+    /// `frame` sampled and finished by route `r` alone, stopped (under a noise threshold) by
+    /// its own written frame's estimate.
+    fn render(
+        &mut self,
+        r: usize,
+        frame: u32,
+        points: &raytrace_core::points::FramePoints,
+    ) -> Result<FrameResult, Error> {
+        let pattern = Route::ALL[r].pattern();
+        let job = self.job(pattern, frame, points);
+        let tracer = self.tracers[slot(pattern)].as_ref();
+        match &mut self.finishings[r] {
+            None => job.sample(tracer),
+            Some(f) => f.render(job, tracer),
+        }
+    }
+
+    /// `frame` finished by every route, with each route's seconds (first, the frames before
+    /// it that a route's history reads and has not: rendered, not measured). At the scenes'
+    /// samples, the frame is sampled once with each pattern and the routes of a pattern
+    /// finish the same samples; under a noise threshold, each route samples its own.
     fn measure(
         &mut self,
         frame: u32,
         caches: &mut ShotPoints,
     ) -> Result<([Image; ROUTES], [f64; ROUTES]), Error> {
-        for (r, route) in Route::ALL.into_iter().enumerate() {
+        for r in 0..ROUTES {
             let Some(finishing) = &self.finishings[r] else {
                 continue;
             };
             for earlier in finishing.needs(frame) {
                 let points = caches.read_frame(&self.scenes[1], earlier)?;
-                let raw = self.sample(route.pattern(), earlier, &points)?;
-                if let Some(f) = &mut self.finishings[r] {
-                    f.finish(raw)?;
-                }
+                self.render(r, earlier, &points)?;
             }
         }
         let points = caches.read_frame(&self.scenes[1], frame)?;
-        let mut sampled = Vec::with_capacity(2);
-        for pattern in [SamplePattern::PerFrame, SamplePattern::Stable] {
-            let start = Instant::now();
-            let raw = self.sample(pattern, frame, &points)?;
-            sampled.push((raw, start.elapsed().as_secs_f64()));
-        }
-        let mut images = Vec::with_capacity(Route::ALL.len());
+        let mut images = Vec::with_capacity(ROUTES);
         let mut seconds = [0.0; ROUTES];
-        for (r, route) in Route::ALL.into_iter().enumerate() {
-            let (raw, sampling) = &sampled[slot(route.pattern())];
-            let start = Instant::now();
-            let image = match &mut self.finishings[r] {
-                None => raw.image.clone(),
-                Some(f) => f.finish(raw.clone())?.image,
-            };
-            seconds[r] = sampling + start.elapsed().as_secs_f64();
-            images.push(image);
+        if self.budget.is_set() {
+            for (r, s) in seconds.iter_mut().enumerate() {
+                let start = Instant::now();
+                images.push(self.render(r, frame, &points)?.image);
+                *s = start.elapsed().as_secs_f64();
+            }
+        } else {
+            let mut sampled = Vec::with_capacity(2);
+            for pattern in [SamplePattern::PerFrame, SamplePattern::Stable] {
+                let start = Instant::now();
+                let tracer = self.tracers[slot(pattern)].as_ref();
+                let raw = self.job(pattern, frame, &points).sample(tracer)?;
+                sampled.push((raw, start.elapsed().as_secs_f64()));
+            }
+            for (r, route) in Route::ALL.into_iter().enumerate() {
+                let (raw, sampling) = &sampled[slot(route.pattern())];
+                let start = Instant::now();
+                let image = match &mut self.finishings[r] {
+                    None => raw.image.clone(),
+                    Some(f) => f.finish(raw.clone())?.image,
+                };
+                seconds[r] = sampling + start.elapsed().as_secs_f64();
+                images.push(image);
+            }
         }
         Ok((images.try_into().expect("an image a route"), seconds))
     }
@@ -349,6 +411,7 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
 /// against a reference of each frame rendered from `reference`.
 fn measure(
     scenes: &[[Scene; 4]],
+    budget: Budget,
     reference: &Scene,
     selection: &Selection,
     devices: &Devices,
@@ -368,7 +431,7 @@ fn measure(
     let reference_tracer = devices.shot(reference)?;
     let mut renders = scenes
         .iter()
-        .map(|s| SeedRenders::open(s, devices))
+        .map(|s| SeedRenders::open(s, budget, devices))
         .collect::<Result<Vec<_>, Error>>()?;
     let mut sums: Vec<Sums> = scenes.iter().map(|_| Sums::default()).collect();
     let mut last: Option<(Vec<Measured>, Reference)> = None;

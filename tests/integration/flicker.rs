@@ -1,5 +1,6 @@
-//! `converge --flicker`: bad ranges and options refused naming `--flicker`, and a sequence of
-//! any length measured holding a frame or two, never the list of its frames.
+//! `converge --flicker`: bad ranges and options refused naming `--flicker`, a sequence of
+//! any length measured holding a frame or two, never the list of its frames, and frames
+//! sampled to a noise threshold (`--thresholds E`).
 
 use crate::common;
 
@@ -31,6 +32,10 @@ fn bad_ranges_and_a_reference_to_write_are_refused_naming_the_options() {
         (
             vec!["--flicker", "1-2", "--write-reference", "a.exr", "b.exr"],
             vec!["--write-reference", "--flicker"],
+        ),
+        (
+            vec!["--flicker", "1-2", "--thresholds", "0.1,0.05"],
+            vec!["--flicker 1-2", "one noise threshold", "--thresholds"],
         ),
     ] {
         let mut all = vec!["converge", "s.toml", "--quiet"];
@@ -84,4 +89,66 @@ fn a_sequence_of_four_billion_frames_is_measured_holding_a_frame_or_two() {
     let _ = child.kill();
     let _ = child.wait();
     assert!(peak < 512 * 1024, "peak {peak} KiB");
+}
+
+/// The routes' rows of `converge --flicker`'s table in `out`: name, error and flicker, without
+/// the seconds (which no two runs share).
+fn figures(out: &str) -> Vec<String> {
+    out.lines()
+        .filter(|l| l.contains('%'))
+        .map(|l| {
+            l.trim_end()
+                .rsplit_once(' ')
+                .expect("a row")
+                .0
+                .trim_end()
+                .to_string()
+        })
+        .collect()
+}
+
+/// `converge --flicker 1-3` of the turntable at 32x18 (16-sample references, two seeds) with
+/// `args` added.
+fn turntable_flicker(args: &[&str]) -> Vec<String> {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/turntable.toml");
+    let d = tempfile::tempdir().unwrap();
+    let mut all = vec![
+        "converge",
+        scene,
+        "--flicker",
+        "1-3",
+        "--width",
+        "32",
+        "--height",
+        "18",
+        "--reference-samples",
+        "16",
+        "--seeds",
+        "2",
+    ];
+    all.extend(args);
+    let rows = figures(&common::ok(d.path(), &all));
+    assert_eq!(rows.len(), 6, "{rows:?}");
+    rows
+}
+
+#[test]
+fn a_threshold_met_by_the_first_samples_gives_the_figures_of_those_samples() {
+    // Under a noise threshold every pixel takes 16 samples before any round stops; a
+    // threshold of 99% stops every route's every frame there, on its own stop rule: the
+    // same frames, so the same figures, as 16 samples a pixel finished by every route.
+    let fixed = turntable_flicker(&["--max-samples", "16"]);
+    assert_eq!(turntable_flicker(&["--thresholds", "0.99"]), fixed);
+    // A threshold below what 16 samples give samples on: the raw route's error falls.
+    let tight = turntable_flicker(&["--thresholds", "0.03"]);
+    let raw_error = |rows: &[String]| -> f64 {
+        let row = &rows[0];
+        assert!(row.starts_with("raw"), "{row}");
+        let cell = row.split_whitespace().nth(1).expect("an error");
+        cell.trim_end_matches('%').parse().expect("a percentage")
+    };
+    assert!(
+        raw_error(&tight) < 0.8 * raw_error(&fixed),
+        "{tight:?} against {fixed:?}"
+    );
 }
