@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use raytrace_core::image::Image;
 
-use super::args::{ConvergeArgs, DEFAULT_MAX_SAMPLES_FOR_THRESHOLD};
+use super::args::{BudgetArgs, ConvergeArgs};
 use super::frames::Selection;
 use super::progress::print_line;
 use super::seeds::{DEFAULT_SEEDS, measured_seeds};
@@ -149,14 +149,13 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     let samples = args.max_samples.unwrap_or(base.render.samples);
     let budget = match args.thresholds[..] {
         [] => Budget::default(),
-        [e] => Budget {
-            noise_threshold: Some(e),
-            max_samples: Some(
-                args.max_samples
-                    .unwrap_or(DEFAULT_MAX_SAMPLES_FOR_THRESHOLD),
-            ),
+        // `render --noise-threshold E --max-samples N`'s budget, by its own rule.
+        [e] => BudgetArgs {
             time_limit: None,
-        },
+            noise_threshold: Some(e),
+            max_samples: args.max_samples,
+        }
+        .budget(),
         _ => {
             return Err(bad(
                 "give one noise threshold (--thresholds E) at a time".to_string()
