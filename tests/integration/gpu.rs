@@ -189,6 +189,43 @@ fn raytrace(dir: &Path, args: &[&str], env: &[(&str, Option<&str>)]) -> std::pro
     c.output().expect("run raytrace")
 }
 
+/// `scene` rendered in `dir` at `width`x`height` and `samples` with its variance pass, on the
+/// CPU with seed 1 and on the GPU with seed 2, under `env`: each run's output and its frame's
+/// path, the CPU's first.
+fn cpu_and_gpu_frames(
+    dir: &Path,
+    scene: &str,
+    (width, height): (&str, &str),
+    samples: &str,
+    env: &[(&str, Option<&str>)],
+) -> Vec<(std::process::Output, std::path::PathBuf)> {
+    [("cpu", "1"), ("gpu", "2")]
+        .into_iter()
+        .map(|(device, seed)| {
+            let out = format!("{device}.exr");
+            let args = [
+                "render",
+                scene,
+                "--device",
+                device,
+                "--width",
+                width,
+                "--height",
+                height,
+                "--samples",
+                samples,
+                "--seed",
+                seed,
+                "--passes",
+                "variance",
+                "--output",
+                &out,
+            ];
+            (raytrace(dir, &args, env), dir.join(&out))
+        })
+        .collect()
+}
+
 /// A frame's colour and estimated variance from an EXR with the variance pass, row-major.
 fn exr_moments(path: &Path) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let ch = exr_channels(path);
@@ -215,27 +252,14 @@ fn the_books_scene_renders_through_the_binary_and_agrees_with_the_cpu() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bouncing_spheres.toml");
     let scene = scene.to_str().unwrap();
     let mut files = vec![];
-    for (device, seed) in [("cpu", "1"), ("gpu", "2")] {
-        let out = format!("{device}.exr");
-        let args = [
-            "render",
-            scene,
-            "--device",
-            device,
-            "--width",
-            "64",
-            "--height",
-            "40",
-            "--samples",
-            "48",
-            "--seed",
-            seed,
-            "--passes",
-            "variance",
-            "--output",
-            &out,
-        ];
-        let o = raytrace(dir.path(), &args, &[("XDG_RUNTIME_DIR", None)]);
+    let runs = cpu_and_gpu_frames(
+        dir.path(),
+        scene,
+        ("64", "40"),
+        "48",
+        &[("XDG_RUNTIME_DIR", None)],
+    );
+    for (o, file) in runs {
         let all = text(&o);
         assert!(o.status.success(), "{all}");
         assert!(!all.contains("XDG_RUNTIME_DIR"), "{all}");
@@ -244,7 +268,7 @@ fn the_books_scene_renders_through_the_binary_and_agrees_with_the_cpu() {
             all.contains("frame 0: ") && all.contains("M samples/s"),
             "{all}"
         );
-        files.push(dir.path().join(&out));
+        files.push(file);
     }
     let (mc, vc) = exr_moments(&files[0]);
     let (mg, vg) = exr_moments(&files[1]);
@@ -308,29 +332,10 @@ fn a_scene_beyond_one_binding_renders_over_several_and_agrees_with_the_cpu() {
     }
     assert!(!dir.path().join("renders").exists());
     let mut films = vec![];
-    for (device, seed) in [("cpu", "1"), ("gpu", "2")] {
-        let out = format!("{device}.exr");
-        let args = [
-            "render",
-            "big.toml",
-            "--device",
-            device,
-            "--width",
-            "48",
-            "--height",
-            "32",
-            "--samples",
-            "32",
-            "--seed",
-            seed,
-            "--passes",
-            "variance",
-            "--output",
-            &out,
-        ];
-        let o = raytrace(dir.path(), &args, &cap("262144"));
+    let runs = cpu_and_gpu_frames(dir.path(), "big.toml", ("48", "32"), "32", &cap("262144"));
+    for (o, file) in runs {
         assert!(o.status.success(), "{}", text(&o));
-        films.push(exr_moments(&dir.path().join(&out)));
+        films.push(exr_moments(&file));
     }
     let a = agreement((&films[1].0, &films[1].1), (&films[0].0, &films[0].1), 48);
     println!("[gpu] 3000 spheres over bindings of 256 KiB: {a:?}");
