@@ -23,6 +23,7 @@ use raytrace_core::renderer::{Budget, FrameJob, FrameResult, ShotTracer};
 use raytrace_core::rng::hash_words;
 use raytrace_core::sampler::SamplePattern;
 use raytrace_core::scene::{Carry, Scene};
+use raytrace_denoise::change;
 use raytrace_render::devices::{Devices, supported};
 use raytrace_render::finish::Finishing;
 use raytrace_scene::point_cache::{self, ShotPoints};
@@ -105,6 +106,9 @@ pub(crate) struct Variant {
     pub(crate) error: Spread,
     /// The flicker of the frames: [`FlickerSum::flicker`](raytrace_core::metrics::FlickerSum::flicker).
     pub(crate) flicker: Spread,
+    /// The flicker the frames state, without references (`raytrace_denoise::change`), for
+    /// routes whose frames are written alone (denoised, `--temporal`).
+    pub(crate) stated_flicker: Option<Spread>,
     /// Wall seconds a frame, on average: its sampling and its finishing.
     pub(crate) seconds: f64,
 }
@@ -303,11 +307,7 @@ impl<'a> SeedRenders<'a> {
     /// it that a route's history reads and has not: rendered, not measured). At the scenes'
     /// samples, the frame is sampled once with each pattern and the routes of a pattern
     /// finish the same samples; under a noise threshold, each route samples its own.
-    fn measure(
-        &mut self,
-        frame: u32,
-        caches: &mut ShotPoints,
-    ) -> Result<([Image; ROUTES], [f64; ROUTES]), Error> {
+    fn measure(&mut self, frame: u32, caches: &mut ShotPoints) -> Result<Measured, Error> {
         for r in 0..ROUTES {
             let Some(finishing) = &self.finishings[r] else {
                 continue;
@@ -318,12 +318,12 @@ impl<'a> SeedRenders<'a> {
             }
         }
         let points = caches.read_frame(&self.scenes[1], frame)?;
-        let mut images = Vec::with_capacity(ROUTES);
+        let mut results = Vec::with_capacity(ROUTES);
         let mut seconds = [0.0; ROUTES];
         if self.budget.is_set() {
             for (r, s) in seconds.iter_mut().enumerate() {
                 let start = Instant::now();
-                images.push(self.render(r, frame, &points)?.image);
+                results.push(self.render(r, frame, &points)?);
                 *s = start.elapsed().as_secs_f64();
             }
         } else {
@@ -337,15 +337,20 @@ impl<'a> SeedRenders<'a> {
             for (r, route) in Route::ALL.into_iter().enumerate() {
                 let (raw, sampling) = &sampled[slot(route.pattern())];
                 let start = Instant::now();
-                let image = match &mut self.finishings[r] {
-                    None => raw.image.clone(),
-                    Some(f) => f.finish(raw.clone())?.image,
-                };
+                results.push(match &mut self.finishings[r] {
+                    None => raw.clone(),
+                    Some(f) => f.finish(raw.clone())?,
+                });
                 seconds[r] = sampling + start.elapsed().as_secs_f64();
-                images.push(image);
             }
         }
-        Ok((images.try_into().expect("an image a route"), seconds))
+        let changes = std::array::from_fn(|r| results[r].denoised.and_then(|d| d.change));
+        let images = results.into_iter().map(|r| r.image).collect::<Vec<_>>();
+        Ok(Measured {
+            images: images.try_into().expect("an image a route"),
+            seconds,
+            changes,
+        })
     }
 }
 
@@ -357,10 +362,12 @@ struct Reference {
     own: f64,
 }
 
-/// One seed's frame as measured: every route's image, and its seconds.
+/// One seed's frame as measured: every route's image, its seconds, and the change of its
+/// error from the frame before that it states, where it states one.
 struct Measured {
     images: [Image; ROUTES],
     seconds: [f64; ROUTES],
+    changes: [Option<f64>; ROUTES],
 }
 
 /// One seed's sums over the frames measured so far, a route at a time.
@@ -369,6 +376,8 @@ struct Sums {
     seconds: [f64; ROUTES],
     errors: [f64; ROUTES],
     flicker: [FlickerSum; ROUTES],
+    /// Each route's stated changes of the error from one frame to the next.
+    changes: [Vec<f64>; ROUTES],
 }
 
 impl Sums {
@@ -378,6 +387,7 @@ impl Sums {
         let (m, r) = now;
         for k in 0..Route::ALL.len() {
             self.seconds[k] += m.seconds[k];
+            self.changes[k].extend(m.changes[k]);
             self.errors[k] += (metrics::rel_mse(&m.images[k], &r.image) - r.own)
                 .max(0.0)
                 .sqrt();
@@ -401,6 +411,17 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
             route,
             error: Spread::of(sums.iter().map(move |s| s.errors[k] / n)),
             flicker: Spread::of(sums.iter().map(move |s| s.flicker[k].flicker())),
+            // Stated where every seed's every pair of frames states it.
+            stated_flicker: sums
+                .iter()
+                .all(|s| s.changes[k].len() as u64 + 1 == frames)
+                .then(|| {
+                    Spread::of(
+                        sums.iter().map(move |s| {
+                            change::flicker(&s.changes[k]).expect("two frames or more")
+                        }),
+                    )
+                }),
             seconds: sums.iter().map(|s| s.seconds[k] / n).sum::<f64>() / sums.len() as f64,
         })
         .collect()
@@ -448,26 +469,25 @@ fn measure(
         };
         let mut now = Vec::with_capacity(renders.len());
         for (s, seed) in renders.iter_mut().enumerate() {
-            let (images, seconds) = seed.measure(frame, &mut caches)?;
-            let m = Measured { images, seconds };
+            let m = seed.measure(frame, &mut caches)?;
             sums[s].add((&m, &now_ref), last.as_ref().map(|(ms, lr)| (&ms[s], lr)));
             now.push(m);
         }
         last = Some((now, now_ref));
     }
     say(&format!(
-        "{:<16} {:>19} {:>19} {:>14}",
-        "", "rel. error (sd)", "flicker (sd)", "seconds/frame"
+        "{:<16} {:>19} {:>19} {:>19} {:>14}",
+        "", "rel. error (sd)", "flicker (sd)", "stated (sd)", "seconds/frame"
     ));
     let variants = variants(&sums, selection.len());
+    let cell = |s: Spread| format!("{:>9.3}% ({:.3}%)", 100.0 * s.mean, 100.0 * s.sd);
     for v in &variants {
         say(&format!(
-            "{:<16} {:>9.3}% ({:.3}%) {:>9.3}% ({:.3}%) {:>14.3}",
+            "{:<16} {} {} {:>19} {:>14.3}",
             v.route.name(),
-            100.0 * v.error.mean,
-            100.0 * v.error.sd,
-            100.0 * v.flicker.mean,
-            100.0 * v.flicker.sd,
+            cell(v.error),
+            cell(v.flicker),
+            v.stated_flicker.map_or("-".to_string(), cell),
             v.seconds
         ));
     }

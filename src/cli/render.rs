@@ -13,6 +13,7 @@ use crate::estimated_error::{frame_error_note, relative_error_percent};
 use raytrace_core::error::{Error, elide_path};
 use raytrace_core::renderer::{Budget, FrameJob, FrameResult, FrameStats, ShotTracer};
 use raytrace_core::scene::{Device, Scene};
+use raytrace_denoise::change;
 use raytrace_io as io;
 use raytrace_io::clip;
 use raytrace_render::devices::Devices;
@@ -39,6 +40,10 @@ pub(crate) struct RunSummary {
     /// The mean and the largest estimated relative error of the rendered frames.
     pub(crate) error_mean: f64,
     pub(crate) error_max: f64,
+    /// The estimated changes of the error from one written frame to the next
+    /// ([`Denoised::change`](raytrace_core::renderer::Denoised::change)): their sum and count.
+    pub(crate) change_sum: f64,
+    pub(crate) changes: u64,
 }
 
 /// Renders the selected frames of every scene and writes them, then the clips asked for.
@@ -146,12 +151,15 @@ impl RunSummary {
         self.skipped += shot.skipped;
         self.samples += shot.samples;
         self.non_finite += shot.non_finite;
+        self.change_sum += shot.change_sum;
+        self.changes += shot.changes;
     }
 }
 
-/// `12 frames rendered, 0 skipped, in 3.21 s (1.23 M samples/s), est. error mean ... max ...`.
+/// `12 frames rendered, 0 skipped, in 3.21 s (1.23 M samples/s), est. error mean ... max ...`,
+/// and for denoised frames written alone in sequence `, est. flicker ...`.
 fn summary_text(summary: &RunSummary) -> String {
-    let error = if summary.rendered == 0 {
+    let mut error = if summary.rendered == 0 {
         String::new()
     } else {
         format!(
@@ -160,6 +168,11 @@ fn summary_text(summary: &RunSummary) -> String {
             relative_error_percent(summary.error_max)
         )
     };
+    if summary.changes > 0 {
+        let mean = [summary.change_sum / summary.changes as f64];
+        let flicker = change::flicker(&mean).expect("a change");
+        error += &format!(", est. flicker {}", relative_error_percent(flicker));
+    }
     format!(
         "{} frames rendered, {} skipped, in {:.2} s ({:.2} M samples/s){error}",
         summary.rendered,
@@ -220,6 +233,10 @@ fn render_shot(
         }
         error_sum += st.relative_error;
         summary.error_max = summary.error_max.max(st.relative_error);
+        if let Some(c) = result.denoised.and_then(|d| d.change) {
+            summary.change_sum += c;
+            summary.changes += 1;
+        }
         summary.rendered += 1;
         summary.samples += st.samples;
         summary.non_finite += st.non_finite;
@@ -337,8 +354,17 @@ fn frame_line(
     } else {
         String::new()
     };
+    // The change of the error from the frame before, where it is known.
+    let flicker = match result.denoised.and_then(|d| d.change) {
+        Some(c) => format!(
+            ", est. flicker {} from frame {}",
+            relative_error_percent(change::flicker(&[c]).expect("a change")),
+            result.frame - 1
+        ),
+        None => String::new(),
+    };
     format!(
-        "frame {}: {seconds:.2} s, {}{stop}, est. error {}, {:.2} M samples/s, {} non-finite, {}{}",
+        "frame {}: {seconds:.2} s, {}{stop}, est. error {}{flicker}, {:.2} M samples/s, {} non-finite, {}{}",
         result.frame,
         spp_note(st),
         frame_error_note(result),

@@ -155,6 +155,33 @@ fn the_denoised_frame_is_the_same_on_any_thread_count() {
 }
 
 #[test]
+fn under_a_noise_threshold_the_denoised_frame_is_the_same_on_any_thread_count() {
+    // Rounds, denoises and the stop depend on the samples alone (the choice of when to
+    // denoise counts costs in samples, not seconds): one thread, whose rounds take twice
+    // the time of two threads' against the same denoise, writes the same bytes, over several
+    // adaptive rounds and denoises.
+    let d = tempfile::tempdir().unwrap();
+    let threshold = ["--denoise", "--noise-threshold", "0.012"];
+    render(
+        d.path(),
+        "one_####.exr",
+        0,
+        &[&threshold[..], &["--threads", "1"]].concat(),
+    );
+    render(
+        d.path(),
+        "two_####.exr",
+        0,
+        &[&threshold[..], &["--threads", "2"]].concat(),
+    );
+    let (one, a) = exr_bits_and_attributes(&d.path().join("one_0001.exr"));
+    let (two, _) = exr_bits_and_attributes(&d.path().join("two_0001.exr"));
+    assert!(one == two, "the denoised frames differ");
+    // Adaptive rounds were taken: the pixels took different counts.
+    assert!(exr_number(&a, "meanSamples") > 16.0);
+}
+
+#[test]
 fn noise_threshold_stops_at_the_denoised_estimate() {
     let d = tempfile::tempdir().unwrap();
     render(

@@ -155,6 +155,11 @@ pub(crate) fn reducible(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
 
 /// The denoised frame `D̄` in a [`DenoiseTerms`]'s terms.
 pub(crate) const DENOISED: Rgb = Rgb(["denoised.R", "denoised.G", "denoised.B"]);
+/// The denoised replicate `D(a)` in a [`DenoiseTerms`]'s terms (what the clip's change of
+/// error reads: `denoise::change`).
+pub(crate) const DENOISED_A: Rgb = Rgb(["denoisedA.R", "denoisedA.G", "denoisedA.B"]);
+/// The denoised replicate `D(b)` in a [`DenoiseTerms`]'s terms.
+pub(crate) const DENOISED_B: Rgb = Rgb(["denoisedB.R", "denoisedB.G", "denoisedB.B"]);
 /// The denoised frame's error `E[(D̄ - T)^2]` in a snapshot's terms (kept infinite where
 /// nothing is known).
 pub(crate) const DENOISED_ERROR: Rgb =
@@ -179,9 +184,9 @@ pub(crate) const RAW_VARIANCE: Rgb = Rgb(["rawVariance.R", "rawVariance.G", "raw
 pub(crate) const REDUCIBLE: Rgb = Rgb(["reducible.R", "reducible.G", "reducible.B"]);
 
 /// One denoise of a film, its terms: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
-/// [`DENOISED_ERROR`], [`CROSS`]) and the samples they were made from ([`SAMPLES`]), an image
-/// of 40 bytes a pixel. It blends with the film as it is then or after more samples
-/// ([`DenoiseTerms::blend`]).
+/// [`DENOISED_ERROR`], [`CROSS`]), the denoised replicates ([`DENOISED_A`], [`DENOISED_B`])
+/// and the samples they were made from ([`SAMPLES`]), an image of 64 bytes a pixel. It blends
+/// with the film as it is then or after more samples ([`DenoiseTerms::blend`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DenoiseTerms {
     terms: Image,
@@ -255,6 +260,17 @@ fn raw_around(terms: &Image) -> Vec<DVec3> {
     box_mean(&raw, terms.width() as usize, 1)
 }
 
+/// Each pixel's stand-in for its true value in the relative error of `terms` (a written
+/// frame's): [`true_value_for_error`] of its value and the raw frame's mean around it.
+pub(crate) fn stand_in(terms: &Image) -> Vec<DVec3> {
+    let value = terms.rgb(WRITTEN).expect("a written frame's terms");
+    raw_around(terms)
+        .into_iter()
+        .enumerate()
+        .map(|(i, around)| true_value_for_error(value.at_f64(i), around))
+        .collect()
+}
+
 /// What stands in for a pixel's true value in its relative error: the smaller of its value
 /// `v` and the raw frame's mean `around` it (see the module's notes).
 fn true_value_for_error(v: DVec3, around: DVec3) -> DVec3 {
@@ -314,10 +330,10 @@ fn mean_3x3(values: &[f64], width: usize) -> Vec<f64> {
     out
 }
 
-/// The bytes a snapshot of a frame of `pixels` pixels holds ([`DenoiseTerms`]: its terms' nine
-/// channels and the samples).
+/// The bytes a snapshot of a frame of `pixels` pixels holds ([`DenoiseTerms`]: its terms'
+/// fifteen channels and the samples).
 pub fn terms_bytes(pixels: u64) -> u64 {
-    Image::bytes_for(pixels, 10)
+    Image::bytes_for(pixels, 16)
 }
 
 /// The bytes a written frame of `pixels` pixels holds once blended: its terms' 24 channels
@@ -366,13 +382,16 @@ impl DenoiseTerms {
             db.rgb(REPLICATE_B).expect("replicate b, denoised"),
         );
         let mut terms = Image::new(replicates.width(), replicates.height());
-        terms.set_rgbs([DENOISED, DENOISED_ERROR, CROSS], |i| {
+        let names = [DENOISED, DENOISED_ERROR, CROSS, DENOISED_A, DENOISED_B];
+        terms.set_rgbs(names, |i| {
             let t = PixelTerms::new(&h.at(i), da.at_f64(i), db.at_f64(i));
             // The error kept infinite where nothing is known.
             [
                 to_f32(t.denoised),
                 t.denoised_error.as_vec3(),
                 to_f32(t.cross),
+                da.at(i),
+                db.at(i),
             ]
         });
         terms.set(SAMPLES, Precision::Float, Values::Count(h.taken().to_vec()));
@@ -462,6 +481,11 @@ impl DenoiseTerms {
             ]
         });
         written
+    }
+
+    /// The terms, as [`DenoiseTerms::new`] made them (for `denoise::change`).
+    pub(crate) fn terms(&self) -> &Image {
+        &self.terms
     }
 
     /// The denoised frame `D̄`, interleaved RGB, row-major.

@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod accumulate;
+pub mod change;
 pub mod denoiser;
 pub mod device;
 pub mod estimate;
@@ -13,6 +14,8 @@ pub mod history;
 pub mod library;
 pub mod reproject;
 
+#[cfg(test)]
+mod change_accuracy;
 #[cfg(test)]
 mod estimate_accuracy;
 #[cfg(test)]

@@ -58,27 +58,95 @@ pub(crate) fn frame(
     seed: u64,
 ) -> Frame {
     let mut rng = Pcg32::new(seed, 7);
-    let truth: Vec<DVec3> = (0..width * height)
-        .map(|i| truth_at(i % width, i / width))
-        .collect();
-    // Log-normal factors of mean 1 and standard deviation `noise`: exp(s z - s^2 / 2) with
-    // s^2 = ln(1 + noise^2). Non-negative and skewed, as a path tracer's samples.
-    let s2 = (1.0 + noise * noise).ln();
-    let mut factor = || (s2.sqrt() * gaussian(&mut rng) - s2 / 2.0).exp();
-    let mut noisy = |t: DVec3| t * DVec3::new(factor(), factor(), factor());
-    let a: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
-    let b: Vec<DVec3> = truth.iter().map(|t| noisy(*t)).collect();
-    Frame {
-        width,
-        height,
-        truth,
-        a,
-        b,
-        samples: 16,
-    }
+    let truth = image_of(width, height, truth_at);
+    let mut draw = |_| gaussians(&mut rng);
+    let (za, zb): (Vec<_>, Vec<_>) = (
+        truth.iter().map(&mut draw).collect(),
+        truth.iter().map(&mut draw).collect(),
+    );
+    Frame::new(width, height, truth, noise, &za, &zb)
+}
+
+/// Two consecutive frames of a clip of `width` x `height`: the truth of `truth_at`, moved
+/// `shift` pixels to the left in the second, with noise as [`frame`]'s whose normal numbers
+/// have correlation `correlation` between the frames on each side (replicate `a` with `a`,
+/// `b` with `b`; the sides independent): 1 is the same samples in both frames (stable sample
+/// points), 0 new samples.
+pub(crate) fn clip(
+    width: usize,
+    height: usize,
+    (truth_at, shift): (fn(usize, usize) -> DVec3, usize),
+    noise: f64,
+    correlation: f64,
+    seed: u64,
+) -> [Frame; 2] {
+    let mut rng = Pcg32::new(seed, 11);
+    let first = image_of(width, height, truth_at);
+    let second = image_of(width, height, |x, y| truth_at(x + shift, y));
+    let mut draw = |_| gaussians(&mut rng);
+    let (za, zb): (Vec<_>, Vec<_>) = (
+        first.iter().map(&mut draw).collect(),
+        first.iter().map(&mut draw).collect(),
+    );
+    let keep = (1.0 - correlation * correlation).sqrt();
+    let mut next = |z: &[DVec3]| -> Vec<DVec3> {
+        z.iter()
+            .map(|z| *z * correlation + gaussians(&mut rng) * keep)
+            .collect()
+    };
+    let (za2, zb2) = (next(&za), next(&zb));
+    [
+        Frame::new(width, height, first, noise, &za, &zb),
+        Frame::new(width, height, second, noise, &za2, &zb2),
+    ]
+}
+
+/// The values of `at` over a `width` x `height` image, row-major.
+fn image_of(width: usize, height: usize, at: impl Fn(usize, usize) -> DVec3) -> Vec<DVec3> {
+    (0..width * height)
+        .map(|i| at(i % width, i / width))
+        .collect()
+}
+
+/// Three standard normal numbers.
+fn gaussians(rng: &mut Pcg32) -> DVec3 {
+    let x = gaussian(rng);
+    let y = gaussian(rng);
+    DVec3::new(x, y, gaussian(rng))
 }
 
 impl Frame {
+    /// The frame of `truth` whose replicates are the truth times log-normal factors of mean 1
+    /// and standard deviation `noise` made from the normal numbers `za` and `zb`:
+    /// `exp(s z - s^2 / 2)` with `s^2 = ln(1 + noise^2)`. Non-negative and skewed, as a path
+    /// tracer's samples; 16 samples a pixel.
+    fn new(
+        width: usize,
+        height: usize,
+        truth: Vec<DVec3>,
+        noise: f64,
+        za: &[DVec3],
+        zb: &[DVec3],
+    ) -> Frame {
+        let s2 = (1.0 + noise * noise).ln();
+        let noisy = |z: &[DVec3]| -> Vec<DVec3> {
+            truth
+                .iter()
+                .zip(z)
+                .map(|(t, z)| *t * (*z * s2.sqrt() - DVec3::splat(s2 / 2.0)).exp())
+                .collect()
+        };
+        let (a, b) = (noisy(za), noisy(zb));
+        Frame {
+            width,
+            height,
+            truth,
+            a,
+            b,
+            samples: 16,
+        }
+    }
+
     /// An image of this frame's size whose colour is `values`.
     pub(crate) fn image(&self, values: &[DVec3]) -> Image {
         let mut image = Image::new(self.width as u32, self.height as u32);

@@ -116,6 +116,12 @@ pub struct Denoised {
     pub history_share: Option<f64>,
     /// The filter's quality.
     pub quality: DenoiseQuality,
+    /// The estimated relative mean squared change of the written frame's error from the
+    /// frame before it (`raytrace_denoise::change`), where that frame was finished just
+    /// before this one by the same stages: a clip's stated flicker is the root of the mean of
+    /// its frames'. `None` for a run's first frame, and for frames combined with other
+    /// frames (history, accumulation), whose change has no estimate yet.
+    pub change: Option<f64>,
 }
 
 /// One frame to sample: frame `frame` of a scene, with the scene's settings (`[output]` size,
@@ -253,7 +259,7 @@ fn sample(
         stats.add(&counts);
         if let Some(threshold) = budget.noise_threshold
             && schedule.warmed_up()
-            && stop.reached(&film, threshold, round_seconds)?
+            && stop.reached(&film, threshold, counts.samples)?
         {
             stats.stop = StopReason::NoiseThreshold;
             break;

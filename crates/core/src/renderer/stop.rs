@@ -14,10 +14,12 @@ pub trait StopRule {
     /// A new frame begins: forget the last one.
     fn begin(&mut self);
 
-    /// Whether the frame, as `film` holds it after a round that took `round_seconds`, is
-    /// within `threshold` (a relative error). The round's time is what the next round is
-    /// likely to cost, which a rule with work of its own to do (a denoise) weighs against it.
-    fn reached(&mut self, film: &Film, threshold: f64, round_seconds: f64) -> Result<bool, Error>;
+    /// Whether the frame, as `film` holds it after a round of `round_samples` samples, is
+    /// within `threshold` (a relative error). The round's samples are what the next round is
+    /// likely to cost, which a rule with work of its own to do (a denoise) weighs against it:
+    /// in samples, never in seconds, so that the frame written depends on its samples alone,
+    /// not on how loaded the machine was.
+    fn reached(&mut self, film: &Film, threshold: f64, round_samples: u64) -> Result<bool, Error>;
 
     /// Each pixel's weight in the next adaptive round (its estimated relative variance per
     /// sample).
@@ -31,7 +33,7 @@ pub struct RawStop;
 impl StopRule for RawStop {
     fn begin(&mut self) {}
 
-    fn reached(&mut self, film: &Film, threshold: f64, _: f64) -> Result<bool, Error> {
+    fn reached(&mut self, film: &Film, threshold: f64, _: u64) -> Result<bool, Error> {
         Ok(relative_error(film) <= threshold)
     }
 

@@ -9,17 +9,20 @@ use raytrace_core::film::Film;
 use raytrace_core::image::Image;
 use raytrace_core::renderer::{StopRule, Weights};
 use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicates};
-use raytrace_core::scene::DenoiseQuality;
+use raytrace_core::scene::{DenoiseQuality, Device};
+use raytrace_denoise::change::ChangeTerms;
 use raytrace_denoise::denoiser::{DenoiseError, Denoiser, Filter};
 use raytrace_denoise::estimate::{self, Blend, DenoiseTerms};
 
-use super::when::{DenoiseSchedule, Measured};
+use super::when::{DenoiseSchedule, Measured, denoise_samples_per_pixel};
 
 /// The denoise stage of a shot: its filter, and what the frame being finished has of it.
 pub(super) struct Denoising<'d> {
     filter: Filter<'d>,
     quality: DenoiseQuality,
     width: usize,
+    /// What a denoise of a pixel costs in the tracer's samples (`when`).
+    denoise_samples_per_pixel: f64,
     state: FrameState,
 }
 
@@ -51,17 +54,19 @@ struct FrameState {
 }
 
 impl<'d> Denoising<'d> {
-    /// Denoising of `width` x `height` frames by `denoiser` at `quality`.
+    /// Denoising of `width` x `height` frames by `denoiser` at `quality`, for frames traced
+    /// on `device`.
     pub(super) fn new(
         denoiser: &'d Denoiser,
-        width: usize,
-        height: usize,
+        (width, height): (usize, usize),
         quality: DenoiseQuality,
+        device: Device,
     ) -> Result<Denoising<'d>, DenoiseError> {
         Ok(Denoising {
             filter: denoiser.filter(width, height, quality)?,
             quality,
             width,
+            denoise_samples_per_pixel: denoise_samples_per_pixel(device),
             state: FrameState::default(),
         })
     }
@@ -77,18 +82,16 @@ impl<'d> Denoising<'d> {
     }
 
     /// Denoises `replicates` (the film's, [`Film::replicates`]), each replicate alone: the
-    /// frame's new snapshot.
-    /// `samples` is the film's count. Returns the seconds it took.
-    fn denoise(&mut self, replicates: &Image, samples: u64) -> Result<f64, Error> {
+    /// frame's new snapshot. `samples` is the film's count.
+    fn denoise(&mut self, replicates: &Image, samples: u64) -> Result<(), Error> {
         let start = Instant::now();
         let da = self.filter.run(replicates, REPLICATE_A)?;
         let db = self.filter.run(replicates, REPLICATE_B)?;
         self.state.snapshot = Some(DenoiseTerms::new(replicates, &da, &db));
         self.state.denoised_at = Some(samples);
         self.state.denoises += 1;
-        let seconds = start.elapsed().as_secs_f64();
-        self.state.seconds += seconds;
-        Ok(seconds)
+        self.state.seconds += start.elapsed().as_secs_f64();
+        Ok(())
     }
 
     /// The frame written from `film`: a denoise of all its samples, blended with it. The
@@ -132,6 +135,13 @@ impl<'d> Denoising<'d> {
             return Ok(w);
         }
         Ok(self.blend(&film.replicates(), samples))
+    }
+
+    /// The change terms (`raytrace_denoise::change`) of the frame written from `film` whose
+    /// written terms are `written`: from the last denoise and the film as it is now.
+    pub(super) fn change_terms(&self, film: &Film, written: &Image) -> ChangeTerms {
+        let snapshot = self.state.snapshot.as_ref().expect("denoised");
+        ChangeTerms::new(snapshot, &film.replicates(), written)
     }
 
     /// The last denoise blended with the film's `replicates` now (of `samples` samples).
@@ -195,7 +205,7 @@ impl StopRule for Denoising<'_> {
     /// on a stale denoise: a blend of one snapshot, judged round after round, would stop when
     /// that snapshot's noisy estimate happens to be low (measured on the books' scene: stated
     /// 1.89%, true 2.32%), and a fresh denoise of all the samples is the better frame anyway.
-    fn reached(&mut self, film: &Film, threshold: f64, round_seconds: f64) -> Result<bool, Error> {
+    fn reached(&mut self, film: &Film, threshold: f64, round_samples: u64) -> Result<bool, Error> {
         let replicates = film.replicates();
         let total = film.samples_taken();
         let samples = total as f64 / (film.width as f64 * film.height as f64).max(1.0);
@@ -209,17 +219,20 @@ impl StopRule for Denoising<'_> {
                 .map_or(stale.blend.relative_error, |p| {
                     p.min(stale.blend.relative_error)
                 });
-            if !schedule.worth_denoising(predicted, threshold, round_seconds) {
+            let pixels = film.width as f64 * film.height as f64;
+            let costs = (
+                round_samples as f64,
+                pixels * self.denoise_samples_per_pixel,
+            );
+            if !schedule.worth_denoising(predicted, threshold, costs) {
                 self.keep(stale, &replicates);
                 return Ok(false);
             }
         }
-        let seconds = self.denoise(&replicates, total)?;
+        self.denoise(&replicates, total)?;
         let fresh = self.blend(&replicates, total);
         let error = fresh.blend.relative_error;
-        self.state
-            .schedule
-            .denoised(Measured { samples, error }, seconds);
+        self.state.schedule.denoised(Measured { samples, error });
         Ok(self.keep(fresh, &replicates) <= threshold)
     }
 

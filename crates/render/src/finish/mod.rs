@@ -15,6 +15,11 @@
 //! written before their own history, so it depends on those two frames' renders and no
 //! others': the command renders them first where its run does not ([`Finishing::needs`]).
 //!
+//! **The clip's stated flicker** (`Change`, frames written alone: `--denoise`, `--temporal`):
+//! each written frame states the change of its error from the frame before it, where this
+//! pipeline finished that frame just before (`denoise::change`, derived there), from the two
+//! frames' replicates and denoised replicates; the frames written are unchanged.
+//!
 //! **Accumulation** (`Accumulation`, measured by `converge --flicker`, set by no option): before
 //! the denoise, the frame's raw replicates are pooled with the two frames' before it, carried
 //! along the motion vectors, where they agree with the frame's own within their noise
@@ -33,6 +38,7 @@
 //! error is largest ([`StopRule::weights`]).
 
 mod accumulation;
+mod change;
 mod denoising;
 mod held;
 mod history;
@@ -41,6 +47,7 @@ mod when;
 use std::time::Instant;
 
 use accumulation::Accumulation;
+use change::Change;
 use denoising::Denoising;
 use history::History;
 use raytrace_core::error::Error;
@@ -50,6 +57,7 @@ use raytrace_core::renderer::{
     Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopReason, StopRule,
 };
 use raytrace_core::scene::{Carry, Scene};
+use raytrace_denoise::change::ChangeTerms;
 use raytrace_denoise::denoiser::{Denoiser, Filter, oidn_scratch};
 use raytrace_denoise::estimate;
 use raytrace_denoise::reproject::{self, HISTORY};
@@ -71,7 +79,9 @@ pub fn passes_read(scene: &Scene) -> PassSet {
 /// blend ([`estimate::blending_bytes`]) and, with history, the frame written
 /// ([`estimate::written_bytes`]) with the frames held and the frame's own
 /// ([`reproject::frame_bytes`]), their reprojection and the combination's working memory
-/// ([`raytrace_denoise::history::bytes_for`]). Nothing for a raw frame.
+/// ([`raytrace_denoise::history::bytes_for`]); without history or accumulation, the change
+/// terms of the frame and of the one before it ([`ChangeTerms::bytes_for`]). Nothing for a
+/// raw frame.
 pub fn bytes_for(scene: &Scene) -> u64 {
     let Some(settings) = scene.output.denoise else {
         return 0;
@@ -93,6 +103,11 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         true => raytrace_denoise::accumulate::bytes_for(pixels),
         false => 0,
     };
+    // The frame before's change terms, held, and the frame's own.
+    let change = match settings.carry == Carry::Nothing {
+        true => 2 * ChangeTerms::bytes_for(pixels),
+        false => 0,
+    };
     oidn_scratch(
         scene.output.width.into(),
         scene.output.height.into(),
@@ -102,6 +117,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         + pixels * 8
         + denoise.max(blend).max(history)
         + accumulation
+        + change
 }
 
 /// The passes history reads.
@@ -117,6 +133,8 @@ pub struct Finishing<'d> {
     denoising: Option<Denoising<'d>>,
     history: Option<History>,
     accumulation: Option<Accumulation>,
+    /// The clip's stated flicker, for frames written alone.
+    change: Option<Change>,
     first_frame: u32,
     /// The passes the stages read ([`passes_read`]).
     read: PassSet,
@@ -131,9 +149,9 @@ impl<'d> Finishing<'d> {
         let denoising = match (&scene.output.denoise, denoiser) {
             (Some(settings), Some(d)) => Some(Denoising::new(
                 d,
-                scene.output.width as usize,
-                scene.output.height as usize,
+                (scene.output.width as usize, scene.output.height as usize),
                 settings.quality,
+                scene.render.device,
             )?),
             _ => None,
         };
@@ -147,10 +165,16 @@ impl<'d> Finishing<'d> {
             .denoise
             .filter(|d| d.carry == Carry::Raw)
             .map(|_| Accumulation::default());
+        let change = scene
+            .output
+            .denoise
+            .filter(|d| d.carry == Carry::Nothing)
+            .map(|_| Change::default());
         Ok(Finishing {
             denoising,
             history,
             accumulation,
+            change,
             first_frame: scene.shot.first_frame,
             read: passes_read(scene),
             raw: RawStop,
@@ -218,6 +242,10 @@ impl<'d> Finishing<'d> {
             (None, _) => (d.written(&result.film), None),
         };
         let written = written.map_err(|e| e.in_frame(frame))?;
+        let change = self
+            .change
+            .as_mut()
+            .and_then(|c| c.next(frame, d.change_terms(&result.film, &written.terms)));
         let (blend, history_share) = match &mut self.history {
             None => (written.blend, pooled_share),
             Some(h) => {
@@ -240,6 +268,7 @@ impl<'d> Finishing<'d> {
             denoised_share: blend.denoised_share,
             history_share,
             quality: d.quality(),
+            change,
         });
         d.begin();
         Ok(result)

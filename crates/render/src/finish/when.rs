@@ -1,6 +1,6 @@
 //! When a frame under a noise threshold is denoised again: the written error a denoise now
 //! would give, predicted from the frame's own earlier denoises, weighed against what a denoise
-//! and a round cost on this machine ([`DenoiseSchedule`]).
+//! and a round cost, in samples ([`DenoiseSchedule`]).
 //!
 //! **The prediction.** After a denoise of a film of `n` mean samples a pixel, the written
 //! frame (raw and denoised blended, `denoise::estimate`) states its error `e(n)`. Between
@@ -22,9 +22,38 @@
 //! round just taken, which the next one is likely to cost: rounds double the samples of the
 //! pixels that need them). And whatever the costs, a frame is denoised as soon as the
 //! prediction meets the threshold (`p ≥ 1/2`): waiting would only take more samples than
-//! the frame needs. With a filter on a GPU (milliseconds) against a round of a second, a
-//! frame is denoised after nearly every round near its threshold; on two CPU threads (about
-//! 0.15 s at 400x225) only when the prediction is within about 10% of it.
+//! the frame needs.
+//!
+//! **Costs in samples, not seconds.** Measured seconds would make the frame written depend on
+//! how loaded the machine was (a slow denoise on a busy machine is not tried early, and the
+//! frame takes other rounds); a frame depends on its seed, frame, pixels and samples alone.
+//! So `c_r` is the round's samples and `c_d` the denoise's cost in samples,
+//! [`denoise_samples_per_pixel`] times the frame's pixels, per device: the same on any thread
+//! count, since the filter and the tracer share the cores.
+
+use raytrace_core::scene::Device;
+
+/// What a denoise of one pixel costs, in the tracer's samples, on the device that traces the
+/// frame (`[render] device`).
+///
+/// - **CPU:** OIDN's CPU filter (both replicates) against the CPU tracer on the same cores,
+///   measured at 400x225 on 2 cores with 16 samples (`render --denoise --stats`: the
+///   denoising's seconds a pixel over the sampling's seconds a sample): 6.7 and 7.3 on the
+///   books' scene, 8.8 and 9.2 on the turntable, 11.5 and 12.2 on `quick` (its samples are
+///   cheaper). Taken as 9, their middle: a scene whose samples cost more is denoised a little
+///   later than its own costs would have it, one whose samples cost less a little sooner.
+/// - **GPU:** not measured on a GPU yet, and the filter runs on the GPU (milliseconds) or on
+///   the host's cores (seconds at 1920x1080) by `--denoise-device`: infinite, so such a
+///   frame is denoised when the prediction meets the threshold, never earlier.
+pub(crate) fn denoise_samples_per_pixel(device: Device) -> f64 {
+    match device {
+        Device::Cpu => CPU_DENOISE_SAMPLES_PER_PIXEL,
+        Device::Gpu => f64::INFINITY,
+    }
+}
+
+/// [`denoise_samples_per_pixel`] on the CPU.
+const CPU_DENOISE_SAMPLES_PER_PIXEL: f64 = 9.0;
 
 /// The prior exponent of the written error's fall with the mean samples, until two denoises
 /// measure it: between the denoised frame's `1/3` and the raw frame's `1/2`, as measured on
@@ -58,15 +87,12 @@ pub(crate) struct Measured {
 pub(crate) struct DenoiseSchedule {
     last: Option<Measured>,
     before: Option<Measured>,
-    /// The seconds the last denoise took.
-    cost: f64,
 }
 
 impl DenoiseSchedule {
-    /// Records a denoise that took `seconds` and gave `measured`.
-    pub(crate) fn denoised(&mut self, measured: Measured, seconds: f64) {
+    /// Records a denoise that gave `measured`.
+    pub(crate) fn denoised(&mut self, measured: Measured) {
         self.before = self.last.replace(measured);
-        self.cost = seconds;
     }
 
     /// The exponent of the written error's fall: the slope between the last two denoises,
@@ -92,19 +118,20 @@ impl DenoiseSchedule {
         Some(last.error * (samples / last.samples).powf(-self.alpha()))
     }
 
-    /// Whether to denoise now, under `threshold`, after a round of `round_seconds`, where a
-    /// denoise is predicted to give a written error of `predicted` (see the module's notes).
+    /// Whether to denoise now, under `threshold`, after a round of `round_samples`, where a
+    /// denoise costing `denoise_samples` is predicted to give a written error of `predicted`
+    /// (see the module's notes).
     pub(crate) fn worth_denoising(
         &self,
         predicted: f64,
         threshold: f64,
-        round_seconds: f64,
+        (round_samples, denoise_samples): (f64, f64),
     ) -> bool {
         if predicted.is_nan() || predicted <= threshold {
             return true;
         }
         let p = normal_cdf((threshold.ln() - predicted.ln()) / SIGMA);
-        p * round_seconds >= self.cost
+        p * round_samples >= denoise_samples
     }
 }
 
@@ -119,10 +146,10 @@ fn normal_cdf(x: f64) -> f64 {
 mod tests {
     use super::*;
 
-    fn after(denoises: &[(f64, f64)], cost: f64) -> DenoiseSchedule {
+    fn after(denoises: &[(f64, f64)]) -> DenoiseSchedule {
         let mut s = DenoiseSchedule::default();
         for &(samples, error) in denoises {
-            s.denoised(Measured { samples, error }, cost);
+            s.denoised(Measured { samples, error });
         }
         s
     }
@@ -134,7 +161,7 @@ mod tests {
 
     #[test]
     fn one_denoise_predicts_with_the_prior() {
-        let s = after(&[(16.0, 0.05)], 0.15);
+        let s = after(&[(16.0, 0.05)]);
         let p = s.predicted(16.0 * 32.0).unwrap();
         // 32^(-0.4) = 2^(-2) = 1/4.
         assert!((p - 0.0125).abs() < 1e-12, "{p}");
@@ -144,34 +171,39 @@ mod tests {
     fn two_denoises_predict_with_their_slope() {
         // The books' scene's stated errors at 32 and 64 samples (the module's notes): their
         // slope predicts 128 samples' 2.266% within 0.4% (2.257%).
-        let s = after(&[(32.0, 0.03827), (64.0, 0.02939)], 0.15);
+        let s = after(&[(32.0, 0.03827), (64.0, 0.02939)]);
         let p = s.predicted(128.0).unwrap();
         assert!((p / 0.02266 - 1.0).abs() < 0.004, "{p}");
         // A flat pair is held to the range's floor, a steep one to its top.
-        let flat = after(&[(32.0, 0.03), (64.0, 0.03)], 0.15);
+        let flat = after(&[(32.0, 0.03), (64.0, 0.03)]);
         assert!((flat.predicted(128.0).unwrap() - 0.03 * 2f64.powf(-0.1)).abs() < 1e-12);
-        let steep = after(&[(32.0, 0.04), (64.0, 0.01)], 0.15);
+        let steep = after(&[(32.0, 0.04), (64.0, 0.01)]);
         assert!((steep.predicted(128.0).unwrap() - 0.01 * 2f64.powf(-0.5)).abs() < 1e-12);
     }
 
     #[test]
     fn a_prediction_that_meets_the_threshold_is_denoised_whatever_it_costs() {
-        let s = after(&[(16.0, 0.05)], 100.0);
+        let s = after(&[(16.0, 0.05)]);
         // 0.05 at 16 samples predicts 0.0125 at 512 (32^(-0.4) = 1/4), 0.0164 at 256.
         let at = |n| s.predicted(n).unwrap();
-        assert!(s.worth_denoising(at(512.0), 0.0125, 0.001));
-        assert!(!s.worth_denoising(at(256.0), 0.0125, 0.001));
+        // A round of one sample against a denoise costing a million.
+        assert!(s.worth_denoising(at(512.0), 0.0125, (1.0, 1e6)));
+        assert!(!s.worth_denoising(at(256.0), 0.0125, (1.0, 1e6)));
+        // On a GPU, never before the prediction meets it, however large the round.
+        let gpu = denoise_samples_per_pixel(Device::Gpu);
+        assert!(s.worth_denoising(at(512.0), 0.0125, (1e12, gpu)));
+        assert!(!s.worth_denoising(at(480.0), 0.0125, (1e12, gpu)));
     }
 
     #[test]
     fn a_cheap_denoise_is_tried_before_the_prediction_meets_the_threshold() {
         // Predicted 5% over the threshold: p = Φ(-0.49) ≈ 0.30 by the approximation.
-        let s = after(&[(16.0, 0.05)], 0.15);
-        // A round of 1 s against a denoise of 0.15 s: worth it; of 0.3 s: not.
-        assert!(s.worth_denoising(0.021, 0.02, 1.0));
-        assert!(!s.worth_denoising(0.021, 0.02, 0.3));
-        // Far from the threshold (twice it) even ten seconds' round is not enough.
-        assert!(!s.worth_denoising(0.04, 0.02, 10.0));
+        let s = after(&[(16.0, 0.05)]);
+        // A round of 1e6 samples against a denoise costing 1.5e5: worth it; 4e5: not.
+        assert!(s.worth_denoising(0.021, 0.02, (1e6, 1.5e5)));
+        assert!(!s.worth_denoising(0.021, 0.02, (1e6, 4e5)));
+        // Far from the threshold (twice it) even a round of 1e7 samples is not enough.
+        assert!(!s.worth_denoising(0.04, 0.02, (1e7, 1.5e5)));
     }
 
     #[test]
