@@ -358,8 +358,8 @@ pub(crate) struct CheckArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = whole_from_1)]
     pub chunk_size: Option<u64>,
     /// Check the scenes for this device, `cpu` or `gpu`, replacing `[render] device` (the
-    /// GPU refuses scenes its 32-bit floats cannot carry, and point caches); no GPU is needed
-    /// to check.
+    /// GPU refuses scenes its 32-bit floats cannot carry, and scenes whose spheres and points
+    /// need more than it binds); no GPU is needed to check.
     #[arg(long)]
     pub device: Option<Device>,
 }

@@ -10,7 +10,7 @@ use raytrace_core::error::{Error, elide_path};
 use raytrace_core::path_pattern::{self, FramePattern};
 use raytrace_core::scene::Scene;
 use raytrace_io as io;
-use raytrace_render::devices::supported;
+use raytrace_render::devices::{room_for_points, supported};
 use raytrace_scene::point_cache::{Frames, PointLoad, ShotPoints, SurveyDepth};
 use raytrace_scene::scene_file::Overrides;
 use raytrace_scene::scene_file::SceneFile;
@@ -141,6 +141,7 @@ pub(crate) fn load_shots(
     for (((path, scene), selected), whole) in paths.iter().zip(scenes).zip(selections).zip(&whole) {
         let targets = targets_of(&scene, selected, whole)?;
         let caches = survey_points(&scene, &targets, whole, depth)?;
+        room_for_points(&scene, overrides, caches.most().points)?;
         shots.push(Job {
             path: path.clone(),
             scene,

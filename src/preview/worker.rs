@@ -29,7 +29,7 @@ use crate::estimated_error::frame_error_note;
 use raytrace_core::error::{Error, elide_path};
 use raytrace_core::renderer::{FrameResult, ShotTracer};
 use raytrace_core::scene::Scene;
-use raytrace_render::devices::{Devices, supported};
+use raytrace_render::devices::{Devices, room_for_points, supported};
 use raytrace_render::memory::check_memory;
 use raytrace_scene::point_cache::{self, PointLoad};
 use raytrace_scene::scene_file::{Overrides, SceneSource};
@@ -315,6 +315,7 @@ fn read(
     for &f in &frames {
         files.extend(caches.frame_files(&scene, f)?);
     }
+    room_for_points(&scene, &setup.overrides, caches.most().points)?;
     devices.open_for([&scene])?;
     let size = fit((scene.output.width, scene.output.height), page);
     let loaded = at_size(

@@ -26,7 +26,7 @@
 
 use crate::common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use raytrace_core::image::Image;
 use raytrace_core::metrics::cross_rel_mse;
@@ -110,12 +110,6 @@ enum Finish {
     /// `--denoise --temporal`: the same sample points every frame
     /// ([`SamplePattern::Stable`]).
     Temporal,
-}
-
-fn shipped(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(format!("{name}.toml"))
 }
 
 /// Two references of frame 1 (the first) of the scene at `path`, of `samples` each, with
@@ -235,47 +229,13 @@ fn check(path: &Path, run: &Run) {
     );
 }
 
-/// The scene named `name` as a test checks it: the shipped file, or for a scene with a point
-/// cache a copy beside its cache, made as the scene's notes say, in `dir`.
-fn prepared(name: &str, dir: &Path) -> PathBuf {
-    match name {
-        "fountain" => {
-            // Its point cache is made by the command its header gives (frame 1 is enough).
-            std::fs::create_dir(dir.join("scenes")).unwrap();
-            let scene = dir.join("scenes/fountain.toml");
-            std::fs::copy(shipped("fountain"), &scene).unwrap();
-            let o = std::process::Command::new(env!("CARGO_BIN_EXE_raytrace"))
-                .args(["generate", "-o", "scenes/caches/fountain_####.ply"])
-                .args(["--frames", "1", "--points", "4000"])
-                .current_dir(dir)
-                .output()
-                .unwrap();
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            scene
-        }
-        "lammps_gas" => {
-            // Its dump is a LAMMPS run's (examples/lammps/gas.in, run from the folder above
-            // scenes/, as the scene's notes say).
-            std::fs::create_dir_all(dir.join("scenes/caches")).unwrap();
-            let scene = dir.join("scenes/lammps_gas.toml");
-            std::fs::copy(shipped("lammps_gas"), &scene).unwrap();
-            common::run_lammps(
-                &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lammps/gas.in"),
-                dir,
-            );
-            scene
-        }
-        _ => shipped(name),
-    }
-}
-
 /// Checks the scene named `name` as `run` says.
 fn check_scene(name: &str, run: &Run) {
     if name == "lammps_gas" && !common::have_lammps() {
         return;
     }
     let d = tempfile::tempdir().unwrap();
-    check(&prepared(name, d.path()), run);
+    check(&common::shipped_beside_its_cache(name, d.path(), 1), run);
 }
 
 #[test]

@@ -82,25 +82,13 @@ fn frame_patterns_that_cannot_be_formatted_are_refused_naming_the_key() {
 fn gpu_refusals_name_the_scene_file() {
     let tiny = "[[sphere]]\ncenter = [0.0, 0.0, -1.0]\nradius = 1e-30\n\
                 material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
-    let d = setup(
-        &scene("f_####.png", tiny),
-        &[(
-            "cache.toml",
-            scene("g_####.png", &points("p.ply", "")).as_bytes(),
-        )],
-    );
+    let d = setup(&scene("f_####.png", tiny), &[]);
     for command in ["render", "check"] {
         refused(
             d.path(),
             &[command, "shot.toml", "--device", "gpu"],
             &["shot.toml: --device gpu: ", "sphere[1].radius"],
-            &["cache.toml", "shot.toml"],
-        );
-        refused(
-            d.path(),
-            &[command, "cache.toml", "--device", "gpu"],
-            &["cache.toml: --device gpu: ", "[[points]]"],
-            &["cache.toml", "shot.toml"],
+            &["shot.toml"],
         );
     }
 }

@@ -20,7 +20,7 @@ use raytrace_core::colormap::Colormap;
 use raytrace_scene::ply::{Column, Encoding, Scalar, write_vertices};
 
 /// A scene of a few big spheres before the camera, with `points` as its cache table.
-fn scene(frames: u32, points: &str) -> String {
+pub(crate) fn scene(frames: u32, points: &str) -> String {
     format!(
         r#"[shot]
 fps = 24.0
@@ -46,7 +46,7 @@ material = "grey"
     )
 }
 
-fn write(dir: &Path, name: &str, text: &str) {
+pub(crate) fn write(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();
 }
 
@@ -76,7 +76,7 @@ fn write_ply(path: &Path, centers: &[DVec3], extra: &[(&str, Vec<f64>)]) {
 }
 
 /// Five points with velocities and radii, exact in text with `{:?}`.
-fn points() -> (Vec<DVec3>, Vec<DVec3>, Vec<f64>) {
+pub(crate) fn points() -> (Vec<DVec3>, Vec<DVec3>, Vec<f64>) {
     let c: Vec<DVec3> = (0..5)
         .map(|i| {
             DVec3::new(
@@ -95,7 +95,7 @@ fn points() -> (Vec<DVec3>, Vec<DVec3>, Vec<f64>) {
 
 /// A LAMMPS snapshot of the points: `id type x y z vx vy vz radius c_val` in an orthogonal
 /// box of `bounds`, flags `flags`.
-fn lammps_snapshot(
+pub(crate) fn lammps_snapshot(
     timestep: u64,
     c: &[DVec3],
     v: &[DVec3],
@@ -125,6 +125,21 @@ fn lammps_snapshot(
     s
 }
 
+/// The points as an extended XYZ file: species, positions, velocities and radii.
+pub(crate) fn xyz_text(c: &[DVec3], v: &[DVec3], r: &[f64]) -> String {
+    let mut xyz = format!(
+        "{}\nLattice=\"16 0 0 0 16 0 0 0 16\" Origin=\"-8 -8 -8\" Properties=species:S:1:pos:R:3:velo:R:3:radius:R:1 pbc=\"F F F\"\n",
+        c.len()
+    );
+    for i in 0..c.len() {
+        xyz += &format!(
+            "Ar {:?} {:?} {:?} {:?} {:?} {:?} {:?}\n",
+            c[i].x, c[i].y, c[i].z, v[i].x, v[i].y, v[i].z, r[i]
+        );
+    }
+    xyz
+}
+
 /// The same points as extended XYZ, a LAMMPS dump and PLY render the same bits.
 #[test]
 fn xyz_lammps_and_ply_give_the_same_image() {
@@ -137,16 +152,7 @@ fn xyz_lammps_and_ply_give_the_same_image() {
         "p.lammpstrj",
         &lammps_snapshot(0, &c, &v, &r, &values, "ff ff ff"),
     );
-    let mut xyz = String::from(
-        "5\nLattice=\"16 0 0 0 16 0 0 0 16\" Origin=\"-8 -8 -8\" Properties=species:S:1:pos:R:3:velo:R:3:radius:R:1 pbc=\"F F F\"\n",
-    );
-    for i in 0..5 {
-        xyz += &format!(
-            "Ar {:?} {:?} {:?} {:?} {:?} {:?} {:?}\n",
-            c[i].x, c[i].y, c[i].z, v[i].x, v[i].y, v[i].z, r[i]
-        );
-    }
-    write(dir, "p.xyz", &xyz);
+    write(dir, "p.xyz", &xyz_text(&c, &v, &r));
     let col = |k: usize| -> Vec<f64> { v.iter().map(|x| x[k]).collect() };
     write_ply(
         &dir.join("p.ply"),
@@ -479,6 +485,29 @@ fn le(values: &[f64]) -> Vec<u8> {
     values.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
+/// The points as a legacy ASCII VTK file, with cells and a field to read past: positions,
+/// radii and velocities.
+pub(crate) fn vtk_legacy_ascii(c: &[DVec3], v: &[DVec3], r: &[f64]) -> String {
+    let flat = |p: &[DVec3]| -> Vec<f64> { p.iter().flat_map(|q| q.to_array()).collect() };
+    let text = |x: &[f64]| -> String {
+        x.iter()
+            .map(|x| format!("{x:?}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let n = c.len();
+    let cells: String = (0..n).map(|i| format!("1 {i}\n")).collect();
+    let ids: Vec<String> = (0..n).map(|i| i.to_string()).collect();
+    format!(
+        "# vtk DataFile Version 3.0\nparticles\nASCII\nDATASET POLYDATA\nPOINTS {n} double\n{}\nVERTICES {n} {}\n{cells}POINT_DATA {n}\nSCALARS radius double 1\nLOOKUP_TABLE default\n{}\nVECTORS velocity double\n{}\nFIELD FieldData 1\nid 1 {n} int\n{}\n",
+        text(&flat(c)),
+        2 * n,
+        text(r),
+        text(&flat(v)),
+        ids.join(" ")
+    )
+}
+
 /// The same points as legacy VTK (ASCII and BINARY) and XML VTK (ASCII, inline base64 with
 /// the header encoded apart, appended raw and zlib-compressed in blocks) render as the PLY
 /// file does.
@@ -496,13 +525,7 @@ fn vtk_files_give_the_image_ply_gives() {
     };
     let (pos, vel) = (flat(&c), flat(&v));
     // Legacy ASCII and BINARY (big-endian), with cells and a lookup table to read past.
-    let legacy_ascii = format!(
-        "# vtk DataFile Version 3.0\nparticles\nASCII\nDATASET POLYDATA\nPOINTS 5 double\n{}\nVERTICES 5 10\n1 0\n1 1\n1 2\n1 3\n1 4\nPOINT_DATA 5\nSCALARS radius double 1\nLOOKUP_TABLE default\n{}\nVECTORS velocity double\n{}\nFIELD FieldData 1\nid 1 5 int\n0 1 2 3 4\n",
-        text(&pos),
-        text(&r),
-        text(&vel)
-    );
-    write(dir, "a.vtk", &legacy_ascii);
+    write(dir, "a.vtk", &vtk_legacy_ascii(&c, &v, &r));
     let be = |x: &[f64]| -> Vec<u8> { x.iter().flat_map(|x| x.to_be_bytes()).collect() };
     let mut binary = b"# vtk DataFile Version 3.0\nparticles\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 5 double\n".to_vec();
     binary.extend(be(&pos));

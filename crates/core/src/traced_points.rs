@@ -142,6 +142,18 @@ pub(crate) struct PointHit {
     pub id: u32,
 }
 
+/// A point as a device that copies the frame's points reads it (the GPU's buffers): its
+/// centre at the shutter's opening, `(P + v lead)` computed in `f64` as the tracer computes
+/// it, its velocity (the centre at `dt` seconds after the opening is `center + velocity dt`),
+/// its radius and its number as a sphere of the frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TracedPoint {
+    pub center: DVec3,
+    pub velocity: DVec3,
+    pub radius: f64,
+    pub id: u32,
+}
+
 /// One frame's points, prepared for its interval, with their hierarchies.
 #[derive(Debug, Default)]
 pub(crate) struct TracedPoints {
@@ -192,6 +204,23 @@ impl TracedPoints {
             out.groups.push(group);
         }
         out
+    }
+
+    /// Each group's points (the sets that share a time), in its hierarchy's leaf order (its
+    /// leaves' ranges index this order), and that hierarchy.
+    pub(crate) fn groups(
+        &self,
+    ) -> impl Iterator<Item = (impl ExactSizeIterator<Item = TracedPoint> + '_, BvhView<'_>)> + '_
+    {
+        self.groups.iter().map(|g| {
+            let points = g.records.iter().map(move |q| TracedPoint {
+                center: g.center(q, 0.0),
+                velocity: q.v.as_dvec3(),
+                radius: q.radius.into(),
+                id: q.id,
+            });
+            (points, g.view())
+        })
     }
 
     /// Whether there are no points.

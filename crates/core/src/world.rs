@@ -39,7 +39,7 @@ use crate::ray::Ray;
 use crate::scene::Scene;
 use crate::shutter::Interval;
 use crate::sphere::{PreparedSphere, SphereDesc, intersect, surface_point};
-use crate::traced_points::{PointHit, TracedPoints};
+use crate::traced_points::{PointHit, TracedPoint, TracedPoints};
 
 /// The points of a frame without any.
 static NO_POINTS: FramePoints = FramePoints { sets: Vec::new() };
@@ -393,6 +393,27 @@ impl<'a> World<'a> {
         )
     }
 
+    /// The frame's points, prepared for its interval: each group's (the sets that share a
+    /// time) in its hierarchy's leaf order, and that hierarchy.
+    pub fn point_groups(
+        &self,
+    ) -> impl Iterator<Item = (impl ExactSizeIterator<Item = TracedPoint> + '_, BvhView<'_>)> + '_
+    {
+        self.points.groups()
+    }
+
+    /// The look of the point numbered `id` (a sphere number of the frame's points): its
+    /// set's material, and its colour, which multiplies the material's albedo
+    /// ([`Material::tinted`]), where its set has colours.
+    #[inline]
+    pub fn point_look(&self, id: u32) -> (u32, Option<[f32; 3]>) {
+        let (set, i) = self
+            .frame_points
+            .locate((id - self.first_point) as usize)
+            .expect("a point of the frame");
+        (set.material, set.colors.get(i).copied())
+    }
+
     /// The nearest intersection of `ray` with any sphere except the one with index `skip`
     /// (pass `u32::MAX` to skip none). `stack` is scratch space, reused across calls.
     #[inline]
@@ -461,12 +482,9 @@ impl<'a> World<'a> {
         still: Option<(f64, u32)>,
     ) -> Option<Hit> {
         let (t, center, radius, material, id) = if let Some(h) = point {
-            let (set, i) = self
-                .frame_points
-                .locate((h.id - self.first_point) as usize)
-                .expect("a point of the frame");
-            let mut m = self.materials[set.material as usize];
-            if let Some(&[r, g, b]) = set.colors.get(i) {
+            let (material, color) = self.point_look(h.id);
+            let mut m = self.materials[material as usize];
+            if let Some([r, g, b]) = color {
                 m = m.tinted(DVec3::new(r.into(), g.into(), b.into()));
             }
             (h.t, h.center, h.radius, m, h.id)

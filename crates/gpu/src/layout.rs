@@ -11,7 +11,8 @@
 //! Two storage buffers hold the scene: the *shot* buffer, written once per shot (materials,
 //! the Sobol tables, the spheres that never move and their hierarchy), and the *frame*
 //! buffer, written per frame (the header below, the shutter curve, the camera's motion, the
-//! animated spheres prepared for the frame's interval, their hierarchy and motions). Beside
+//! animated spheres prepared for the frame's interval, their hierarchy and motions, the
+//! points of its point caches with their groups' hierarchies and their looks). Beside
 //! them: the film on the device (its sums), a round's work entries, each dispatch's
 //! parameters and counts.
 
@@ -75,8 +76,18 @@ pub(super) const H_TABLES: u32 = 55;
 /// Per sphere of the scene, its motion record over the widened interval for the motion
 /// pass ([`NONE`]: the sphere never moves).
 pub(super) const H_PASS_MOTIONS: u32 = 56;
+/// The frame's points' records (all its groups', one after another), in the frame buffer.
+pub(super) const H_POINTS: u32 = 57;
+/// The points' groups (sets sharing a time, each with its hierarchy): where their records
+/// ([`POINT_GROUP_WORDS`] each) start, and how many there are.
+pub(super) const H_POINT_GROUPS: u32 = 58;
+pub(super) const H_POINT_GROUP_N: u32 = 59;
+/// The number of the frame's first point as a sphere: the scene's spheres come first.
+pub(super) const H_FIRST_POINT: u32 = 60;
+/// The points' looks ([`LOOK_WORDS`] each), in the frame buffer.
+pub(super) const H_LOOKS: u32 = 61;
 /// Words in the header.
-pub(super) const HEADER_WORDS: u32 = 57;
+pub(super) const HEADER_WORDS: u32 = 62;
 
 // Flags (`H_FLAGS`).
 pub(super) const F_SOBOL: u32 = 1;
@@ -108,6 +119,33 @@ pub(super) const S_MATERIAL: u32 = 7;
 pub(super) const S_ID: u32 = 8;
 /// Its motion record, or [`NONE`] for a line (centre plus velocity times the time).
 pub(super) const S_MOTION: u32 = 9;
+
+// A point of a point cache: 8 words, (centre, radius), (velocity, look). The CPU's record
+// (traced_points.rs) with its centre moved to the frame's opening and its number replaced by
+// its look; its number as a sphere is its place among the frame's points after
+// [`H_FIRST_POINT`].
+pub(super) const POINT_WORDS: u32 = 8;
+/// Three words: its centre at the frame's opening (at time `t` after it, `centre + velocity t`).
+pub(super) const PT_CENTER: u32 = 0;
+pub(super) const PT_RADIUS: u32 = 3;
+/// Three words: its velocity, zero for a point that does not move.
+pub(super) const PT_VELOCITY: u32 = 4;
+/// Its look's index in the looks ([`H_LOOKS`]).
+pub(super) const PT_LOOK: u32 = 7;
+
+// A look of points: 4 words, the colour that multiplies the material's albedo (1, 1, 1 for a
+// set without colours) and the material's index.
+pub(super) const LOOK_WORDS: u32 = 4;
+/// Three words: the colour.
+pub(super) const L_TINT: u32 = 0;
+pub(super) const L_MATERIAL: u32 = 3;
+
+// A group of points (its sets share a time): 4 words, its hierarchy's entries and their
+// count, and where its records start (its hierarchy's leaves index them from there).
+pub(super) const POINT_GROUP_WORDS: u32 = 4;
+pub(super) const G_ENTRIES: u32 = 0;
+pub(super) const G_ENTRY_N: u32 = 1;
+pub(super) const G_POINTS: u32 = 2;
 
 // A material: 8 words.
 pub(super) const MATERIAL_WORDS: u32 = 8;
@@ -240,9 +278,13 @@ pub(super) const FRAME_WORDS: u32 = 1;
 // field never straddles two quads.
 const _: () = {
     assert!(S_MOTION < SPHERE_WORDS && M_IOR < MATERIAL_WORDS);
+    assert!(PT_LOOK < POINT_WORDS && L_MATERIAL < LOOK_WORDS && G_POINTS < POINT_GROUP_WORDS);
     assert!(MO_C + 3 <= MOTION_WORDS && E_UPPER_CHANGE + 3 <= ENTRY_WORDS);
     let records = [
         SPHERE_WORDS,
+        POINT_WORDS,
+        LOOK_WORDS,
+        POINT_GROUP_WORDS,
         MATERIAL_WORDS,
         MOTION_WORDS,
         KEY_WORDS,
@@ -256,6 +298,9 @@ const _: () = {
     let fields = [
         S_CENTER,
         S_VELOCITY,
+        PT_CENTER,
+        PT_VELOCITY,
+        L_TINT,
         M_ALBEDO,
         MO_A,
         MO_B,
@@ -305,6 +350,11 @@ const CONSTANTS: &[(&str, u32)] = &[
     ("H_MATERIALS", H_MATERIALS),
     ("H_TABLES", H_TABLES),
     ("H_PASS_MOTIONS", H_PASS_MOTIONS),
+    ("H_POINTS", H_POINTS),
+    ("H_POINT_GROUPS", H_POINT_GROUPS),
+    ("H_POINT_GROUP_N", H_POINT_GROUP_N),
+    ("H_FIRST_POINT", H_FIRST_POINT),
+    ("H_LOOKS", H_LOOKS),
     ("F_SOBOL", F_SOBOL),
     ("F_TIME", F_TIME),
     ("F_LENS", F_LENS),
@@ -322,6 +372,18 @@ const CONSTANTS: &[(&str, u32)] = &[
     ("S_MATERIAL", S_MATERIAL),
     ("S_ID", S_ID),
     ("S_MOTION", S_MOTION),
+    ("POINT_WORDS", POINT_WORDS),
+    ("PT_CENTER", PT_CENTER),
+    ("PT_RADIUS", PT_RADIUS),
+    ("PT_VELOCITY", PT_VELOCITY),
+    ("PT_LOOK", PT_LOOK),
+    ("LOOK_WORDS", LOOK_WORDS),
+    ("L_TINT", L_TINT),
+    ("L_MATERIAL", L_MATERIAL),
+    ("POINT_GROUP_WORDS", POINT_GROUP_WORDS),
+    ("G_ENTRIES", G_ENTRIES),
+    ("G_ENTRY_N", G_ENTRY_N),
+    ("G_POINTS", G_POINTS),
     ("MATERIAL_WORDS", MATERIAL_WORDS),
     ("M_KIND", M_KIND),
     ("M_ALBEDO", M_ALBEDO),
@@ -570,6 +632,11 @@ mod tests {
             (H_MATERIALS, 1),
             (H_TABLES, 1),
             (H_PASS_MOTIONS, 1),
+            (H_POINTS, 1),
+            (H_POINT_GROUPS, 1),
+            (H_POINT_GROUP_N, 1),
+            (H_FIRST_POINT, 1),
+            (H_LOOKS, 1),
         ];
         let mut next = 0;
         for (at, len) in fields {

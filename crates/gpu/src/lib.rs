@@ -44,4 +44,4 @@ pub use context::{Adapter, Gpu, GpuError, LOSE_AFTER_VARIABLE, MAX_BINDING_VARIA
 pub use disk_cache::CACHE_VARIABLE;
 pub use pages::Pages;
 pub use shot::GpuShot;
-pub use support::{Unsupported, frame_bytes, unsupported};
+pub use support::{Unsupported, frame_bytes, too_large, unsupported};

@@ -44,11 +44,13 @@ pub struct GpuShot {
 
 impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
-    /// that never move, with their hierarchy (built here).
+    /// that never move, with their hierarchy (built here), on the tracer for its spheres'
+    /// words; a frame whose points take more pages gets the tracer for those
+    /// ([`GpuShot::upload_frame`]).
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
-        let gpu = gpu.fitting(buffer_bytes(scene))?;
+        let gpu = gpu.fitting(buffer_bytes(scene, 0))?;
         let statics = StaticGeometry::new(scene);
-        let words = ShotWords::new(scene, &statics).map_err(GpuError::Failed)?;
+        let words = ShotWords::new(scene, &statics);
         let pages = upload(&gpu, "shot", &words.words)?;
         Ok(GpuShot {
             gpu,
@@ -76,17 +78,17 @@ impl GpuShot {
             "more pass sums than the GPU keeps"
         );
         let words = FrameWords::new(prepared, &self.words, layout);
-        let pages = upload(&self.gpu, "frame", &words.words)?;
+        // The shot's tracer, or where the frame's points take more pages than it binds, the
+        // tracer for those: the shot's words lie in its first pages either way.
+        let bytes = 4 * words.words.0.len() as u64;
+        let gpu = self.gpu.fitting(bytes.max(self.gpu.tracer.pages.bytes()))?;
+        let pages = upload(&gpu, "frame", &words.words)?;
         let scene = prepared.scene;
         let pixels = scene.output.width as usize * scene.output.height as usize;
-        let film = DeviceFilm::new(
-            &self.gpu,
-            [&self.pages, &pages],
-            pixels,
-            layout.stride as u32,
-        )?;
+        let film = DeviceFilm::new(&gpu, [&self.pages, &pages], pixels, layout.stride as u32)?;
         Ok(GpuFrame {
             shot: self,
+            gpu,
             _pages: pages,
             film,
             stride: layout.stride,
@@ -101,8 +103,8 @@ impl ShotTracer for GpuShot {
         &self.statics
     }
 
-    /// Uploads the frame. Its points are none: the GPU renders no point caches, and a shot
-    /// of a scene with them is refused ([`GpuShot::new`]).
+    /// Uploads the frame, its points among its spheres (`prepared`'s world holds them,
+    /// prepared for its interval with their hierarchies).
     fn frame<'a>(
         &'a self,
         prepared: PreparedFrame<'a>,
@@ -161,6 +163,8 @@ pub(super) fn mib(bytes: u64) -> String {
 /// One frame prepared on the GPU.
 pub(crate) struct GpuFrame<'s> {
     shot: &'s GpuShot,
+    /// The device with the tracer for the frame's words (the shot's, or one of more pages).
+    gpu: Gpu,
     /// The frame's words, page by page, bound in the film's dispatches.
     _pages: Vec<wgpu::Buffer>,
     film: DeviceFilm,
@@ -240,8 +244,7 @@ impl GpuFrame<'_> {
             // Most samples first (stably: neighbours stay together), so that each window's
             // entries are a prefix.
             entries.sort_by_key(|e| std::cmp::Reverse(e[3] - e[2]));
-            let gpu = &self.shot.gpu;
-            counts.busy_seconds += self.film.begin(gpu, end - start, &entries);
+            counts.busy_seconds += self.film.begin(&self.gpu, end - start, &entries);
             let remaining = entries.iter().map(|e| e[3] - e[2]).collect();
             self.windows(Windows::new(remaining), end - start, &mut counts, progress)?;
             let stride = self.stride;
@@ -251,7 +254,7 @@ impl GpuFrame<'_> {
                 &targets[start..end],
             );
             let waited = Instant::now();
-            counts.non_finite += self.film.read_part(gpu, end - start, |words| {
+            counts.non_finite += self.film.read_part(&self.gpu, end - start, |words| {
                 counts.busy_seconds += waited.elapsed().as_secs_f64();
                 merge(words, part_pixels, part_sums, part_targets, stride)
             })?;
@@ -268,7 +271,7 @@ impl GpuFrame<'_> {
         counts: &mut RoundCounts,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<(), GpuError> {
-        let gpu = &self.shot.gpu;
+        let gpu = &self.gpu;
         let mut pace = self.shot.pace();
         let mut in_flight: VecDeque<Submitted> = VecDeque::new();
         let mut slot = 0;
@@ -358,7 +361,7 @@ impl GpuFrame<'_> {
     /// time), as the tracer draws them: pixel, lens, time, then four bounces' (uc, u.0, u.1).
     pub(super) fn numbers(&mut self, samples: &[[u32; 4]]) -> Result<Vec<[f32; 17]>, GpuError> {
         use super::layout::NUMBERS;
-        let gpu = &self.shot.gpu;
+        let gpu = &self.gpu;
         let words = self.film.numbers(gpu, samples)?;
         Ok(words
             .chunks_exact(NUMBERS as usize)

@@ -1,8 +1,8 @@
 //! What the GPU path renders, and what it refuses before anything is rendered.
 //!
-//! The GPU traces every feature of the format but point caches (below): the three motions,
-//! the camera's motion and lens, shutter positions, curves and rolling shutters, the three
-//! materials and both backgrounds, passes, budgets, with the CPU's integrand, in `f32`: WGSL
+//! The GPU traces every feature of the format: the three motions, the camera's motion and
+//! lens, shutter positions, curves and rolling shutters, the three materials and both
+//! backgrounds, point caches, passes, budgets, with the CPU's integrand, in `f32`: WGSL
 //! has no `f64`. An `f32` carries 24 bits, so a coordinate `X` is resolved to about
 //! `2^-24 X` (6e-8 of it), where the CPU's `f64` resolves `1.1e-16 X`. Scenes whose numbers
 //! `f32` cannot carry faithfully are refused here, when the scene is validated (`check` and
@@ -10,10 +10,12 @@
 //! stability suite (tests/integration/stability.rs) which of its extreme cases pass on the GPU and which
 //! are refused.
 //!
-//! Point caches (`[[points]]`) are not traced on the GPU: their points may carry colours of
-//! their own, which the GPU's sphere records do not, and they are read per frame, which no
-//! upload of the GPU's does yet (only the spheres' words are paged over bindings). A scene
-//! with point caches is refused too.
+//!
+//! Point caches (`[[points]]`) are traced on the GPU as on the CPU: each frame's points are
+//! uploaded with the frame's words (`super::upload`), so they are paged over bindings like the
+//! spheres. Their number is known only once a frame's files are surveyed, so the size limit
+//! takes it apart ([`too_large`], with the most points a frame of the shot holds); their
+//! coordinates are the files' `f32` values, which the GPU takes as they are.
 
 use super::context::pages_here;
 use super::pages::Pages;
@@ -52,9 +54,6 @@ pub(crate) const MAX_SWEEP_DEGREES: f64 = 3600.0;
 /// Why the GPU path does not render a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Unsupported {
-    /// The scene has point caches (`[[points]]`, this many tables), which only the CPU
-    /// renders.
-    PointCaches { tables: usize },
     /// A coordinate (of a sphere's path over the shot, or the camera's) or a radius beyond
     /// [`MAX_COORDINATE`]; `what` names it (`sphere[3]`, `camera.look_from`).
     Far { what: String, value: f64 },
@@ -74,19 +73,21 @@ pub enum Unsupported {
     /// An orbit sweeping more than [`MAX_SWEEP_DEGREES`] over a frame's widened exposure.
     FastOrbit { what: String, sweep: f64 },
     /// The frame's (or the shot's) words could need more bytes than the pages of the
-    /// adapter a render would take hold ([`Pages::bytes`]).
-    TooLarge { bytes: u64, pages: Pages },
+    /// adapter a render would take hold ([`Pages::bytes`]), with `points` points in a frame
+    /// (the most a frame of the shot holds, 0 where the scene has no point caches or they
+    /// are not counted yet).
+    TooLarge {
+        bytes: u64,
+        pages: Pages,
+        points: u64,
+    },
 }
 
 /// Why the GPU path does not render `scene`, if it does not: the first limit it passes, in
-/// the order of [`Unsupported`]'s kinds (point caches, spheres in order, then the camera,
-/// then the size, against the adapter's limits: [`too_large`]).
+/// the order of [`Unsupported`]'s kinds (spheres in order, then the camera, then the size of
+/// its spheres' words, against the adapter's limits: [`too_large`] without points; its point
+/// caches' are counted once their files are surveyed).
 pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
-    if !scene.points.is_empty() {
-        return Some(Unsupported::PointCaches {
-            tables: scene.points.len(),
-        });
-    }
     let shot = &scene.shot;
     let period = 1.0 / shot.fps;
     let whole = shot.whole_interval();
@@ -132,19 +133,25 @@ pub fn unsupported(scene: &Scene) -> Option<Unsupported> {
             });
         }
     }
-    camera(scene, times, sweep_time).or_else(|| too_large(scene))
+    camera(scene, times, sweep_time).or_else(|| too_large(scene, 0))
 }
 
-/// Whether `scene`'s words could take more than the pages of the adapter a render would take
-/// hold. Only a scene beyond what every device binds (WebGPU's limits, within
+/// Whether `scene`'s words, with `points` points in a frame (the most a frame of its shot
+/// holds), could take more than the pages of the adapter a render would take hold: the GPU's
+/// one limit on point caches, checked once their files are surveyed. Only a scene beyond
+/// what every device binds (WebGPU's limits, within
 /// [`MAX_BINDING_VARIABLE`](super::MAX_BINDING_VARIABLE)) looks for the adapter (once a process).
-fn too_large(scene: &Scene) -> Option<Unsupported> {
-    let bytes = buffer_bytes(scene);
+pub fn too_large(scene: &Scene, points: u64) -> Option<Unsupported> {
+    let bytes = buffer_bytes(scene, points);
     if bytes <= Pages::guaranteed().bytes() {
         return None;
     }
     let pages = pages_here();
-    (bytes > pages.bytes()).then_some(Unsupported::TooLarge { bytes, pages })
+    (bytes > pages.bytes()).then_some(Unsupported::TooLarge {
+        bytes,
+        pages,
+        points,
+    })
 }
 
 /// The camera's limits.
@@ -220,15 +227,18 @@ fn shortest_view(from: &Motion, at: &Motion) -> f64 {
     shortest
 }
 
-/// The most bytes the shot's or one frame's buffer holds (the larger), counted generously:
-/// every sphere's record, a hierarchy of at most two entries a sphere, a motion
-/// record for every animated sphere and another for the motion pass, every key twice. Where
-/// the world prepares every sphere per frame ([`raytrace_core::world::one_hierarchy`]), the still
-/// ones too are in the frame's buffer.
-pub(super) fn buffer_bytes(scene: &Scene) -> u64 {
+/// The most bytes the shot's or one frame's buffer holds (the larger), with `points` points
+/// in the frame, counted generously: every sphere's record, a hierarchy of at most two
+/// entries a sphere, a motion record for every animated sphere and another for the motion
+/// pass, every key twice; every point's record and look, a hierarchy of at most two entries a
+/// point (a hierarchy's entries are its nodes' children: each node has two at least, each
+/// leaf one primitive at least), a group a `[[points]]` table (its sets share a time) with
+/// its padding, a look a material. Where the world prepares every sphere per frame
+/// ([`raytrace_core::world::one_hierarchy`]), the still ones too are in the frame's buffer.
+pub(super) fn buffer_bytes(scene: &Scene, points: u64) -> u64 {
     use super::layout::{
-        ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, MATERIAL_WORDS, MOTION_WORDS, SPHERE_WORDS,
-        TABLE_WORDS,
+        ENTRY_WORDS, HEADER_WORDS, KEY_WORDS, LOOK_WORDS, MATERIAL_WORDS, MOTION_WORDS,
+        POINT_GROUP_WORDS, POINT_WORDS, SPHERE_WORDS, TABLE_WORDS,
     };
     use raytrace_core::world::one_hierarchy;
     let sphere = (SPHERE_WORDS + 2 * ENTRY_WORDS) as u64;
@@ -249,19 +259,25 @@ pub(super) fn buffer_bytes(scene: &Scene) -> u64 {
             frame += 1;
         }
     }
+    let point = (POINT_WORDS + LOOK_WORDS + 2 * ENTRY_WORDS) as u64;
+    frame += points * point
+        + (POINT_GROUP_WORDS + 8) as u64 * scene.points.len() as u64
+        + LOOK_WORDS as u64 * scene.materials.len() as u64
+        + 8;
     4 * shot.max(frame)
 }
 
-/// Bytes a frame of `scene` holds for the GPU beyond what the CPU's path holds, counted on the
-/// host, where a software device (lavapipe) keeps its buffers and a hardware one its
-/// read-back buffers, for a film of `stride` pass sums a pixel (those written and those its
-/// finishing reads): the driver's own ([`GPU_FLOOR_BYTES`]); the shot's and the frame's
-/// words, as written, as copied for the upload and on the device; the film on the device
-/// with its read-back buffers and work entries; each round's per-pixel targets.
-pub fn frame_bytes(scene: &Scene, stride: usize) -> u64 {
+/// Bytes a frame of `scene` with `points` points holds for the GPU beyond what the CPU's
+/// path holds, counted on the host, where a software device (lavapipe) keeps its buffers and
+/// a hardware one its read-back buffers, for a film of `stride` pass sums a pixel (those
+/// written and those its finishing reads): the driver's own ([`GPU_FLOOR_BYTES`]); the
+/// shot's and the frame's words, as written, as copied for the upload and on the device; the
+/// film on the device with its read-back buffers and work entries; each round's per-pixel
+/// targets.
+pub fn frame_bytes(scene: &Scene, points: u64, stride: usize) -> u64 {
     let pixels = scene.output.width as u64 * scene.output.height as u64;
     GPU_FLOOR_BYTES
-        + 3 * buffer_bytes(scene)
+        + 3 * buffer_bytes(scene, points)
         + super::device_film::film_bytes(pixels, stride as u32)
         + 4 * pixels
 }
@@ -284,7 +300,6 @@ fn keys(m: &Motion) -> u32 {
 impl std::fmt::Display for Unsupported {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let text = match self {
-            Unsupported::PointCaches { .. } => "its point caches".to_string(),
             Unsupported::Far { what, value } => format!(
                 "{what} reaches a coordinate of {}, beyond the {} the GPU takes",
                 show_approx(*value),
@@ -325,8 +340,16 @@ impl std::fmt::Display for Unsupported {
                 show_approx(*sweep),
                 show(MAX_SWEEP_DEGREES)
             ),
-            Unsupported::TooLarge { bytes, pages } => format!(
-                "its spheres could need {} in one of the GPU's two buffers of words, more than the {} this GPU binds for one ({} bindings of {}; the adapter binds at most {} a storage buffer)",
+            Unsupported::TooLarge {
+                bytes,
+                pages,
+                points,
+            } => format!(
+                "its spheres{} could need {} in one of the GPU's two buffers of words, more than the {} this GPU binds for one ({} bindings of {}; the adapter binds at most {} a storage buffer)",
+                match points {
+                    0 => String::new(),
+                    n => format!(" and the {n} points of its largest frame"),
+                },
                 mib(*bytes),
                 mib(pages.bytes()),
                 pages.count(),
@@ -344,6 +367,7 @@ mod tests {
     use std::path::Path;
 
     use super::*;
+    use crate::layout::{H_POINT_GROUP_N, H_POINTS, POINT_WORDS, PT_LOOK};
     use crate::upload::{FrameWords, ShotWords};
     use raytrace_core::pass::PassSet;
     use raytrace_core::passes::SumLayout;
@@ -399,9 +423,9 @@ mod tests {
             (limit, limit / 2, 2),
         ] {
             let s = scene(still, moving, keys);
-            let counted = buffer_bytes(&s);
+            let counted = buffer_bytes(&s, 0);
             let statics = StaticGeometry::new(&s);
-            let shot = ShotWords::new(&s, &statics).unwrap();
+            let shot = ShotWords::new(&s, &statics);
             assert!(
                 4 * shot.words.0.len() as u64 <= counted,
                 "{still} + {moving}: shot"
@@ -415,6 +439,66 @@ mod tests {
                     4 * f.words.0.len() as u64 <= counted,
                     "{still} + {moving}: frame {frame}"
                 );
+            }
+        }
+    }
+
+    /// Two caches' points, at two times (two groups, two hierarchies), one set with colours
+    /// (a look a point) and moving, one still without (a look for its material).
+    fn frame_points(n: usize) -> FramePoints {
+        use glam::Vec3;
+        use raytrace_core::points::PointSet;
+        let at = |i: usize| Vec3::new((i % 50) as f32 * 0.1, (i / 50) as f32 * 0.1, -5.0);
+        FramePoints {
+            sets: vec![
+                PointSet {
+                    time: 0.01,
+                    centers: (0..n).map(at).collect(),
+                    velocities: vec![Vec3::new(1.0, 0.5, 0.0); n],
+                    radius: 0.04,
+                    colors: (0..n).map(|i| [(i % 7) as f32 / 7.0, 0.5, 1.0]).collect(),
+                    ..PointSet::default()
+                },
+                PointSet {
+                    time: 0.02,
+                    centers: (0..n / 2).map(|i| at(i) + Vec3::Z).collect(),
+                    radii: (0..n / 2).map(|i| 0.01 + (i % 5) as f32 * 0.01).collect(),
+                    ..PointSet::default()
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn a_frames_points_are_never_larger_than_counted() {
+        let table = "[[points]]\nfile = \"p_####.ply\"\nmaterial = \"m\"\nradius = 0.04\n";
+        for (still, moving) in [(0, 0), (20, 3)] {
+            let mut s = scene(still, moving, 2);
+            let materials =
+                "[materials]\nm = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+            let text = format!("{materials}{table}{table}");
+            let tables = Scene::parse(&text, Path::new("p.toml")).unwrap();
+            s.points = tables.points;
+            let statics = StaticGeometry::new(&s);
+            let shot = ShotWords::new(&s, &statics);
+            let layout = SumLayout::new(PassSet::EMPTY.with(raytrace_core::pass::Pass::Motion));
+            for n in [0, 1, 7, 5000] {
+                let points = frame_points(n);
+                let prepared = PreparedFrame::new(&s, &statics, &points, 2);
+                let f = FrameWords::new(&prepared, &shot, &layout);
+                let counted = buffer_bytes(&s, points.len() as u64);
+                assert!(4 * f.words.0.len() as u64 <= counted, "{n} points");
+                // A point of a set with colours has a look of its own, the others share one.
+                let w = &f.words.0;
+                let records = w[H_POINTS as usize] as usize;
+                let mut looks: Vec<u32> = (0..points.len())
+                    .map(|i| w[records + POINT_WORDS as usize * i + PT_LOOK as usize])
+                    .collect();
+                looks.sort_unstable();
+                looks.dedup();
+                assert_eq!(looks.len(), n + usize::from(n > 1), "{n}");
+                let groups = f.words.0[H_POINT_GROUP_N as usize];
+                assert_eq!(groups, u32::from(n > 0) + u32::from(n > 1), "{n}");
             }
         }
     }

@@ -5,8 +5,9 @@
 //! [`super::flatten`]). A frame's words ([`FrameWords`]) hold its [`PreparedFrame`]: its header
 //! (size, depth, the sampler's key, the camera's and the shutter's settings), the shutter
 //! curve, the camera's motion, and its world's animated spheres prepared for its interval
-//! with their hierarchy and curved paths. Which spheres are still is the world's rule
-//! ([`raytrace_core::world::one_hierarchy`]).
+//! with their hierarchy and curved paths, and its points (of its point caches) prepared for
+//! its interval, with their groups' hierarchies and their looks. Which spheres are still is
+//! the world's rule ([`raytrace_core::world::one_hierarchy`]).
 //! Times on the GPU are `f32` seconds since the frame's opening, so a late frame keeps its
 //! digits as on the CPU.
 
@@ -44,11 +45,7 @@ pub(super) struct FrameWords {
 impl ShotWords {
     /// The words of `scene`'s shot: its materials, the Sobol tables, and `statics` (built for
     /// `scene`): its spheres that never move with their hierarchy.
-    pub(super) fn new(scene: &Scene, statics: &StaticGeometry) -> Result<ShotWords, String> {
-        if !scene.points.is_empty() {
-            // Refused when the scene is validated (`super::support`).
-            return Err("the GPU renders no point caches ([[points]])".to_string());
-        }
+    pub(super) fn new(scene: &Scene, statics: &StaticGeometry) -> ShotWords {
         let mut w = Words::default();
         let materials = w.at();
         for m in &scene.materials {
@@ -83,13 +80,13 @@ impl ShotWords {
         }
         let eye = scene.camera.look_from.at(0.0).as_vec3().to_array();
         let hierarchy = flatten(hierarchy, eye, &mut w);
-        Ok(ShotWords {
+        ShotWords {
             words: w,
             materials,
             tables,
             spheres,
             hierarchy,
-        })
+        }
     }
 
     /// Writes to a frame's header where the shot's words hold its still spheres, their
@@ -192,6 +189,7 @@ impl FrameWords {
         flags |= camera(&mut w, prepared, widened);
         shot.locate(&mut w);
         animated_spheres(&mut w, prepared);
+        points(&mut w, prepared);
         w.set(H_PASS_MOTIONS, NONE);
         if s.motion.is_some() {
             motion_pass(&mut w, prepared, widened);
@@ -321,6 +319,80 @@ fn animated_spheres(w: &mut Words, prepared: &PreparedFrame) {
     w.set(H_MOVING_SPHERES, spheres);
     w.set(H_MOVING_ENTRIES, hierarchy.entries);
     w.set(H_MOVING_ENTRY_N, hierarchy.count);
+}
+
+/// Appends the frame `prepared`'s points (of its point caches), prepared for its interval:
+/// every group's records in its hierarchy's leaf order, one group after another, then each
+/// group's hierarchy and its entry in the groups' list, then the looks the records name (one
+/// a material for points without colours, one a point with a colour); and writes where they
+/// are to the header. A point is numbered on the GPU by its place among the records, after
+/// the scene's spheres ([`H_FIRST_POINT`]).
+fn points(w: &mut Words, prepared: &PreparedFrame) {
+    let world = &prepared.world;
+    let open = prepared.interval().open;
+    // Looks of points without colours, by material; then every look's words.
+    let mut plain: Vec<Option<u32>> = vec![None; prepared.scene.materials.len()];
+    let mut looks: Vec<([f32; 3], u32)> = Vec::new();
+    w.align();
+    let records = w.at();
+    let mut views = Vec::new();
+    for (group, view) in world.point_groups() {
+        views.push((w.at(), view));
+        for p in group {
+            let start = w.at();
+            let (material, color) = world.point_look(p.id);
+            let look = match color {
+                Some(c) => {
+                    looks.push((c, material));
+                    looks.len() as u32 - 1
+                }
+                None => *plain[material as usize].get_or_insert_with(|| {
+                    looks.push(([1.0; 3], material));
+                    looks.len() as u32 - 1
+                }),
+            };
+            w.v(p.center);
+            w.f(p.radius);
+            debug_assert_eq!(w.at() - start, PT_VELOCITY);
+            w.v(p.velocity);
+            debug_assert_eq!(w.at() - start, PT_LOOK);
+            w.u(look);
+            w.pad_to(start, POINT_WORDS);
+        }
+    }
+    let eye = prepared
+        .scene
+        .camera
+        .look_from
+        .at(open)
+        .as_vec3()
+        .to_array();
+    let flats: Vec<(u32, Flat)> = views
+        .into_iter()
+        .map(|(first, view)| (first, flatten(view, eye, w)))
+        .collect();
+    w.align();
+    let groups = w.at();
+    for (first, flat) in &flats {
+        let start = w.at();
+        w.pad_to(start, POINT_GROUP_WORDS);
+        w.set(start + G_ENTRIES, flat.entries);
+        w.set(start + G_ENTRY_N, flat.count);
+        w.set(start + G_POINTS, *first);
+    }
+    let at = w.at();
+    for (color, material) in looks {
+        let start = w.at();
+        color.iter().for_each(|&c| w.f(c.into()));
+        debug_assert_eq!(w.at() - start, L_MATERIAL);
+        w.u(material);
+        w.pad_to(start, LOOK_WORDS);
+    }
+    w.set(H_POINTS, records);
+    w.set(H_POINT_GROUPS, groups);
+    w.set(H_POINT_GROUP_N, flats.len() as u32);
+    w.set(H_FIRST_POINT, prepared.scene.spheres.len() as u32);
+    w.set(H_LOOKS, at);
 }
 
 /// Appends the motion pass's paths: every animated sphere's over `widened`, by its index in

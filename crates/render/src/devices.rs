@@ -135,18 +135,37 @@ fn opened<T>(device: &Option<T>) -> Result<&T, Error> {
 
 /// `scene` (validated with `overrides`) itself, or bad input ([`Error::Scene`], exit status
 /// 2) when it asks for the GPU and the GPU does not render it ([`unsupported`]: numbers a
-/// 32-bit float cannot carry, point caches): the message names the file, the field or flag
-/// that chose the GPU (`shot.toml: --device gpu: ...`, `shot.toml: render.device = "gpu":
-/// ...`), what is beyond the GPU's limits and the way out (`--device cpu`). Every command
-/// that renders or checks a scene asks this as it validates the scene, before anything else
-/// is checked of it.
+/// 32-bit float cannot carry, spheres beyond what the GPU binds): the message names the
+/// file, the field or flag that chose the GPU (`shot.toml: --device gpu: ...`,
+/// `shot.toml: render.device = "gpu": ...`), what is beyond the GPU's limits and the way out
+/// (`--device cpu`). Every command that renders or checks a scene asks this as it validates
+/// the scene, before anything else is checked of it; a scene with point caches is asked
+/// again once their files are surveyed ([`room_for_points`]).
 pub fn supported(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
     if scene.render.device != Device::Gpu {
         return Ok(scene);
     }
-    let Some(why) = unsupported(&scene) else {
-        return Ok(scene);
-    };
+    match unsupported(&scene) {
+        Some(why) => Err(refusal(&scene, overrides, why)),
+        None => Ok(scene),
+    }
+}
+
+/// Nothing, or bad input as [`supported`] says it, when `scene` asks for the GPU and its
+/// words with `points` points in a frame (the most a frame of the run holds, from its point
+/// caches' survey) could take more than the GPU binds ([`raytrace_gpu::too_large`]).
+pub fn room_for_points(scene: &Scene, overrides: &Overrides, points: u64) -> Result<(), Error> {
+    if scene.render.device != Device::Gpu || points == 0 {
+        return Ok(());
+    }
+    match raytrace_gpu::too_large(scene, points) {
+        Some(why) => Err(refusal(scene, overrides, why)),
+        None => Ok(()),
+    }
+}
+
+/// The error of a scene the GPU does not render, `why`, as [`supported`] words it.
+fn refusal(scene: &Scene, overrides: &Overrides, why: Unsupported) -> Error {
     let file = raytrace_core::error::elide_path(&scene.source);
     // The file is named either way: with several scenes, `--device gpu` alone does not say
     // which one the GPU refuses.
@@ -155,23 +174,14 @@ pub fn supported(scene: Scene, overrides: &Overrides) -> Result<Scene, Error> {
     } else {
         format!("{file}: render.device = \"gpu\"")
     };
-    if let Unsupported::PointCaches { tables } = why {
-        let tables = match tables {
-            1 => "a [[points]] table".to_string(),
-            n => format!("{n} [[points]] tables"),
-        };
-        return Err(Error::Scene(format!(
-            "{chosen}: the GPU does not render point caches, and this scene has {tables}; render it with --device cpu"
-        )));
-    }
     if let Unsupported::TooLarge { .. } = why {
-        return Err(Error::Scene(format!(
+        return Error::Scene(format!(
             "{chosen}: the GPU has not the room for this scene: {why}; render it with --device cpu"
-        )));
+        ));
     }
-    Err(Error::Scene(format!(
+    Error::Scene(format!(
         "{chosen}: the GPU computes in 32-bit floats and does not render this scene: {why}; render it with --device cpu"
-    )))
+    ))
 }
 
 /// The line `check` gives for the GPU: the adapter a render would take, or why there is none

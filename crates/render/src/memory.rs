@@ -28,8 +28,8 @@ const FLOOR_BYTES: u64 = 9 << 20;
 /// - its finishing ([`finish::bytes_for`]: denoising, history);
 /// - its encoding ([`raytrace_io::bytes_for`]);
 /// - on the GPU, what its path adds ([`raytrace_gpu::frame_bytes`]: the driver, the scene's
-///   words, the film on the device and its read-back buffers, counted on the host, where a
-///   software device keeps them).
+///   words with the frame's points, the film on the device and its read-back buffers, counted
+///   on the host, where a software device keeps them).
 ///
 /// It grows linearly in pixels, spheres and points (OIDN's scratch memory, at most 2.5
 /// GiB, aside), and errs high for scenes whose spheres are mostly still.
@@ -37,7 +37,7 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
     let pixels = scene.output.width as u64 * scene.output.height as u64;
     let layout = SumLayout::keeping(scene.output.passes, finish::passes_read(scene));
     let gpu = match scene.render.device {
-        Device::Gpu => raytrace_gpu::frame_bytes(scene, layout.stride),
+        Device::Gpu => raytrace_gpu::frame_bytes(scene, load.points, layout.stride),
         Device::Cpu => 0,
     };
     FLOOR_BYTES

@@ -6,7 +6,7 @@ pub(crate) mod hostile;
 pub(crate) mod moved;
 pub(crate) mod shape;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -367,4 +367,37 @@ pub(crate) fn peak_kib(pid: u32) -> u64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
     let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
     line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+/// The shipped scene `name` (`scenes/NAME.toml`) as a test renders it: the shipped file, or
+/// for a scene with a point cache a copy in `dir/scenes/` beside its cache, made as the
+/// scene's notes say: the fountain's first `frames` files, the LAMMPS run's dump
+/// (`examples/lammps/gas.in`, run from the folder above `scenes/`; see [`have_lammps`]).
+pub(crate) fn shipped_beside_its_cache(name: &str, dir: &Path, frames: u32) -> PathBuf {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(format!("{name}.toml"));
+    let scene = dir.join("scenes").join(format!("{name}.toml"));
+    match name {
+        "fountain" => {
+            std::fs::create_dir_all(dir.join("scenes")).unwrap();
+            std::fs::copy(&shipped, &scene).unwrap();
+            let o = Command::new(env!("CARGO_BIN_EXE_raytrace"))
+                .args(["generate", "-o", "scenes/caches/fountain_####.ply"])
+                .args(["--frames", &frames.to_string(), "--points", "4000"])
+                .current_dir(dir)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            scene
+        }
+        "lammps_gas" => {
+            std::fs::create_dir_all(dir.join("scenes/caches")).unwrap();
+            std::fs::copy(&shipped, &scene).unwrap();
+            let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/lammps/gas.in");
+            run_lammps(&input, dir);
+            scene
+        }
+        _ => shipped,
+    }
 }

@@ -146,32 +146,91 @@ fn intersect(c: vec3<f32>, r: f32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> f3
     return -1.0;
 }
 
-// The nearest hit so far: its distance (FAR: none), the buffer and offset of its sphere.
+// Where the primitives a hierarchy's leaves hold lie: the shot's spheres (`src` 0, as `quad`
+// names the shot's words), the frame's spheres (1) and the frame's points (POINTS, whose
+// records are in the frame's words too).
+const POINTS: u32 = 2u;
+
+// The nearest hit so far: its distance (FAR: none), where its primitive lies (`src`) and the
+// offset of its record.
 struct Hit {
     t: f32,
     src: u32,
     sphere: u32,
 }
 
-// The ray against the hierarchy of buffer `src` (`n` entries from `entries`, depth first, its
-// spheres at `spheres`) at time `t` (`s` of the shutter), skipping the sphere of index `skip`:
-// a walk of the entries, into a node's children when the ray enters its box before the
-// nearest hit so far, past its subtree otherwise (flatten.rs).
+// A leaf's primitive at time `t`: its centre, radius and number as a sphere.
+struct Primitive {
+    center: vec3<f32>,
+    radius: f32,
+    id: u32,
+}
+
+// The number as a sphere of the point whose record is at `at`: its place among the frame's
+// points, after the scene's spheres.
+fn point_id(at: u32) -> u32 {
+    return g_points.y + (at - g_points.x) / POINT_WORDS;
+}
+
+// The primitive whose record is at `at` in `src` (a sphere's, or a point's: its centre at the
+// frame's opening plus its velocity times `t`, as traced_points.rs places it), at time `t`.
+fn primitive_at(src: u32, at: u32, t: f32) -> Primitive {
+    if src == POINTS {
+        let q0 = quad(1u, at + PT_CENTER);
+        let q1 = quad(1u, at + PT_VELOCITY);
+        return Primitive(xyz(q0) + xyz(q1) * t, bitcast<f32>(q0[PT_RADIUS - PT_CENTER]), point_id(at));
+    }
+    let sphere = sphere_at(src, at);
+    return Primitive(center_at(sphere, t), sphere.radius, sphere.id);
+}
+
+// What a ray hit, for its shading and passes: the primitive at the hit's time, its material
+// (its offset in the shot's words), the colour that multiplies the material's albedo (a
+// point's colour; 1 for a sphere and a point without one, world.rs), and the velocity of a
+// point's line for the motion pass (`point`: the primitive is a point).
+struct Struck {
+    prim: Primitive,
+    material: u32,
+    tint: vec3<f32>,
+    point: bool,
+    velocity: vec3<f32>,
+}
+
+fn struck(h: Hit, t: f32) -> Struck {
+    let prim = primitive_at(h.src, h.sphere, t);
+    if h.src == POINTS {
+        let q1 = quad(1u, h.sphere + PT_VELOCITY);
+        let look = fquad(g_looks + LOOK_WORDS * q1[PT_LOOK - PT_VELOCITY]);
+        let m = g_materials + MATERIAL_WORDS * look[L_MATERIAL];
+        return Struck(prim, m, bitcast<vec3<f32>>(look.xyz), true, xyz(q1));
+    }
+    let sphere = sphere_at(h.src, h.sphere);
+    let m = g_materials + MATERIAL_WORDS * sphere.material;
+    return Struck(prim, m, vec3<f32>(1.0), false, vec3<f32>(0.0));
+}
+
+// The ray against the hierarchy of the primitives of `src` (`n` entries from `entries`,
+// depth first, its primitives' records from `spheres`) at time `t` (`s` of the shutter),
+// skipping the sphere of index `skip`: a walk of the entries, into a node's children when the
+// ray enters its box before the nearest hit so far, past its subtree otherwise (flatten.rs).
 fn traverse(src: u32, entries: u32, n: u32, spheres: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, s: f32, t: f32, skip: u32, best: ptr<function, Hit>) {
+    // The words the hierarchy lies in: the shot's, or the frame's (its spheres and points).
+    let words = min(src, 1u);
+    let stride = select(SPHERE_WORDS, POINT_WORDS, src == POINTS);
     var e = 0u;
     g_iters += 1u;
     while e < n {
         g_iters += 1u;
         let at = entries + ENTRY_WORDS * e;
-        let q0 = quad(src, at);
-        let q1 = quad(src, at + E_UPPER);
-        let q2 = quad(src, at + E_LOWER_CHANGE);
+        let q0 = quad(words, at);
+        let q1 = quad(words, at + E_UPPER);
+        let q2 = quad(words, at + E_LOWER_CHANGE);
         var lo = xyz(q0);
         var hi = xyz(q1);
         // A still hierarchy (the shot's) has no changes.
-        if src == 1u {
+        if words == 1u {
             lo += s * xyz(q2);
-            hi += s * xyz(quad(src, at + E_UPPER_CHANGE));
+            hi += s * xyz(quad(words, at + E_UPPER_CHANGE));
         }
         let a = (lo - o) * inv;
         let b = (hi - o) * inv;
@@ -194,15 +253,16 @@ fn traverse(src: u32, entries: u32, n: u32, spheres: u32, o: vec3<f32>, d: vec3<
             g_iters += 1u;
             for (var i = first; i < first + count; i++) {
                 g_iters += 1u;
-                let sphere = sphere_at(src, spheres + SPHERE_WORDS * i);
-                if sphere.id == skip {
+                let record = spheres + stride * i;
+                let p = primitive_at(src, record, t);
+                if p.id == skip {
                     continue;
                 }
-                let th = intersect(center_at(sphere, t), sphere.radius, o, d, (*best).t);
+                let th = intersect(p.center, p.radius, o, d, (*best).t);
                 if th > 0.0 {
                     (*best).t = th;
                     (*best).src = src;
-                    (*best).sphere = spheres + SPHERE_WORDS * i;
+                    (*best).sphere = record;
                 }
             }
         }
@@ -211,7 +271,8 @@ fn traverse(src: u32, entries: u32, n: u32, spheres: u32, o: vec3<f32>, d: vec3<
 }
 
 // The nearest sphere along the ray at time `t`, except sphere `skip`: the still spheres,
-// then the animated ones before that distance (as world.rs).
+// then the animated ones before that distance, then each group's points before the nearest
+// of those (as world.rs).
 fn world_hit(o: vec3<f32>, d: vec3<f32>, t: f32, skip: u32) -> Hit {
     var best = Hit(FAR, 0u, 0u);
     // Reciprocals of direction components no smaller than 1e-18 in magnitude.
@@ -224,6 +285,12 @@ fn world_hit(o: vec3<f32>, d: vec3<f32>, t: f32, skip: u32) -> Hit {
     }
     traverse(0u, g_still.x, g_still.y, g_still.z, o, d, inv, s, t, skip, &best);
     traverse(1u, g_moving.x, g_moving.y, g_moving.z, o, d, inv, s, t, skip, &best);
+    g_iters += 1u;
+    for (var k = 0u; k < g_point_groups.y; k++) {
+        g_iters += 1u;
+        let group = fquad(g_point_groups.x + POINT_GROUP_WORDS * k);
+        traverse(POINTS, group[G_ENTRIES], group[G_ENTRY_N], group[G_POINTS], o, d, inv, s, t, skip, &best);
+    }
     return best;
 }
 

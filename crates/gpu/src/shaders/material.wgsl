@@ -46,8 +46,10 @@ struct Scatter {
 }
 
 // Scatters a ray arriving along `dir_in` at a point with outward normal `outward` on the
-// material at `m` of the shot buffer, with the bounce's numbers (uc, u.0, u.1).
-fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) -> Scatter {
+// material at `m` of the shot buffer, its albedo multiplied by `tint` (a point's colour,
+// material.rs `Material::tinted`: glass keeps its own), with the bounce's numbers (uc, u.0,
+// u.1).
+fn scatter(m: u32, tint: vec3<f32>, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) -> Scatter {
     let front = dot(dir_in, outward) < 0.0;
     var n = outward;
     if !front {
@@ -55,7 +57,7 @@ fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) ->
     }
     let q0 = quad(0u, m);
     let kind = q0.x;
-    let albedo = bitcast<vec3<f32>>(q0.yzw);
+    let albedo = bitcast<vec3<f32>>(q0.yzw) * tint;
     if kind == LAMBERTIAN {
         var dir = n + unit_vector(numbers.y, numbers.z);
         // The books' near_zero().
@@ -90,13 +92,13 @@ fn scatter(m: u32, dir_in: vec3<f32>, outward: vec3<f32>, numbers: vec3<f32>) ->
     return Scatter(normalize(dir), vec3<f32>(1.0), false, false);
 }
 
-// The material's albedo as a denoiser takes it (glass: 1).
-fn albedo_of(m: u32) -> vec3<f32> {
+// The material's albedo, multiplied by `tint`, as a denoiser takes it (glass: 1).
+fn albedo_of(m: u32, tint: vec3<f32>) -> vec3<f32> {
     let q0 = quad(0u, m);
     if q0.x == DIELECTRIC {
         return vec3<f32>(1.0);
     }
-    return bitcast<vec3<f32>>(q0.yzw);
+    return bitcast<vec3<f32>>(q0.yzw) * tint;
 }
 
 // What a ray leaving the scene along `d` sees: the books' sky, or a uniform colour.

@@ -60,10 +60,15 @@ fn add_pass(at: u32, v: vec3<f32>, n: u32) {
     }
 }
 
-// The displacements in pixels (u right, v up) of the point `p` of sphere `id` at time `t`,
-// seen through `view`, to where it is one frame period later (xy) and earlier (zw).
-fn motion_vectors(p: vec3<f32>, id: u32, t: f32, view: View) -> vec4<f32> {
-    let record = fu(fu(H_PASS_MOTIONS) + id);
+// The displacements in pixels (u right, v up) of the point `p` of what was struck (`h`) at
+// time `t`, seen through `view`, to where it is one frame period later (xy) and earlier (zw).
+// A sphere moves by its path over the shot (its record for the pass), a point of a cache on
+// its line (passes.rs).
+fn motion_vectors(p: vec3<f32>, h: Struck, t: f32, view: View) -> vec4<f32> {
+    var record = NONE;
+    if !h.point {
+        record = fu(fu(H_PASS_MOTIONS) + h.prim.id);
+    }
     var centre = p;
     if record != NONE {
         centre = motion_at(record, t);
@@ -75,6 +80,9 @@ fn motion_vectors(p: vec3<f32>, id: u32, t: f32, view: View) -> vec4<f32> {
         var p2 = p;
         if record != NONE {
             p2 = motion_at(record, t2) + (p - centre);
+        }
+        if h.point {
+            p2 = p + h.velocity * (t2 - t);
         }
         var v2 = fixed_view();
         if flag(F_CAMERA_ANIMATED) {
@@ -95,9 +103,9 @@ fn motion_vectors(p: vec3<f32>, id: u32, t: f32, view: View) -> vec4<f32> {
     return mv;
 }
 
-// What a camera ray's first intersection adds to the passes (passes.rs, PassContext::record):
-// `hit` false for a ray that missed or was not traced.
-fn record_first(view: View, dir: vec3<f32>, hit: bool, s: Surface, m: u32, id: u32, t: f32) {
+// What a camera ray's first intersection (`h`, its surface `s`) adds to the passes
+// (passes.rs, PassContext::record): `hit` false for a ray that missed or was not traced.
+fn record_first(view: View, dir: vec3<f32>, hit: bool, s: Surface, h: Struck, t: f32) {
     if !hit {
         let b = background(dir);
         if finite3(b) && slot(3u) != NONE {
@@ -115,10 +123,10 @@ fn record_first(view: View, dir: vec3<f32>, hit: bool, s: Surface, m: u32, id: u
         add_pass(slot(2u), s.normal, 3u);
     }
     if slot(3u) != NONE {
-        add_pass(slot(3u), albedo_of(m), 3u);
+        add_pass(slot(3u), albedo_of(h.material, h.tint), 3u);
     }
     if slot(4u) != NONE {
-        let mv = motion_vectors(s.p, id, t, view);
+        let mv = motion_vectors(s.p, h, t, view);
         for (var i = 0u; i < 4u; i++) {
             add_slot(slot(4u) + i, mv[i]);
         }
@@ -148,9 +156,10 @@ fn radiance(x: u32, y: u32, index: u32) -> Radiance {
     let ray = camera_ray(view, x, y, cam.pixel, cam.lens);
     let passes = g_stride > 0u;
     let none = Surface(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    let nothing = Struck(Primitive(vec3<f32>(0.0), 0.0, 0u), 0u, vec3<f32>(1.0), false, vec3<f32>(0.0));
     if !(finite3(ray.origin) && finite3(ray.dir) && finite3(vec3<f32>(t))) {
         if passes {
-            record_first(view, ray.dir, false, none, 0u, 0u, t);
+            record_first(view, ray.dir, false, none, nothing, t);
         }
         return Radiance(vec3<f32>(0.0), false);
     }
@@ -166,16 +175,13 @@ fn radiance(x: u32, y: u32, index: u32) -> Radiance {
         let h = world_hit(o, d, t, skip);
         let found = h.t < FAR;
         var s = none;
-        var m = 0u;
-        var id = 0u;
+        var k = nothing;
         if found {
-            let sphere = sphere_at(h.src, h.sphere);
-            s = surface_point(center_at(sphere, t), sphere.radius, o, d, h.t);
-            m = g_materials + MATERIAL_WORDS * sphere.material;
-            id = sphere.id;
+            k = struck(h, t);
+            s = surface_point(k.prim.center, k.prim.radius, o, d, h.t);
         }
         if depth == 0u && passes {
-            record_first(view, d, found, s, m, id, t);
+            record_first(view, d, found, s, k, t);
         }
         if !found {
             if depth == 0u && flag(F_TRANSPARENT) {
@@ -183,14 +189,14 @@ fn radiance(x: u32, y: u32, index: u32) -> Radiance {
             }
             return Radiance(throughput * background(d), true);
         }
-        let sc = scatter(m, d, s.normal, next_bounce());
+        let sc = scatter(k.material, k.tint, d, s.normal, next_bounce());
         if sc.absorbed {
             return Radiance(vec3<f32>(0.0), true);
         }
         throughput *= sc.attenuation;
         skip = NONE;
         if sc.leaves_outside {
-            skip = id;
+            skip = k.prim.id;
         }
         o = offset_origin(s.p, s.error, s.normal, sc.dir);
         d = sc.dir;

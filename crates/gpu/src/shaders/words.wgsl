@@ -4,7 +4,7 @@
 
 // The shot's words (what every frame of the shot shares: materials, Sobol tables, still
 // spheres, their hierarchy) and the frame's (its header, curve, camera motion, animated
-// spheres, their hierarchy and motions) are bound as pages of quads, which the prelude
+// spheres, their hierarchy and motions, its points, their hierarchies and looks) are bound as pages of quads, which the prelude
 // declares with `quad(src, i)`, the quad holding word `i` (a multiple of four) of the shot's
 // (`src` 0) or the frame's (1) words (pages.rs). Records start at multiples of four words
 // and are read a quad at a time (one load instead of four).
@@ -38,6 +38,11 @@ var<private> g_materials: u32;
 // Each hierarchy's entries, entry count and spheres: the shot's (still) and the frame's.
 var<private> g_still: vec3<u32>;
 var<private> g_moving: vec3<u32>;
+// The points' records and the first point's number as a sphere; their groups and the
+// groups' count; their looks.
+var<private> g_points: vec2<u32>;
+var<private> g_point_groups: vec2<u32>;
+var<private> g_looks: u32;
 // Loop iterations so far in this invocation (every loop body counts one, and every entry into
 // a loop one, as lavapipe counts them): an invocation stops starting samples past a budget
 // (trace.wgsl).
@@ -54,6 +59,9 @@ fn load_header() {
     g_materials = fu(H_MATERIALS);
     g_still = vec3<u32>(fu(H_STILL_ENTRIES), fu(H_STILL_ENTRY_N), fu(H_STILL_SPHERES));
     g_moving = vec3<u32>(fu(H_MOVING_ENTRIES), fu(H_MOVING_ENTRY_N), fu(H_MOVING_SPHERES));
+    g_points = vec2<u32>(fu(H_POINTS), fu(H_FIRST_POINT));
+    g_point_groups = vec2<u32>(fu(H_POINT_GROUPS), fu(H_POINT_GROUP_N));
+    g_looks = fu(H_LOOKS);
 }
 
 fn flag(f: u32) -> bool { return (g_flags & f) != 0u; }
