@@ -394,16 +394,7 @@ fn on_a_still_shot_temporal_frames_do_not_flicker() {
     // error against a reference is a denoised frame's: within the spread of plain --denoise's
     // three frames (their largest error times 1.5).
     let d = tempfile::tempdir().unwrap();
-    std::fs::write(
-        d.path().join("still.toml"),
-        "[shot]\nframes = 3\n[output]\nwidth = 48\nheight = 27\n[render]\nsamples = 4\n\
-         [camera]\nlook_from = [0.0, 1.0, 5.0]\nlook_at = [0.0, 0.5, 0.0]\n\
-         [[sphere]]\ncenter = [0.0, 0.5, 0.0]\nradius = 0.5\n\
-         material = { type = \"lambertian\", albedo = [0.5, 0.4, 0.3] }\n\
-         [[sphere]]\ncenter = [0.0, -100.0, 0.0]\nradius = 100.0\n\
-         material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
-    )
-    .unwrap();
+    std::fs::write(d.path().join("still.toml"), common::still_shot(3, 4)).unwrap();
     let render = |out: &str, extra: &[&str]| render_file(d.path(), "still.toml", out, extra);
     render("t_####.exr", &["--denoise", "--temporal"]);
     render("p_####.exr", &["--denoise"]);

@@ -227,16 +227,7 @@ fn a_render_states_its_clips_flicker() {
     // samples every frame, the denoised frames' noise changes and the statement says so.
     // A run's first frame (a chunk's too) has no frame before it to state a change from.
     let d = tempfile::tempdir().unwrap();
-    std::fs::write(
-        d.path().join("still.toml"),
-        "[shot]\nframes = 4\n[output]\nwidth = 48\nheight = 27\n[render]\nsamples = 8\n\
-         [camera]\nlook_from = [0.0, 1.0, 5.0]\nlook_at = [0.0, 0.5, 0.0]\n\
-         [[sphere]]\ncenter = [0.0, 0.5, 0.0]\nradius = 0.5\n\
-         material = { type = \"lambertian\", albedo = [0.5, 0.4, 0.3] }\n\
-         [[sphere]]\ncenter = [0.0, -100.0, 0.0]\nradius = 100.0\n\
-         material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n",
-    )
-    .unwrap();
+    std::fs::write(d.path().join("still.toml"), common::still_shot(4, 8)).unwrap();
     let render = |args: &[&str]| {
         let mut all = vec!["render", "still.toml", "--denoise"];
         all.extend_from_slice(args);

@@ -288,6 +288,19 @@ fn camera(w: &mut Words, prepared: &PreparedFrame, widened: Interval) -> u32 {
     flags
 }
 
+/// The camera's position at the shutter's opening of the frame `prepared`: where the
+/// flattened hierarchies put the nearest children first (`flatten`).
+fn eye_at_opening(prepared: &PreparedFrame) -> [f32; 3] {
+    let open = prepared.interval().open;
+    prepared
+        .scene
+        .camera
+        .look_from
+        .at(open)
+        .as_vec3()
+        .to_array()
+}
+
 /// Appends the world's animated spheres, prepared for the frame `prepared`'s interval, and
 /// their hierarchy, each curved path's record after them, and writes where they are to the
 /// header.
@@ -304,13 +317,7 @@ fn animated_spheres(w: &mut Words, prepared: &PreparedFrame) {
         }
         sphere(w, &s, NONE);
     }
-    let eye = prepared
-        .scene
-        .camera
-        .look_from
-        .at(open)
-        .as_vec3()
-        .to_array();
+    let eye = eye_at_opening(prepared);
     let hierarchy = flatten(hierarchy, eye, w);
     for (slot, path) in curved {
         let record = motion(w, path, open, open);
@@ -329,7 +336,6 @@ fn animated_spheres(w: &mut Words, prepared: &PreparedFrame) {
 /// the scene's spheres ([`H_FIRST_POINT`]).
 fn points(w: &mut Words, prepared: &PreparedFrame) {
     let world = &prepared.world;
-    let open = prepared.interval().open;
     // Looks of points without colours, by material; then every look's words.
     let mut plain: Vec<Option<u32>> = vec![None; prepared.scene.materials.len()];
     let mut looks: Vec<([f32; 3], u32)> = Vec::new();
@@ -360,13 +366,7 @@ fn points(w: &mut Words, prepared: &PreparedFrame) {
             w.pad_to(start, POINT_WORDS);
         }
     }
-    let eye = prepared
-        .scene
-        .camera
-        .look_from
-        .at(open)
-        .as_vec3()
-        .to_array();
+    let eye = eye_at_opening(prepared);
     let flats: Vec<(u32, Flat)> = views
         .into_iter()
         .map(|(first, view)| (first, flatten(view, eye, w)))

@@ -401,3 +401,16 @@ pub(crate) fn shipped_beside_its_cache(name: &str, dir: &Path, frames: u32) -> P
         _ => shipped,
     }
 }
+
+/// A still shot of `frames` frames at 48x27 and `samples` samples: a sphere on a ground,
+/// nothing moving, the camera still (every frame's truth is the same image).
+pub(crate) fn still_shot(frames: u32, samples: u32) -> String {
+    format!(
+        "[shot]\nframes = {frames}\n[output]\nwidth = 48\nheight = 27\n[render]\nsamples = {samples}\n\
+         [camera]\nlook_from = [0.0, 1.0, 5.0]\nlook_at = [0.0, 0.5, 0.0]\n\
+         [[sphere]]\ncenter = [0.0, 0.5, 0.0]\nradius = 0.5\n\
+         material = {{ type = \"lambertian\", albedo = [0.5, 0.4, 0.3] }}\n\
+         [[sphere]]\ncenter = [0.0, -100.0, 0.0]\nradius = 100.0\n\
+         material = {{ type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }}\n"
+    )
+}
