@@ -7,7 +7,8 @@
 //! With `--thresholds E` every frame is sampled to the noise threshold `E` instead (up to
 //! `--max-samples`, else 65536 samples a pixel), each route's frame stopped by its own
 //! written frame's estimate as `render --noise-threshold E` stops it, so each route samples
-//! a frame of its own.
+//! a frame of its own. The `--temporal` route's frames state their flicker without
+//! references (`raytrace_denoise::change`), given beside the measured one.
 
 use std::time::Instant;
 
@@ -93,6 +94,8 @@ impl Route {
         match self {
             Route::History | Route::StableHistory => 2,
             Route::Accumulated => 3,
+            // `--temporal`'s own, whose frames state their flicker.
+            Route::Temporal => 1,
             _ => 0,
         }
     }
@@ -107,7 +110,7 @@ pub(crate) struct Variant {
     /// The flicker of the frames: [`FlickerSum::flicker`](raytrace_core::metrics::FlickerSum::flicker).
     pub(crate) flicker: Spread,
     /// The flicker the frames state, without references (`raytrace_denoise::change`), for
-    /// routes whose frames are written alone (denoised, `--temporal`).
+    /// route whose frames state it (`--temporal`).
     pub(crate) stated_flicker: Option<Spread>,
     /// Wall seconds a frame, on average: its sampling and its finishing.
     pub(crate) seconds: f64,
@@ -224,10 +227,9 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
 /// One seed's renders: a tracer and a scene for each sample pattern, and each route's
 /// finishing.
 struct SeedRenders<'a> {
-    /// The scenes of [`SamplePattern::PerFrame`] (`--denoise`, which also finishes the
-    /// routes without history), [`SamplePattern::Stable`] (`--temporal`) and the first with
-    /// history (which finishes the routes with history) and the one with accumulation, in
-    /// that order.
+    /// The scenes of [`SamplePattern::PerFrame`] (`--denoise`), [`SamplePattern::Stable`]
+    /// (`--temporal`), the first with history (which finishes the routes with history) and
+    /// the one with accumulation, in that order ([`Route::finishing_scene`]).
     scenes: &'a [Scene; 4],
     tracers: [Box<dyn ShotTracer>; 2],
     /// Each route's finishing, in [`Route::ALL`]'s order (`None` for the raw route).

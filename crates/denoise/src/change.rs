@@ -58,7 +58,7 @@
 
 use glam::DVec3;
 
-use super::estimate::{DENOISED_A, DENOISED_B, DenoiseTerms, ERROR, WEIGHT, stand_in};
+use super::estimate::{DENOISED, DENOISED_A, DenoiseTerms, ERROR, WEIGHT, stand_in};
 use raytrace_core::image::{Image, Precision, Rgb, RgbPlanes, Values};
 use raytrace_core::metrics::estimated_rel_mse_term;
 use raytrace_core::pass::SAMPLES;
@@ -68,6 +68,8 @@ use raytrace_core::replicates::{Replicate, Replicates};
 const HALF_A: Rgb = Rgb(["rawA.R", "rawA.G", "rawA.B"]);
 /// The raw replicate `b` (now).
 const HALF_B: Rgb = Rgb(["rawB.R", "rawB.G", "rawB.B"]);
+/// The denoised replicate `D(b)` in a frame's change terms.
+const DENOISED_B: Rgb = Rgb(["denoisedB.R", "denoisedB.G", "denoisedB.B"]);
 /// The stand-in `m` for the true value in the relative change.
 const STAND_IN: Rgb = Rgb(["standIn.R", "standIn.G", "standIn.B"]);
 /// The share `s_a` of replicate `a` in the raw frame now.
@@ -93,10 +95,18 @@ impl ChangeTerms {
     pub fn new(snapshot: &DenoiseTerms, replicates: &Image, written: &Image) -> ChangeTerms {
         let h = Replicates::of(replicates);
         let then = snapshot.terms();
-        let (da, db) = (planes(then, DENOISED_A), planes(then, DENOISED_B));
+        let (denoised, da) = (planes(then, DENOISED), planes(then, DENOISED_A));
         let (weight, error) = (planes(written, WEIGHT), planes(written, ERROR));
         let m = stand_in(written);
         let taken_then = then.counts(SAMPLES).expect("a snapshot's samples");
+        let share = |taken: u32| {
+            Replicate {
+                taken,
+                ..Default::default()
+            }
+            .shares()
+            .0
+        };
         let mut terms = Image::new(replicates.width(), replicates.height());
         terms.set_rgbs(
             [
@@ -104,34 +114,34 @@ impl ChangeTerms {
             ],
             |i| {
                 let r = h.at(i);
+                // The snapshot keeps D̄ = t_a D(a) + t_b D(b) and D(a), not D(b): in `f32`,
+                // D(b) is had back to a few units in the last place of D̄, far below the
+                // noise the products read.
+                let t_a = share(taken_then[i]);
+                let db = match 1.0 - t_a {
+                    t_b if t_b > 0.0 => (denoised.at_f64(i) - da.at_f64(i) * t_a) / t_b,
+                    _ => denoised.at_f64(i),
+                };
                 [
                     r.a.as_vec3(),
                     r.b.as_vec3(),
                     da.at(i),
-                    db.at(i),
+                    db.as_vec3(),
                     weight.at(i),
                     error.at(i),
                     m[i].as_vec3(),
                 ]
             },
         );
-        let share = |taken: u32| {
-            Replicate {
-                taken,
-                ..Default::default()
-            }
-            .shares()
-            .0 as f32
-        };
         terms.set(
             SHARE_A,
             Precision::Float,
-            Values::Float(h.taken().iter().map(|&n| share(n)).collect()),
+            Values::Float(h.taken().iter().map(|&n| share(n) as f32).collect()),
         );
         terms.set(
             DENOISED_SHARE_A,
             Precision::Float,
-            Values::Float(taken_then.iter().map(|&n| share(n)).collect()),
+            Values::Float(taken_then.iter().map(|&n| share(n) as f32).collect()),
         );
         ChangeTerms { terms }
     }

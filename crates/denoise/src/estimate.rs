@@ -156,10 +156,8 @@ pub(crate) fn reducible(w: DVec3, e_d: DVec3, v: DVec3, c: DVec3) -> DVec3 {
 /// The denoised frame `D̄` in a [`DenoiseTerms`]'s terms.
 pub(crate) const DENOISED: Rgb = Rgb(["denoised.R", "denoised.G", "denoised.B"]);
 /// The denoised replicate `D(a)` in a [`DenoiseTerms`]'s terms (what the clip's change of
-/// error reads: `denoise::change`).
+/// error reads with [`DENOISED`]: `denoise::change`).
 pub(crate) const DENOISED_A: Rgb = Rgb(["denoisedA.R", "denoisedA.G", "denoisedA.B"]);
-/// The denoised replicate `D(b)` in a [`DenoiseTerms`]'s terms.
-pub(crate) const DENOISED_B: Rgb = Rgb(["denoisedB.R", "denoisedB.G", "denoisedB.B"]);
 /// The denoised frame's error `E[(D̄ - T)^2]` in a snapshot's terms (kept infinite where
 /// nothing is known).
 pub(crate) const DENOISED_ERROR: Rgb =
@@ -184,9 +182,9 @@ pub(crate) const RAW_VARIANCE: Rgb = Rgb(["rawVariance.R", "rawVariance.G", "raw
 pub(crate) const REDUCIBLE: Rgb = Rgb(["reducible.R", "reducible.G", "reducible.B"]);
 
 /// One denoise of a film, its terms: every pixel's [`PixelTerms`] in `f32` ([`DENOISED`],
-/// [`DENOISED_ERROR`], [`CROSS`]), the denoised replicates ([`DENOISED_A`], [`DENOISED_B`])
-/// and the samples they were made from ([`SAMPLES`]), an image of 64 bytes a pixel. It blends
-/// with the film as it is then or after more samples ([`DenoiseTerms::blend`]).
+/// [`DENOISED_ERROR`], [`CROSS`]), the denoised replicate `D(a)` ([`DENOISED_A`]) and the
+/// samples they were made from ([`SAMPLES`]), an image of 52 bytes a pixel. It blends with the
+/// film as it is then or after more samples ([`DenoiseTerms::blend`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DenoiseTerms {
     terms: Image,
@@ -331,9 +329,9 @@ fn mean_3x3(values: &[f64], width: usize) -> Vec<f64> {
 }
 
 /// The bytes a snapshot of a frame of `pixels` pixels holds ([`DenoiseTerms`]: its terms'
-/// fifteen channels and the samples).
+/// twelve channels and the samples).
 pub fn terms_bytes(pixels: u64) -> u64 {
-    Image::bytes_for(pixels, 16)
+    Image::bytes_for(pixels, 13)
 }
 
 /// The bytes a written frame of `pixels` pixels holds once blended: its terms' 24 channels
@@ -382,7 +380,7 @@ impl DenoiseTerms {
             db.rgb(REPLICATE_B).expect("replicate b, denoised"),
         );
         let mut terms = Image::new(replicates.width(), replicates.height());
-        let names = [DENOISED, DENOISED_ERROR, CROSS, DENOISED_A, DENOISED_B];
+        let names = [DENOISED, DENOISED_ERROR, CROSS, DENOISED_A];
         terms.set_rgbs(names, |i| {
             let t = PixelTerms::new(&h.at(i), da.at_f64(i), db.at_f64(i));
             // The error kept infinite where nothing is known.
@@ -391,7 +389,6 @@ impl DenoiseTerms {
                 t.denoised_error.as_vec3(),
                 to_f32(t.cross),
                 da.at(i),
-                db.at(i),
             ]
         });
         terms.set(SAMPLES, Precision::Float, Values::Count(h.taken().to_vec()));

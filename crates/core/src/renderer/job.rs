@@ -116,11 +116,10 @@ pub struct Denoised {
     pub history_share: Option<f64>,
     /// The filter's quality.
     pub quality: DenoiseQuality,
-    /// The estimated relative mean squared change of the written frame's error from the
-    /// frame before it (`raytrace_denoise::change`), where that frame was finished just
-    /// before this one by the same stages: a clip's stated flicker is the root of the mean of
-    /// its frames'. `None` for a run's first frame, and for frames combined with other
-    /// frames (history, accumulation), whose change has no estimate yet.
+    /// With `--temporal`, the estimated relative mean squared change of the written frame's
+    /// error from the frame before it (`raytrace_denoise::change`), where that frame was
+    /// finished just before this one by the same stages: a clip's stated flicker is the root
+    /// of the mean of its frames'. `None` for a run's first frame and without `--temporal`.
     pub change: Option<f64>,
 }
 

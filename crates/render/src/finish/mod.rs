@@ -15,7 +15,7 @@
 //! written before their own history, so it depends on those two frames' renders and no
 //! others': the command renders them first where its run does not ([`Finishing::needs`]).
 //!
-//! **The clip's stated flicker** (`Change`, frames written alone: `--denoise`, `--temporal`):
+//! **The clip's stated flicker** (`Change`, `--temporal`'s frames, written alone):
 //! each written frame states the change of its error from the frame before it, where this
 //! pipeline finished that frame just before (`denoise::change`, derived there), from the two
 //! frames' replicates and denoised replicates; the frames written are unchanged.
@@ -56,7 +56,7 @@ use raytrace_core::pass::{Pass, PassSet};
 use raytrace_core::renderer::{
     Denoised, FrameJob, FrameResult, RawStop, ShotTracer, StopReason, StopRule,
 };
-use raytrace_core::scene::{Carry, Scene};
+use raytrace_core::scene::{Carry, DenoiseSettings, Scene};
 use raytrace_denoise::change::ChangeTerms;
 use raytrace_denoise::denoiser::{Denoiser, Filter, oidn_scratch};
 use raytrace_denoise::estimate;
@@ -79,9 +79,8 @@ pub fn passes_read(scene: &Scene) -> PassSet {
 /// blend ([`estimate::blending_bytes`]) and, with history, the frame written
 /// ([`estimate::written_bytes`]) with the frames held and the frame's own
 /// ([`reproject::frame_bytes`]), their reprojection and the combination's working memory
-/// ([`raytrace_denoise::history::bytes_for`]); without history or accumulation, the change
-/// terms of the frame and of the one before it ([`ChangeTerms::bytes_for`]). Nothing for a
-/// raw frame.
+/// ([`raytrace_denoise::history::bytes_for`]); with `--temporal`, the frame before's change
+/// terms ([`ChangeTerms::bytes_for`]). Nothing for a raw frame.
 pub fn bytes_for(scene: &Scene) -> u64 {
     let Some(settings) = scene.output.denoise else {
         return 0;
@@ -103,9 +102,10 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         true => raytrace_denoise::accumulate::bytes_for(pixels),
         false => 0,
     };
-    // The frame before's change terms, held, and the frame's own.
-    let change = match settings.carry == Carry::Nothing {
-        true => 2 * ChangeTerms::bytes_for(pixels),
+    // The frame before's change terms, held while the frame is sampled and denoised; the
+    // frame's own are made after its denoise has let go of more (its denoised halves).
+    let change = match states_flicker(&settings) {
+        true => ChangeTerms::bytes_for(pixels),
         false => 0,
     };
     oidn_scratch(
@@ -118,6 +118,14 @@ pub fn bytes_for(scene: &Scene) -> u64 {
         + denoise.max(blend).max(history)
         + accumulation
         + change
+}
+
+/// Whether frames finished with `settings` state the change of their error from the frame
+/// before (`Change`): `--temporal`'s, which asks for a steady clip, written alone. A plain
+/// `--denoise` run does not hold the frame before's terms for it (92 bytes a pixel, 182 MiB
+/// at 1920x1080); history and accumulation write frames the estimate does not cover.
+fn states_flicker(settings: &DenoiseSettings) -> bool {
+    settings.temporal && settings.carry == Carry::Nothing
 }
 
 /// The passes history reads.
@@ -168,7 +176,7 @@ impl<'d> Finishing<'d> {
         let change = scene
             .output
             .denoise
-            .filter(|d| d.carry == Carry::Nothing)
+            .filter(states_flicker)
             .map(|_| Change::default());
         Ok(Finishing {
             denoising,
