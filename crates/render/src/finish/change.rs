@@ -1,4 +1,4 @@
-//! The clip's stated flicker (`Carry::Nothing`: frames written alone): each written frame's
+//! The clip's stated flicker (`--temporal`'s frames, written alone): each written frame's
 //! change terms, held for the frame after it, which states the change of its error from them
 //! (`raytrace_denoise::change`, derived there).
 

@@ -141,7 +141,7 @@ pub struct Finishing<'d> {
     denoising: Option<Denoising<'d>>,
     history: Option<History>,
     accumulation: Option<Accumulation>,
-    /// The clip's stated flicker, for frames written alone.
+    /// The clip's stated flicker, for `--temporal`'s frames.
     change: Option<Change>,
     first_frame: u32,
     /// The passes the stages read ([`passes_read`]).
