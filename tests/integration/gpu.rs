@@ -347,27 +347,35 @@ fn a_scene_beyond_one_binding_renders_over_several_and_agrees_with_the_cpu() {
     let scene = dir.path().join("big.toml");
     let toml = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(&scene, toml.replace("max_depth = 50", "max_depth = 4")).unwrap();
-    let cap = |bytes: &'static str| [(raytrace_gpu::MAX_BINDING_VARIABLE, Some(bytes))];
+    refused_within_64_kib(dir.path(), "big.toml", "its spheres could need ");
+    assert!(!dir.path().join("renders").exists());
+    let size = ("48", "32");
+    let a = binary_agreement(dir.path(), "big.toml", size, "32", &[], &capped("262144"));
+    println!("[gpu] 3000 spheres over bindings of 256 KiB: {a:?}");
+    assert!(a.within_noise(), "{a:?}");
+}
+
+/// The environment that caps the GPU's storage bindings at `bytes`.
+fn capped(bytes: &'static str) -> [(&'static str, Option<&'static str>); 1] {
+    [(raytrace_gpu::MAX_BINDING_VARIABLE, Some(bytes))]
+}
+
+/// Checks that `check` and `render` of `scene` (in `dir`) with the GPU's bindings capped at
+/// 64 KiB refuse it with exit 2, saying it `needs` more than the bindings hold.
+fn refused_within_64_kib(dir: &Path, scene: &str, needs: &str) {
     for command in ["check", "render"] {
-        let o = raytrace(
-            dir.path(),
-            &[command, "big.toml", "--device", "gpu"],
-            &cap("65536"),
-        );
+        let o = raytrace(dir, &[command, scene, "--device", "gpu"], &capped("65536"));
         let all = text(&o);
         assert_eq!(o.status.code(), Some(2), "{all}");
+        let said =
+            format!("{scene}: --device gpu: the GPU has not the room for this scene: {needs}");
         assert!(
-            all.contains("big.toml: --device gpu: the GPU has not the room for this scene: its spheres could need ")
+            all.contains(&said)
                 && all.contains(" KiB in one of the GPU's two buffers of words, more than the ")
                 && all.contains(" bindings of 64.0 KiB; the adapter binds at most 64.0 KiB a storage buffer); render it with --device cpu"),
             "{all}"
         );
     }
-    assert!(!dir.path().join("renders").exists());
-    let size = ("48", "32");
-    let a = binary_agreement(dir.path(), "big.toml", size, "32", &[], &cap("262144"));
-    println!("[gpu] 3000 spheres over bindings of 256 KiB: {a:?}");
-    assert!(a.within_noise(), "{a:?}");
 }
 
 #[test]
@@ -840,22 +848,11 @@ fn point_caches_split_over_bindings_and_are_refused_only_beyond_them() {
     std::fs::write(dir.path().join("p.ply"), ply).unwrap();
     let scene = "[shot]\nshutter_angle = 180.0\n[output]\npath = \"f_####.exr\"\n[render]\nmax_depth = 4\n[materials]\nwater = { type = \"lambertian\", albedo = [0.7, 0.6, 0.5] }\n[[points]]\nfile = \"p.ply\"\nmaterial = \"water\"\n";
     std::fs::write(dir.path().join("pts.toml"), scene).unwrap();
-    let cap = |bytes: &'static str| [(raytrace_gpu::MAX_BINDING_VARIABLE, Some(bytes))];
-    for command in ["check", "render"] {
-        let o = raytrace(
-            dir.path(),
-            &[command, "pts.toml", "--device", "gpu"],
-            &cap("65536"),
-        );
-        let all = text(&o);
-        assert_eq!(o.status.code(), Some(2), "{all}");
-        assert!(
-            all.contains("pts.toml: --device gpu: the GPU has not the room for this scene: its spheres and the 2900 points of its largest frame could need ")
-                && all.contains(" KiB in one of the GPU's two buffers of words, more than the ")
-                && all.contains(" bindings of 64.0 KiB; the adapter binds at most 64.0 KiB a storage buffer); render it with --device cpu"),
-            "{all}"
-        );
-    }
+    refused_within_64_kib(
+        dir.path(),
+        "pts.toml",
+        "its spheres and the 2900 points of its largest frame could need ",
+    );
     // Nothing written: the scene and the cache.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     let a = binary_agreement(
@@ -864,7 +861,7 @@ fn point_caches_split_over_bindings_and_are_refused_only_beyond_them() {
         ("48", "32"),
         "64",
         &[],
-        &cap("131072"),
+        &capped("131072"),
     );
     println!("[gpu] 2900 points over bindings of 128 KiB: {a:?}");
     assert!(a.within_noise(), "{a:?}");
