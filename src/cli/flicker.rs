@@ -110,7 +110,7 @@ pub(crate) struct Variant {
     /// The flicker of the frames: [`FlickerSum::flicker`](raytrace_core::metrics::FlickerSum::flicker).
     pub(crate) flicker: Spread,
     /// The flicker the frames state, without references (`raytrace_denoise::change`), for
-    /// route whose frames state it (`--temporal`).
+    /// the route whose frames state it (`--temporal`).
     pub(crate) stated_flicker: Option<Spread>,
     /// Wall seconds a frame, on average: its sampling and its finishing.
     pub(crate) seconds: f64,
@@ -418,11 +418,10 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
                 .iter()
                 .all(|s| s.changes[k].len() as u64 + 1 == frames)
                 .then(|| {
-                    Spread::of(
-                        sums.iter().map(move |s| {
-                            change::flicker(&s.changes[k]).expect("two frames or more")
-                        }),
-                    )
+                    Spread::of(sums.iter().map(move |s| {
+                        let pairs = &s.changes[k];
+                        change::flicker(pairs.iter().sum::<f64>() / pairs.len() as f64)
+                    }))
                 }),
             seconds: sums.iter().map(|s| s.seconds[k] / n).sum::<f64>() / sums.len() as f64,
         })

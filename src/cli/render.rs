@@ -157,7 +157,7 @@ impl RunSummary {
 }
 
 /// `12 frames rendered, 0 skipped, in 3.21 s (1.23 M samples/s), est. error mean ... max ...`,
-/// and for denoised frames written alone in sequence `, est. flicker ...`.
+/// and for `--temporal` frames rendered in sequence `, est. flicker ...`.
 fn summary_text(summary: &RunSummary) -> String {
     let mut error = if summary.rendered == 0 {
         String::new()
@@ -169,8 +169,7 @@ fn summary_text(summary: &RunSummary) -> String {
         )
     };
     if summary.changes > 0 {
-        let mean = [summary.change_sum / summary.changes as f64];
-        let flicker = change::flicker(&mean).expect("a change");
+        let flicker = change::flicker(summary.change_sum / summary.changes as f64);
         error += &format!(", est. flicker {}", relative_error_percent(flicker));
     }
     format!(
@@ -358,7 +357,7 @@ fn frame_line(
     let flicker = match result.denoised.and_then(|d| d.change) {
         Some(c) => format!(
             ", est. flicker {} from frame {}",
-            relative_error_percent(change::flicker(&[c]).expect("a change")),
+            relative_error_percent(change::flicker(c)),
             result.frame - 1
         ),
         None => String::new(),

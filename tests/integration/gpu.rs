@@ -259,17 +259,18 @@ fn binary_agreement(
     env: &[(&str, Option<&str>)],
 ) -> Agreement {
     let runs = cpu_and_gpu_frames(dir, scene, (width, height), samples, more, env);
-    let mut films = vec![];
-    for (o, file) in runs {
-        assert!(o.status.success(), "{scene}: {}", text(&o));
-        films.push(exr_moments(&file));
+    for (o, _) in &runs {
+        assert!(o.status.success(), "{scene}: {}", text(o));
     }
-    let width = width.parse().unwrap();
-    agreement(
-        (&films[1].0, &films[1].1),
-        (&films[0].0, &films[0].1),
-        width,
-    )
+    files_agreement(&runs[0].1, &runs[1].1, width.parse().unwrap())
+}
+
+/// How the GPU's frame file `gpu` agrees with the CPU's, `cpu` (each `width` pixels wide, with
+/// its variance pass).
+fn files_agreement(cpu: &Path, gpu: &Path, width: usize) -> Agreement {
+    let (mc, vc) = exr_moments(cpu);
+    let (mg, vg) = exr_moments(gpu);
+    agreement((&mg, &vg), (&mc, &vc), width)
 }
 
 #[test]
@@ -303,9 +304,7 @@ fn the_books_scene_renders_through_the_binary_and_agrees_with_the_cpu() {
         );
         files.push(file);
     }
-    let (mc, vc) = exr_moments(&files[0]);
-    let (mg, vg) = exr_moments(&files[1]);
-    let a = agreement((&mg, &vg), (&mc, &vc), 64);
+    let a = files_agreement(&files[0], &files[1], 64);
     println!("[gpu] bouncing_spheres.toml through the binary: {a:?}");
     assert!(a.within_noise(), "{a:?}");
     // The same attributes, but the seed.

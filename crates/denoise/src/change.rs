@@ -267,16 +267,12 @@ pub fn mean_change(before: &ChangeTerms, now: &ChangeTerms) -> f64 {
     sum / n.max(1) as f64
 }
 
-/// A clip's stated flicker from its pairs' [`mean_change`]s: the root of their mean (0 where
-/// that is negative), as `metrics::FlickerSum::flicker` takes it; `None` without a pair.
-pub fn flicker(changes: &[f64]) -> Option<f64> {
-    if changes.is_empty() {
-        return None;
-    }
-    let mean = changes.iter().sum::<f64>() / changes.len() as f64;
-    Some(if mean.is_nan() {
+/// A clip's stated flicker from the mean of its pairs' [`mean_change`]s: its root (0 where
+/// it is negative), as `metrics::FlickerSum::flicker` takes it; infinite where unknown.
+pub fn flicker(mean_change: f64) -> f64 {
+    if mean_change.is_nan() {
         f64::INFINITY
     } else {
-        mean.max(0.0).sqrt()
-    })
+        mean_change.max(0.0).sqrt()
+    }
 }
