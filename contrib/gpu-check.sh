@@ -10,10 +10,15 @@
 # Scenes by size, GPU and CPU side by side (issue 39's table): the books' scene
 # (bench/bouncing_spheres_seed7.toml) and `raytrace generate --moving 0.5` scenes of 1e5, 1e6
 # and 1e7 spheres at 1920x1080, 64 samples (16 for 1e6 and 1e7), and bench/big_points.toml's
-# 1e7-point frame at 1920x1080, 16 samples, on the CPU only (points are not on the GPU yet);
-# a row a scene with each device's samples per second (of its frame line) and whole-process
-# wall seconds, the GPU's busy share and the host's ns a sample. A device that refuses a
-# scene or fails on it has `failed` in its cells, and its last lines are printed above.
+# 1e7-point frame at 1920x1080, 16 samples; a row a scene with each device's samples per
+# second (of its frame line) and whole-process wall seconds, the GPU's busy share and the
+# host's ns a sample. A device that refuses a scene or fails on it has `failed` in its cells,
+# and its last lines are printed above.
+#
+# Then the GPU's start-up: the books' scene at 16x8, 1 sample, with a new pipeline cache
+# (cold) and three times after (warm); a row a run with the `gpu:` line's figures (adapter
+# and device, pipelines, the part of them waited for, the start-up the run paid, the cache's
+# use) and the whole process's wall seconds.
 #
 #   contrib/gpu-check.sh [RAYTRACE]            # both (many minutes on a real GPU)
 #   contrib/gpu-check.sh --quick [RAYTRACE]    # checks the script in seconds: the clip at 80x45,
@@ -180,10 +185,47 @@ row books bench/bouncing_spheres_seed7.toml "$spp_small" true
 row "spheres ${counts[0]}" "$scenes/spheres_${counts[0]}.toml" "$spp_small" true
 row "spheres ${counts[1]}" "$scenes/spheres_${counts[1]}.toml" "$spp_large" true
 row "spheres ${counts[2]}" "$scenes/spheres_${counts[2]}.toml" "$spp_large" true
-row "points ${counts[3]}" "$scenes/points.toml" "$spp_large" false
+row "points ${counts[3]}" "$scenes/points.toml" "$spp_large" true
 
 echo
 echo "== scenes at ${scene_width}x$scene_height"
 echo "| scene | spp | GPU M samples/s | GPU wall s | CPU M samples/s | CPU wall s | GPU busy | host ns a sample |"
 echo "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
 printf '%s\n' "${rows[@]}"
+
+# The start-up of one run of the books' scene at 16x8 with the pipeline cache in
+# $out/pipeline-cache: its name, then `| name | device s | pipelines s | waited s | start-up s |
+# cache | wall s |` from its `gpu:` line.
+startup() {
+    local name=$1 log=$out/startup-$1.log
+    local start end
+    start=$(date +%s.%N)
+    RAYTRACE_GPU_CACHE=$out/pipeline-cache "$raytrace" render bench/bouncing_spheres_seed7.toml \
+        --device gpu --width 16 --height 8 --samples 1 --stats -o "$out/startup.exr" \
+        >"$log" 2>&1 || {
+        cat "$log"
+        echo "start-up $name: failed" >&2
+        exit 1
+    }
+    end=$(date +%s.%N)
+    awk -v name="$name" -v wall="$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')" '
+        /^gpu: / {
+            match($0, /start-up [0-9.]+ s/); paid = substr($0, RSTART + 9, RLENGTH - 11)
+            match($0, /adapter and device [0-9.]+ s/); dev = substr($0, RSTART + 19, RLENGTH - 21)
+            match($0, /pipelines [0-9.]+ s/); pipes = substr($0, RSTART + 10, RLENGTH - 12)
+            match($0, /[0-9.]+ s of them waited for/); waited = substr($0, RSTART, RLENGTH - 21)
+            match($0, /(cache hit|cold|no cache)\)$/); use = substr($0, RSTART, RLENGTH - 1)
+        }
+        END { printf "| %s | %s | %s | %s | %s | %s | %.2f |\n", name, dev, pipes, waited, paid, use, wall }' "$log"
+}
+rm -rf "$out/pipeline-cache"
+starts=("$(startup cold)")
+for k in 1 2 3; do
+    starts+=("$(startup "warm $k")")
+done
+
+echo
+echo "== start-up: books' scene at 16x8, 1 sample"
+echo "| run | adapter and device s | pipelines s | waited for s | start-up s | cache | wall s |"
+echo "| --- | ---: | ---: | ---: | ---: | --- | ---: |"
+printf '%s\n' "${starts[@]}"

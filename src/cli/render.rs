@@ -87,12 +87,6 @@ fn render_shots(shots: &[Job], args: &RenderArgs) -> Result<RunSummary, Error> {
     // The GPU and the denoiser are opened once, before anything is written: without them,
     // nothing is.
     let devices = Devices::for_scenes(shots.iter().map(|s| &s.scene))?;
-    if let Some(g) = devices.gpu()
-        && args.stats
-        && !args.scene_args.quiet
-    {
-        super::progress::print_line(&format!("gpu: {}, {}", g.describe(), g.startup()));
-    }
     let total: u64 = shots.iter().map(|s| s.targets.frames.len()).sum();
     let progress = Progress::new(total, args.scene_args.quiet);
     interrupt::frames_selected(total);
@@ -192,6 +186,15 @@ fn render_shot(
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let tracer = devices.shot(scene)?;
+    // The GPU's start-up is known once its first shot is made: its tracer compiled beside
+    // the shot's build.
+    if args.stats
+        && !args.scene_args.quiet
+        && scene.render.device == Device::Gpu
+        && let Some(startup) = devices.gpu_startup_once()
+    {
+        progress.line(&format!("gpu: {startup}"));
+    }
     let shot = ShotFrames {
         scene,
         caches,

@@ -40,6 +40,42 @@ fn cache_use(o: &Output) -> &'static str {
         .unwrap_or_else(|| panic!("no cache use: {line}"))
 }
 
+/// Checks the `gpu:` line's start-up: what the run paid is the device and the wait for the
+/// tracer, which compiled on its own thread beside the shot's build (so the wait is at most
+/// the compilation), and it is said before the first frame's line.
+fn check_startup(o: &Output) {
+    let all = text(o);
+    let line = all
+        .lines()
+        .position(|l| l.starts_with("gpu: "))
+        .unwrap_or_else(|| panic!("no gpu: line: {all}"));
+    let first_frame = all.lines().position(|l| l.starts_with("frame ")).unwrap();
+    assert!(line < first_frame, "{all}");
+    let line = all.lines().nth(line).unwrap();
+    // The number before each of the line's words.
+    let seconds = |before: &str| -> f64 {
+        let at = line
+            .find(before)
+            .unwrap_or_else(|| panic!("no {before:?}: {line}"));
+        let number = line[at + before.len()..].split(' ').next().unwrap();
+        number
+            .parse()
+            .unwrap_or_else(|_| panic!("{number:?}: {line}"))
+    };
+    let paid = seconds("start-up ");
+    let device = seconds("adapter and device ");
+    let pipelines = seconds("pipelines ");
+    let waited = line
+        .split(", ")
+        .find(|part| part.ends_with(" s of them waited for"))
+        .and_then(|part| part.split(' ').next())
+        .and_then(|n| n.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no wait: {line}"));
+    // Each figure is rounded to a millisecond.
+    assert!((paid - (device + waited)).abs() <= 0.0015, "{line}");
+    assert!(waited <= pipelines + 0.0015 && pipelines > 0.0, "{line}");
+}
+
 /// `n` bytes of a fixed pseudo-random sequence (a 64-bit LCG, Knuth's MMIX constants).
 fn noise(n: usize) -> Vec<u8> {
     let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
@@ -62,6 +98,7 @@ fn the_pipeline_cache_is_written_and_never_changes_a_frame() {
 
     // No file: a cold start, and (where the adapter has a cache: Vulkan) the file written.
     let (o, cold) = render(dir.path(), &cache);
+    check_startup(&o);
     let files: Vec<_> = std::fs::read_dir(&cache)
         .map(|d| d.flatten().map(|e| e.path()).collect())
         .unwrap_or_default();

@@ -1,8 +1,8 @@
 //! `contrib/gpu-check.sh`, the device checks of a clean clip and of scenes by size
 //! (docs/gpu.md), run at their reduced size (`--quick`) on the GPU where CI runs (Mesa's
 //! lavapipe): it renders every run, its table of totals has a row a run with the figures of
-//! each, and its table of scenes a row a scene with each device's figures. Without a GPU the
-//! test returns, except under `CI=true`.
+//! each, its table of scenes a row a scene with each device's figures, and its start-up's a
+//! row a run, cold and warm. Without a GPU the test returns, except under `CI=true`.
 
 use std::path::Path;
 use std::process::Command;
@@ -126,24 +126,42 @@ fn the_gpu_check_renders_each_scene_on_each_device_side_by_side() {
     );
     for row in &rows {
         let name = row[0];
-        // Each device's samples a second and whole-process wall time; the points are the CPU's
-        // alone.
-        let on_gpu = !name.starts_with("points");
-        let devices: &[usize] = if on_gpu { &[2, 4] } else { &[4] };
-        for &at in devices {
+        // Each device's samples a second and whole-process wall time, the points' too.
+        for at in [2, 4] {
             assert!(number(row[at], t) > 0.0, "{name}: {t}");
             assert!(number(row[at + 1], t) > 0.0, "{name}: {t}");
         }
-        if on_gpu {
-            let busy = number(row[6], t);
-            assert!(busy > 0.0 && busy <= 100.0, "{name}: {t}");
-            assert!(number(row[7], t) > 0.0, "{name}: {t}");
-        } else {
-            assert_eq!(
-                (row[2], row[3], row[6], row[7]),
-                ("-", "-", "-", "-"),
-                "{t}"
-            );
-        }
+        let busy = number(row[6], t);
+        assert!(busy > 0.0 && busy <= 100.0, "{name}: {t}");
+        assert!(number(row[7], t) > 0.0, "{name}: {t}");
     }
+}
+
+#[test]
+fn the_gpu_check_times_the_start_up_cold_and_warm() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let t = quick_check();
+    let rows = table(t, "run");
+    // The start-up's table is the second whose first header cell is `run`.
+    let starts = table(
+        t.split("== start-up").nth(1).expect("a start-up section"),
+        "run",
+    );
+    assert!(rows.len() == 4 && starts.len() == 4, "{t}");
+    let names: Vec<&str> = starts.iter().map(|r| r[0]).collect();
+    assert_eq!(names, ["cold", "warm 1", "warm 2", "warm 3"], "{t}");
+    for row in &starts {
+        let [device, pipelines, waited, paid] = [1, 2, 3, 4].map(|at| number(row[at], t));
+        // What the run paid is the device and the wait, which is at most the compilation;
+        // each figure to a millisecond.
+        assert!((paid - (device + waited)).abs() <= 0.0015, "{t}");
+        assert!(waited <= pipelines + 0.0015 && pipelines > 0.0, "{t}");
+        // The whole process holds its start-up.
+        assert!(number(row[6], t) >= paid - 0.0015, "{t}");
+        assert!(["cache hit", "cold", "no cache"].contains(&row[5]), "{t}");
+    }
+    // A new cache: nothing in it to take.
+    assert_ne!(starts[0][5], "cache hit", "{t}");
 }

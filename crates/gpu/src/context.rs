@@ -1,8 +1,10 @@
 //! The GPU itself: finding an adapter through wgpu (Vulkan, Metal or DirectX 12), opening a
-//! device, compiling the tracer's compute shader once, and the errors a device can give.
+//! device, compiling the tracer's compute shader once (on its own thread, beside the shot's
+//! build), and the errors a device can give.
 
 use std::fmt;
 use std::sync::{Arc, Mutex, OnceLock};
+use std::thread::JoinHandle;
 use std::time::Instant;
 
 use super::disk_cache::DiskCache;
@@ -68,23 +70,26 @@ impl From<GpuError> for raytrace_core::error::Error {
     }
 }
 
-/// An open GPU device with the tracer's pipeline. Cheap to clone (wgpu's handles are shared).
+/// An open GPU device, and once [`Gpu::fitting`] gave it one, the tracer's pipeline. Cheap to
+/// clone (wgpu's handles are shared).
 #[derive(Clone, Debug)]
 pub struct Gpu {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
-    /// The tracer this handle dispatches: compiled for [`Tracer::pages`] pages of words.
-    pub(super) tracer: Arc<Tracer>,
-    /// The tracers compiled so far, by their pages less one, shared by the clones
-    /// ([`Gpu::fitting`]).
-    tracers: Arc<Mutex<Vec<Option<Arc<Tracer>>>>>,
+    /// The tracer this handle dispatches ([`Gpu::tracer`]): compiled for [`Tracer::pages`]
+    /// pages of words. None on the device [`Gpu::new`] opens, whose tracer is still being
+    /// compiled.
+    tracer: Option<Arc<Tracer>>,
+    /// The tracers begun so far, by their pages less one, shared by the clones
+    /// ([`Gpu::begin`], [`Gpu::fitting`]).
+    tracers: Arc<Mutex<Vec<Option<Compiling>>>>,
     /// How the shot's and the frame's words may lie over bindings at most.
     pages: Pages,
     counting: Counting,
     /// The pipeline cache the tracers are created with, and its file.
     cache: Arc<DiskCache>,
-    /// How long the device and its first tracer took.
-    startup: Startup,
+    /// How long the device and its tracers took, and how long the run waited for them.
+    startup: Arc<Mutex<Startup>>,
     adapter: wgpu::Adapter,
     info: wgpu::AdapterInfo,
     /// The first fault the device reported on its own (lost, an error outside any scope).
@@ -106,6 +111,15 @@ pub(super) struct Tracer {
     pub(super) layout: wgpu::BindGroupLayout,
     /// How the shot's and the frame's words lie over its bindings.
     pub(super) pages: Pages,
+}
+
+/// A tracer being compiled on its own thread, or compiled (or its compilation's error).
+#[derive(Debug)]
+enum Compiling {
+    /// The thread compiling it: it gives the tracer and the seconds it took.
+    Running(JoinHandle<(Result<Tracer, GpuError>, f64)>),
+    /// Its thread's result.
+    Done(Result<Arc<Tracer>, GpuError>),
 }
 
 /// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
@@ -203,25 +217,28 @@ impl Adapter {
 }
 
 impl Gpu {
-    /// Opens the adapter [`Adapter::find`] takes and compiles the tracer. Without an
-    /// adapter: [`GpuError::NoAdapter`], naming what was looked for and how to get it.
+    /// Opens the adapter [`Adapter::find`] takes and begins compiling the tracer of one page
+    /// ([`Gpu::open`]). Without an adapter: [`GpuError::NoAdapter`], naming what was looked
+    /// for and how to get it.
     pub fn new() -> Result<Gpu, GpuError> {
         let start = Instant::now();
-        let mut gpu = Gpu::open(Adapter::find()?)?;
+        let gpu = Gpu::open(Adapter::find()?)?;
         // The adapter's search counts with the device's opening.
-        gpu.startup.device_seconds = start.elapsed().as_secs_f64() - gpu.startup.pipelines_seconds;
+        gpu.startup.lock().unwrap().device_seconds = start.elapsed().as_secs_f64();
         Ok(gpu)
     }
 
-    /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and compiles the
-    /// tracer.
+    /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and begins
+    /// compiling the tracer of one page on its own thread: the shot is built meanwhile, and
+    /// [`GpuShot::new`](super::GpuShot::new) waits for the tracer only to upload it
+    /// ([`Gpu::fitting`]). A shader the device refuses is an error there.
     pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
         let limits = adapter.limits();
         Gpu::open_limited(adapter, limits)
     }
 
-    /// Opens a device on `adapter` with `limits` (within the adapter's) and compiles the
-    /// tracer for them.
+    /// Opens a device on `adapter` with `limits` (within the adapter's) and begins compiling
+    /// the tracer for them ([`Gpu::open`]).
     pub(super) fn open_limited(adapter: Adapter, limits: wgpu::Limits) -> Result<Gpu, GpuError> {
         let start = Instant::now();
         let pages = Pages::of(&limits);
@@ -239,32 +256,33 @@ impl Gpu {
         }))
         .map_err(|e| GpuError::Failed(format!("{} ({}): {e}", info.name, info.backend)))?;
         let fault = watch_faults(&device);
-        let opened = Instant::now();
         let cache = DiskCache::open(&device, &info, features);
-        let tracer = Arc::new(compile(&device, counting, pages.holding(0), &cache)?);
-        cache.save();
         let startup = Startup {
-            device_seconds: (opened - start).as_secs_f64(),
-            pipelines_seconds: opened.elapsed().as_secs_f64(),
+            device_seconds: start.elapsed().as_secs_f64(),
+            pipelines_seconds: 0.0,
+            waited_seconds: 0.0,
             cache: cache.used(),
         };
         let lose_after = std::env::var(LOSE_AFTER_VARIABLE)
             .ok()
             .and_then(|v| v.parse().ok());
-        Ok(Gpu {
+        let gpu = Gpu {
             device,
             queue,
-            tracers: Arc::new(Mutex::new(vec![Some(tracer.clone())])),
-            tracer,
+            tracer: None,
+            tracers: Arc::new(Mutex::new(vec![])),
             pages,
             counting,
             cache: Arc::new(cache),
-            startup,
+            startup: Arc::new(Mutex::new(startup)),
             adapter,
             info,
             fault,
             dispatches: Arc::new(Mutex::new((0, lose_after))),
-        })
+        };
+        // Most shots' words fit one page (a binding of 4 GiB on NVIDIA's Vulkan).
+        gpu.begin(0);
+        Ok(gpu)
     }
 
     /// The adapter, as [`Adapter::describe`] names it.
@@ -272,11 +290,18 @@ impl Gpu {
         self.adapter().describe()
     }
 
-    /// How long the device and its first tracer took to start, and whether the pipeline
-    /// cache served, as `--stats` says it: `start-up 0.412 s (adapter and device 0.120 s,
-    /// pipelines 0.292 s, cache hit)` ([`Startup`]).
+    /// How long the device and its tracers took to start, how long the run waited for the
+    /// tracers, and whether the pipeline cache served, as `--stats` says it: `start-up
+    /// 0.180 s (adapter and device 0.120 s, pipelines 0.292 s beside the shot's build,
+    /// 0.060 s of them waited for, cache hit)` ([`Startup`]). Said once a shot is made (its
+    /// tracers compiled); tracers still compiling then are waited for here, uncounted.
     pub fn startup(&self) -> String {
-        self.startup.to_string()
+        let running = self.tracers.lock().unwrap().len();
+        for k in 0..running {
+            // Only a compilation's error, which the shot that needs it reports.
+            let _ = self.joined(k);
+        }
+        self.startup.lock().unwrap().to_string()
     }
 
     /// What the user should know of the pipeline cache: the directory named for it cannot
@@ -290,29 +315,82 @@ impl Gpu {
         self.pages
     }
 
-    /// This device with the tracer for `bytes` of words (the larger of a shot's and its
-    /// frames'): compiled for the fewest pages that hold them ([`Pages::holding`]), once a
-    /// device for each number of pages.
-    pub(super) fn fitting(&self, bytes: u64) -> Result<Gpu, GpuError> {
+    /// The tracer this handle dispatches. Only a handle [`Gpu::fitting`] gave dispatches.
+    pub(super) fn tracer(&self) -> &Tracer {
+        self.tracer
+            .as_deref()
+            .expect("a GPU handle dispatches once Gpu::fitting gave it its tracer")
+    }
+
+    /// Begins compiling, on its own thread, the tracer for `bytes` of words (the fewest pages
+    /// that hold them, [`Pages::holding`]), unless it is begun already: once a device for each
+    /// number of pages. The thread saves the pipeline cache when done.
+    pub(super) fn begin(&self, bytes: u64) {
         let pages = self.pages.holding(bytes);
-        let mut tracers = self.tracers.lock().unwrap();
         let k = pages.count() as usize - 1;
+        let mut tracers = self.tracers.lock().unwrap();
         if tracers.len() <= k {
-            tracers.resize(k + 1, None);
+            tracers.resize_with(k + 1, || None);
         }
-        let tracer = match &tracers[k] {
-            Some(t) => t.clone(),
-            None => {
-                let t = Arc::new(compile(&self.device, self.counting, pages, &self.cache)?);
-                self.cache.save();
-                tracers[k] = Some(t.clone());
-                t
-            }
-        };
+        if tracers[k].is_some() {
+            return;
+        }
+        let (device, counting, cache) = (self.device.clone(), self.counting, self.cache.clone());
+        let thread = std::thread::Builder::new()
+            .name(format!("tracer of {} pages", pages.count()))
+            .spawn(move || {
+                let start = Instant::now();
+                let tracer = compile(&device, counting, pages, &cache);
+                cache.save();
+                (tracer, start.elapsed().as_secs_f64())
+            });
+        tracers[k] = Some(match thread {
+            Ok(thread) => Compiling::Running(thread),
+            Err(e) => Compiling::Done(Err(GpuError::Failed(format!(
+                "no thread to compile the tracer on: {e}"
+            )))),
+        });
+    }
+
+    /// This device with the tracer for `bytes` of words (the larger of a shot's and its
+    /// frames'), compiled for the fewest pages that hold them ([`Gpu::begin`]): waited for
+    /// where its thread is still compiling it, the wait counted in the start-up.
+    pub(super) fn fitting(&self, bytes: u64) -> Result<Gpu, GpuError> {
+        self.begin(bytes);
+        let k = self.pages.holding(bytes).count() as usize - 1;
+        let start = Instant::now();
+        let tracer = self.joined(k)?;
+        self.startup.lock().unwrap().waited_seconds += start.elapsed().as_secs_f64();
         Ok(Gpu {
-            tracer,
+            tracer: Some(tracer),
             ..self.clone()
         })
+    }
+
+    /// The tracer of slot `k` (begun), its thread joined if it is still running, its
+    /// compiling seconds counted in the start-up.
+    fn joined(&self, k: usize) -> Result<Arc<Tracer>, GpuError> {
+        let mut tracers = self.tracers.lock().unwrap();
+        let slot = &mut tracers[k];
+        if let Some(Compiling::Running(_)) = slot {
+            let Some(Compiling::Running(thread)) = slot.take() else {
+                unreachable!("the slot was running")
+            };
+            let done = match thread.join() {
+                Ok((tracer, seconds)) => {
+                    self.startup.lock().unwrap().pipelines_seconds += seconds;
+                    tracer.map(Arc::new)
+                }
+                Err(_) => Err(GpuError::Failed(
+                    "the thread compiling the tracer panicked".into(),
+                )),
+            };
+            *slot = Some(Compiling::Done(done));
+        }
+        match slot {
+            Some(Compiling::Done(done)) => done.clone(),
+            _ => unreachable!("a tracer is begun before it is joined"),
+        }
     }
 
     /// The adapter's name (`NVIDIA H100 80GB HBM3`) and its PCI address as the platform

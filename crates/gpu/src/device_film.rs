@@ -132,17 +132,17 @@ impl DeviceFilm {
             slot(7, &counts, COUNTER_WORDS),
         ];
         for (first, pages) in [SHOT_PAGES, FRAME_PAGES].into_iter().zip(words) {
-            for k in 0..gpu.tracer.pages.count() {
+            for k in 0..gpu.tracer().pages.count() {
                 let page = pages.get(k as usize).unwrap_or(&unused);
                 entries.push(whole(first + k, page));
             }
         }
-        if gpu.tracer.pages.count() == 1 {
+        if gpu.tracer().pages.count() == 1 {
             entries.push(whole(FRAME_WORDS, words[1].first().unwrap_or(&unused)));
         }
         let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tracer"),
-            layout: &gpu.tracer.layout,
+            layout: &gpu.tracer().layout,
             entries: &entries,
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -222,7 +222,7 @@ impl DeviceFilm {
                 label: Some("trace"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&gpu.tracer.pipeline);
+            pass.set_pipeline(&gpu.tracer().pipeline);
             let dynamic = offset as u32;
             pass.set_bind_group(0, &self.bind, &[dynamic, dynamic]);
             pass.dispatch_workgroups(workgroups(dispatch.count), 1, 1);
@@ -334,7 +334,7 @@ impl DeviceFilm {
                 label: Some("numbers"),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&gpu.tracer.numbers);
+            pass.set_pipeline(&gpu.tracer().numbers);
             pass.set_bind_group(0, &self.bind, &[0, 0]);
             pass.dispatch_workgroups(workgroups(n as u32), 1, 1);
         }

@@ -122,11 +122,14 @@ impl DiskCache {
 
     /// Writes the cache's data to its file, atomically (a temporary file beside it, then a
     /// rename), so that a reader never sees half of it. A failure only costs the next run
-    /// its cache.
+    /// its cache. One save at a time in a process: the threads compiling tracers
+    /// (`Gpu::begin`) would otherwise write the same temporary file.
     pub(super) fn save(&self) {
+        static SAVING: std::sync::Mutex<()> = std::sync::Mutex::new(());
         let (Some(cache), Some(file)) = (&self.cache, &self.file) else {
             return;
         };
+        let _one = SAVING.lock();
         let Some(data) = cache.get_data() else {
             return;
         };

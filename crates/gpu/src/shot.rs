@@ -46,11 +46,14 @@ impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
     /// that never move, with their hierarchy (built here), on the tracer for its spheres'
     /// words; a frame whose points take more pages gets the tracer for those
-    /// ([`GpuShot::upload_frame`]).
+    /// ([`GpuShot::upload_frame`]). The tracer compiles on its own thread while the
+    /// hierarchy is built ([`Gpu::begin`]), and is waited for only to upload.
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
-        let gpu = gpu.fitting(buffer_bytes(scene, 0))?;
+        let bytes = buffer_bytes(scene, 0);
+        gpu.begin(bytes);
         let statics = StaticGeometry::new(scene);
         let words = ShotWords::new(scene, &statics);
+        let gpu = gpu.fitting(bytes)?;
         let pages = upload(&gpu, "shot", &words.words)?;
         Ok(GpuShot {
             gpu,
@@ -81,7 +84,9 @@ impl GpuShot {
         // The shot's tracer, or where the frame's points take more pages than it binds, the
         // tracer for those: the shot's words lie in its first pages either way.
         let bytes = 4 * words.words.0.len() as u64;
-        let gpu = self.gpu.fitting(bytes.max(self.gpu.tracer.pages.bytes()))?;
+        let gpu = self
+            .gpu
+            .fitting(bytes.max(self.gpu.tracer().pages.bytes()))?;
         let pages = upload(&gpu, "frame", &words.words)?;
         let scene = prepared.scene;
         let pixels = scene.output.width as usize * scene.output.height as usize;
@@ -120,7 +125,7 @@ impl ShotTracer for GpuShot {
 /// validated against the adapter's pages never gets here, `super::support`).
 fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<Vec<wgpu::Buffer>, GpuError> {
     use wgpu::util::DeviceExt;
-    let pages = gpu.tracer.pages;
+    let pages = gpu.tracer().pages;
     let Some(parts) = pages.split(&words.0) else {
         return Err(GpuError::Failed(format!(
             "the {label}'s data take {}, more than the {} this GPU binds ({} bindings of {})",

@@ -40,6 +40,8 @@ impl Needs {
 pub struct Devices {
     gpu: Option<Gpu>,
     denoiser: Option<std::sync::Arc<Denoiser>>,
+    /// Whether [`Devices::gpu_startup_once`] has given the GPU's start-up.
+    startup_given: std::sync::Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Devices {
@@ -104,6 +106,17 @@ impl Devices {
     /// The GPU, when a scene opened it.
     pub fn gpu(&self) -> Option<&Gpu> {
         self.gpu.as_ref()
+    }
+
+    /// The GPU and its start-up, as `--stats` says them once a run (`llvmpipe (...),
+    /// start-up 0.180 s (...)`, [`Gpu::startup`]): the first time it is asked for once the
+    /// GPU is open, after a shot on it is made (its tracer compiled beside the shot's build);
+    /// None after, or without a GPU.
+    pub fn gpu_startup_once(&self) -> Option<String> {
+        use std::sync::atomic::Ordering;
+        let g = self.gpu.as_ref()?;
+        let first = !self.startup_given.swap(true, Ordering::Relaxed);
+        first.then(|| format!("{}, {}", g.describe(), g.startup()))
     }
 
     /// `scene`'s shot on the device its `[render] device` names: its still geometry built,
