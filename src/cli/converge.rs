@@ -34,7 +34,7 @@ use raytrace_core::sampler::SamplerKind;
 use raytrace_core::scene::Scene;
 use raytrace_io as io;
 use raytrace_io::file_kind;
-use raytrace_render::devices::{Devices, Needs, supported};
+use raytrace_render::devices::{Devices, Needs, room_for_points, supported};
 use raytrace_render::output;
 use raytrace_scene::scene_file::{Overrides, SceneSource};
 use series::{Finish, Point, Report, Sampling, SeriesKind, Setting};
@@ -205,6 +205,13 @@ fn measure(
             print_line(s);
         }
     };
+    // The frame's points, read once for every render of it; on the GPU, the room for them
+    // checked before anything is opened.
+    let points = match scene.points.is_empty() {
+        true => FramePoints::none(),
+        false => raytrace_scene::point_cache::read_frame(scene, frame)?,
+    };
+    room_for_points(scene, &args.scene_args.overrides(), points.len() as u64)?;
     // The scene's device and, with --denoise, the denoiser, opened before anything is
     // measured: if either cannot start, nothing is written.
     let needs = Needs {
@@ -213,11 +220,6 @@ fn measure(
     };
     let devices = Devices::opened(needs)?;
     let tracer = devices.shot(scene)?;
-    // The frame's points, read once for every render of it.
-    let points = match scene.points.is_empty() {
-        true => FramePoints::none(),
-        false => raytrace_scene::point_cache::read_frame(scene, frame)?,
-    };
     let shot = (&devices, tracer.as_ref(), &points);
     let references = match references {
         ReferenceSource::Read(paths) => read_references(scene, paths, &say)?,

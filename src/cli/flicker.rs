@@ -25,7 +25,7 @@ use raytrace_core::rng::hash_words;
 use raytrace_core::sampler::SamplePattern;
 use raytrace_core::scene::{Carry, Scene};
 use raytrace_denoise::change;
-use raytrace_render::devices::{Devices, supported};
+use raytrace_render::devices::{Devices, room_for_points, supported};
 use raytrace_render::finish::Finishing;
 use raytrace_scene::point_cache::{self, ShotPoints};
 use raytrace_scene::scene_file::{Overrides, SceneSource};
@@ -205,6 +205,20 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             print_line(s);
         }
     };
+    // The frames' point caches surveyed, and on the GPU the room for their most points
+    // checked, before anything is opened.
+    let frames = || point_cache::Frames {
+        first: selection.first().expect("two frames or more"),
+        last: selection.last().expect("two frames or more"),
+        each: Box::new(selection.iter()),
+    };
+    let caches = ShotPoints::survey(
+        &scenes[0][1],
+        Some(frames()),
+        Some(frames()),
+        point_cache::SurveyDepth::Files,
+    )?;
+    room_for_points(&base, &overrides, caches.most().points)?;
     super::threads::thread_pool(args.scene_args.threads)?.install(|| {
         // The scene's device and the denoiser, opened before anything is measured.
         let devices = Devices::for_scenes(scenes.iter().flatten().chain([&reference]))?;
@@ -220,7 +234,7 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
             seeds.len(),
             if seeds.len() == 1 { "" } else { "s" }
         ));
-        measure(&scenes, budget, &reference, &selection, &devices, &say)
+        measure(&scenes, budget, &reference, (&selection, caches), &devices, &say)
     })
 }
 
@@ -429,26 +443,16 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
 }
 
 /// Renders the frames of `selection` with every seed's scenes, and measures every route
-/// against a reference of each frame rendered from `reference`.
+/// against a reference of each frame rendered from `reference`; the frames' points are read
+/// from `caches`, surveyed over `selection`.
 fn measure(
     scenes: &[[Scene; 4]],
     budget: Budget,
     reference: &Scene,
-    selection: &Selection,
+    (selection, mut caches): (&Selection, ShotPoints),
     devices: &Devices,
     say: &dyn Fn(&str),
 ) -> Result<Vec<Variant>, Error> {
-    let frames = || point_cache::Frames {
-        first: selection.first().expect("two frames or more"),
-        last: selection.last().expect("two frames or more"),
-        each: Box::new(selection.iter()),
-    };
-    let mut caches = ShotPoints::survey(
-        &scenes[0][1],
-        Some(frames()),
-        Some(frames()),
-        point_cache::SurveyDepth::Files,
-    )?;
     let reference_tracer = devices.shot(reference)?;
     let mut renders = scenes
         .iter()

@@ -359,11 +359,18 @@ fn capped(bytes: &'static str) -> [(&'static str, Option<&'static str>); 1] {
     [(raytrace_gpu::MAX_BINDING_VARIABLE, Some(bytes))]
 }
 
-/// Checks that `check` and `render` of `scene` (in `dir`) with the GPU's bindings capped at
-/// 64 KiB refuse it with exit 2, saying it `needs` more than the bindings hold.
+/// Checks that `check`, `render`, `converge` and `converge --flicker` (of frames 1-2) of
+/// `scene` (in `dir`) with the GPU's bindings capped at 64 KiB refuse it with exit 2, saying
+/// it `needs` more than the bindings hold.
 fn refused_within_64_kib(dir: &Path, scene: &str, needs: &str) {
-    for command in ["check", "render"] {
-        let o = raytrace(dir, &[command, scene, "--device", "gpu"], &capped("65536"));
+    for command in [
+        &["check"][..],
+        &["render"],
+        &["converge"],
+        &["converge", "--flicker", "1-2"],
+    ] {
+        let args = [&command[..1], &[scene], &command[1..], &["--device", "gpu"]].concat();
+        let o = raytrace(dir, &args, &capped("65536"));
         let all = text(&o);
         assert_eq!(o.status.code(), Some(2), "{all}");
         let said =
@@ -845,7 +852,8 @@ fn point_caches_split_over_bindings_and_are_refused_only_beyond_them() {
         );
     }
     std::fs::write(dir.path().join("p.ply"), ply).unwrap();
-    let scene = "[shot]\nshutter_angle = 180.0\n[output]\npath = \"f_####.exr\"\n[render]\nmax_depth = 4\n[materials]\nwater = { type = \"lambertian\", albedo = [0.7, 0.6, 0.5] }\n[[points]]\nfile = \"p.ply\"\nmaterial = \"water\"\n";
+    // Two frames, for the flicker's refusal; one for the agreement.
+    let scene = "[shot]\nframes = 2\nshutter_angle = 180.0\n[output]\npath = \"f_####.exr\"\n[render]\nmax_depth = 4\n[materials]\nwater = { type = \"lambertian\", albedo = [0.7, 0.6, 0.5] }\n[[points]]\nfile = \"p.ply\"\nmaterial = \"water\"\n";
     std::fs::write(dir.path().join("pts.toml"), scene).unwrap();
     refused_within_64_kib(
         dir.path(),
@@ -854,6 +862,11 @@ fn point_caches_split_over_bindings_and_are_refused_only_beyond_them() {
     );
     // Nothing written: the scene and the cache.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    std::fs::write(
+        dir.path().join("pts.toml"),
+        scene.replace("frames = 2\n", ""),
+    )
+    .unwrap();
     let a = binary_agreement(
         dir.path(),
         "pts.toml",
