@@ -116,10 +116,16 @@ pub(super) struct Tracer {
 /// A tracer being compiled on its own thread, or compiled (or its compilation's error).
 #[derive(Debug)]
 enum Compiling {
-    /// The thread compiling it: it gives the tracer and the seconds it took.
-    Running(JoinHandle<(Result<Tracer, GpuError>, f64)>),
-    /// Its thread's result.
-    Done(Result<Arc<Tracer>, GpuError>),
+    /// The thread compiling it, begun at `begun`: it gives the tracer and when it was done.
+    Running {
+        thread: JoinHandle<(Result<Tracer, GpuError>, Instant)>,
+        begun: Instant,
+    },
+    /// Its thread's result, and when the thread was done with it.
+    Done {
+        tracer: Result<Arc<Tracer>, GpuError>,
+        done: Instant,
+    },
 }
 
 /// The adapter a render takes: of those wgpu finds on Vulkan, Metal or DirectX 12, the first
@@ -229,9 +235,10 @@ impl Gpu {
     }
 
     /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and begins
-    /// compiling the tracer of one page on its own thread: the shot is built meanwhile, and
-    /// [`GpuShot::new`](super::GpuShot::new) waits for the tracer only to upload it
-    /// ([`Gpu::fitting`]). A shader the device refuses is an error there.
+    /// compiling the tracer of one page on its own thread: the shot is built and uploaded
+    /// meanwhile ([`GpuShot::new`](super::GpuShot::new)), and the first frame prepared; it
+    /// waits for the tracer to dispatch ([`Gpu::fitting`]). A shader the device refuses is an
+    /// error there.
     pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
         let limits = adapter.limits();
         Gpu::open_limited(adapter, limits)
@@ -336,19 +343,22 @@ impl Gpu {
             return;
         }
         let (device, counting, cache) = (self.device.clone(), self.counting, self.cache.clone());
+        let begun = Instant::now();
         let thread = std::thread::Builder::new()
             .name(format!("tracer of {} pages", pages.count()))
             .spawn(move || {
-                let start = Instant::now();
                 let tracer = compile(&device, counting, pages, &cache);
                 cache.save();
-                (tracer, start.elapsed().as_secs_f64())
+                (tracer, Instant::now())
             });
         tracers[k] = Some(match thread {
-            Ok(thread) => Compiling::Running(thread),
-            Err(e) => Compiling::Done(Err(GpuError::Failed(format!(
-                "no thread to compile the tracer on: {e}"
-            )))),
+            Ok(thread) => Compiling::Running { thread, begun },
+            Err(e) => Compiling::Done {
+                tracer: Err(GpuError::Failed(format!(
+                    "no thread to compile the tracer on: {e}"
+                ))),
+                done: begun,
+            },
         });
     }
 
@@ -359,36 +369,45 @@ impl Gpu {
         self.begin(bytes);
         let k = self.pages.holding(bytes).count() as usize - 1;
         let start = Instant::now();
-        let tracer = self.joined(k)?;
-        self.startup.lock().unwrap().waited_seconds += start.elapsed().as_secs_f64();
+        let (tracer, done) = self.joined(k)?;
+        // Until the thread was done, not until this one woke: so the wait is never more than
+        // the compilation, which began before it.
+        self.startup.lock().unwrap().waited_seconds +=
+            done.saturating_duration_since(start).as_secs_f64();
         Ok(Gpu {
             tracer: Some(tracer),
             ..self.clone()
         })
     }
 
-    /// The tracer of slot `k` (begun), its thread joined if it is still running, its
-    /// compiling seconds counted in the start-up.
-    fn joined(&self, k: usize) -> Result<Arc<Tracer>, GpuError> {
+    /// The tracer of slot `k` (begun) and when its thread was done, the thread joined if it
+    /// is still running, its seconds from begun to done counted in the start-up.
+    fn joined(&self, k: usize) -> Result<(Arc<Tracer>, Instant), GpuError> {
         let mut tracers = self.tracers.lock().unwrap();
         let slot = &mut tracers[k];
-        if let Some(Compiling::Running(_)) = slot {
-            let Some(Compiling::Running(thread)) = slot.take() else {
+        if let Some(Compiling::Running { .. }) = slot {
+            let Some(Compiling::Running { thread, begun }) = slot.take() else {
                 unreachable!("the slot was running")
             };
-            let done = match thread.join() {
-                Ok((tracer, seconds)) => {
-                    self.startup.lock().unwrap().pipelines_seconds += seconds;
-                    tracer.map(Arc::new)
+            *slot = Some(match thread.join() {
+                Ok((tracer, done)) => {
+                    self.startup.lock().unwrap().pipelines_seconds +=
+                        done.saturating_duration_since(begun).as_secs_f64();
+                    Compiling::Done {
+                        tracer: tracer.map(Arc::new),
+                        done,
+                    }
                 }
-                Err(_) => Err(GpuError::Failed(
-                    "the thread compiling the tracer panicked".into(),
-                )),
-            };
-            *slot = Some(Compiling::Done(done));
+                Err(_) => Compiling::Done {
+                    tracer: Err(GpuError::Failed(
+                        "the thread compiling the tracer panicked".into(),
+                    )),
+                    done: Instant::now(),
+                },
+            });
         }
         match slot {
-            Some(Compiling::Done(done)) => done.clone(),
+            Some(Compiling::Done { tracer, done }) => tracer.clone().map(|t| (t, *done)),
             _ => unreachable!("a tracer is begun before it is joined"),
         }
     }

@@ -16,6 +16,7 @@ use std::time::Instant;
 use super::context::{Gpu, GpuError, classify};
 use super::device_film::{DeviceFilm, SLOTS, Submitted, merge};
 use super::layout::{MAX_STRIDE, Words};
+use super::pages::Pages;
 use super::schedule::{Pace, Windows};
 use super::support::buffer_bytes;
 use super::upload::{FrameWords, ShotWords};
@@ -32,9 +33,13 @@ use raytrace_core::world::StaticGeometry;
 /// hierarchy it was uploaded from (which each frame's preparation starts from).
 #[derive(Debug)]
 pub struct GpuShot {
+    /// The device; its tracer is still compiling until the first frame waits for it
+    /// ([`GpuShot::upload_frame`]).
     gpu: Gpu,
     statics: StaticGeometry,
     words: ShotWords,
+    /// How the shot's words lie over bindings: the fewest pages that hold them.
+    layout: Pages,
     /// The shot's words, page by page.
     pages: Vec<wgpu::Buffer>,
     /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
@@ -44,29 +49,25 @@ pub struct GpuShot {
 
 impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
-    /// that never move, with their hierarchy (built here), on the tracer for its spheres'
-    /// words; a frame whose points take more pages gets the tracer for those
-    /// ([`GpuShot::upload_frame`]). The tracer compiles on its own thread while the
-    /// hierarchy is built ([`Gpu::begin`]), and is waited for only to upload.
+    /// that never move, with their hierarchy (built here), over the pages its spheres' words
+    /// take. The tracer for those pages compiles on its own thread meanwhile
+    /// ([`Gpu::begin`]), and on through the first frame's preparation (its points read, their
+    /// hierarchy built): the first frame waits for it to dispatch ([`GpuShot::upload_frame`]).
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
         let bytes = buffer_bytes(scene, 0);
         gpu.begin(bytes);
         let statics = StaticGeometry::new(scene);
         let words = ShotWords::new(scene, &statics);
-        let gpu = gpu.fitting(bytes)?;
-        let pages = upload(&gpu, "shot", &words.words)?;
+        let layout = gpu.pages().holding(bytes);
+        let pages = upload(gpu, layout, "shot", &words.words)?;
         Ok(GpuShot {
-            gpu,
+            gpu: gpu.clone(),
             statics,
             words,
+            layout,
             pages,
             pace: Mutex::new(Pace::default()),
         })
-    }
-
-    /// The device.
-    pub fn gpu(&self) -> &Gpu {
-        &self.gpu
     }
 
     /// Uploads the frame `prepared` (of the scene this shot was made from), for a film kept
@@ -84,10 +85,8 @@ impl GpuShot {
         // The shot's tracer, or where the frame's points take more pages than it binds, the
         // tracer for those: the shot's words lie in its first pages either way.
         let bytes = 4 * words.words.0.len() as u64;
-        let gpu = self
-            .gpu
-            .fitting(bytes.max(self.gpu.tracer().pages.bytes()))?;
-        let pages = upload(&gpu, "frame", &words.words)?;
+        let gpu = self.gpu.fitting(bytes.max(self.layout.bytes()))?;
+        let pages = upload(&gpu, gpu.tracer().pages, "frame", &words.words)?;
         let scene = prepared.scene;
         let pixels = scene.output.width as usize * scene.output.height as usize;
         let film = DeviceFilm::new(&gpu, [&self.pages, &pages], pixels, layout.stride as u32)?;
@@ -120,12 +119,16 @@ impl ShotTracer for GpuShot {
     }
 }
 
-/// Buffers holding `words` page by page ([`Pages`](super::pages::Pages)), for the shaders to
-/// read; more words than the device's pages hold is an error naming both in MiB (a scene
-/// validated against the adapter's pages never gets here, `super::support`).
-fn upload(gpu: &Gpu, label: &str, words: &Words) -> Result<Vec<wgpu::Buffer>, GpuError> {
+/// Buffers holding `words` over `pages`, for the shaders to read; more words than the pages
+/// hold is an error naming both in MiB (a scene validated against the adapter's pages never
+/// gets here, `super::support`).
+fn upload(
+    gpu: &Gpu,
+    pages: Pages,
+    label: &str,
+    words: &Words,
+) -> Result<Vec<wgpu::Buffer>, GpuError> {
     use wgpu::util::DeviceExt;
-    let pages = gpu.tracer().pages;
     let Some(parts) = pages.split(&words.0) else {
         return Err(GpuError::Failed(format!(
             "the {label}'s data take {}, more than the {} this GPU binds ({} bindings of {})",
