@@ -13,9 +13,10 @@ pub(crate) struct Startup {
     /// Seconds to find the adapter and open the device and its pipeline cache.
     pub(crate) device_seconds: f64,
     /// Seconds to compile the tracers' shaders and create their pipelines, on their own
-    /// threads beside the shot's build.
+    /// threads beside the shot's build and the first frame's preparation.
     pub(crate) pipelines_seconds: f64,
-    /// Of those, the seconds the run waited for them (the rest overlapped the shot's build).
+    /// Of those, the seconds the run waited for them (the rest overlapped the shot's build
+    /// and the first frame's preparation).
     pub(crate) waited_seconds: f64,
     /// Whether the pipelines came from the cache on disk.
     pub(crate) cache: CacheUse,
