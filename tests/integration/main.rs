@@ -12,6 +12,7 @@ mod common;
 mod architecture;
 mod batch;
 mod budget;
+mod bundle;
 mod cli;
 mod clip;
 mod converge;

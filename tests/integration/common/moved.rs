@@ -15,11 +15,19 @@ pub(crate) fn provided_by_the_build() -> bool {
     Path::new(BUILD_FOLDER).ends_with(".oidn/lib")
 }
 
-/// Copies the binary to `dir/raytrace` with the build's folder, compiled into it, replaced
-/// by a path of the same length that does not exist (`/xxx…`): what a copy on a machine
-/// without that folder sees. Returns the copy.
+/// Copies the binary to `dir/raytrace` as [`without_the_build_folder`] writes it. Returns
+/// the copy.
 pub(crate) fn moved_binary(dir: &Path) -> PathBuf {
-    let mut bytes = std::fs::read(env!("CARGO_BIN_EXE_raytrace")).unwrap();
+    let copy = dir.join("raytrace");
+    without_the_build_folder(Path::new(env!("CARGO_BIN_EXE_raytrace")), &copy);
+    copy
+}
+
+/// Writes `binary` to `copy` (the same path rewrites it) with the build's folder, compiled
+/// into it, replaced by a path of the same length that does not exist (`/xxx…`): what a copy
+/// on a machine without that folder sees.
+pub(crate) fn without_the_build_folder(binary: &Path, copy: &Path) {
+    let mut bytes = std::fs::read(binary).unwrap();
     let from = BUILD_FOLDER.as_bytes();
     let to: Vec<u8> = std::iter::once(b'/')
         .chain(std::iter::repeat_n(b'x', from.len() - 1))
@@ -33,11 +41,9 @@ pub(crate) fn moved_binary(dir: &Path) -> PathBuf {
         found += 1;
     }
     assert!(found > 0, "{BUILD_FOLDER} is not in the binary");
-    let copy = dir.join("raytrace");
-    std::fs::write(&copy, bytes).unwrap();
+    std::fs::write(copy, bytes).unwrap();
     use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)).unwrap();
-    copy
+    std::fs::set_permissions(copy, std::fs::Permissions::from_mode(0o755)).unwrap();
 }
 
 /// Copies the build's OIDN libraries whose names `keep` accepts into `dir`; returns how
