@@ -5,25 +5,10 @@
 use crate::common;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
-use common::moved::{provided_by_the_build, without_the_build_folder};
+use common::moved::{SCENE, provided_by_the_build, run, without_the_build_folder};
 use common::text;
-
-const SCENE: &str = "[output]\npath = \"out/f_####.exr\"\nwidth = 16\nheight = 9\n\
-    [render]\nsamples = 2\n[camera]\nlook_from = [0.0, 0.0, 3.0]\n\
-    [[sphere]]\ncenter = [0.0, 0.0, -1.0]\nradius = 0.5\n\
-    material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
-
-/// Runs `binary` in `dir` with nothing from the environment pointing at a library.
-fn run(binary: &Path, dir: &Path, args: &[&str]) -> Output {
-    Command::new(binary)
-        .args(args)
-        .current_dir(dir)
-        .env_remove("LD_LIBRARY_PATH")
-        .output()
-        .unwrap()
-}
 
 #[test]
 fn a_bundle_unpacked_elsewhere_renders_and_denoises_with_its_own_libraries() {

@@ -6,25 +6,9 @@
 use crate::common;
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-use common::moved::{copy_libraries, moved_binary, provided_by_the_build};
+use common::moved::{SCENE, copy_libraries, moved_binary, provided_by_the_build, run};
 use common::text;
-
-const SCENE: &str = "[shot]\nframes = 2\n[output]\npath = \"out/f_####.exr\"\nwidth = 16\n\
-    height = 9\n[render]\nsamples = 2\n[camera]\nlook_from = [0.0, 0.0, 3.0]\n\
-    [[sphere]]\ncenter = [0.0, 0.0, -1.0]\nradius = 0.5\n\
-    material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
-
-/// Runs `binary` in `dir` with nothing from the environment pointing at a library.
-fn run(binary: &Path, dir: &Path, args: &[&str]) -> Output {
-    Command::new(binary)
-        .args(args)
-        .current_dir(dir)
-        .env_remove("LD_LIBRARY_PATH")
-        .output()
-        .unwrap()
-}
 
 fn ok(binary: &Path, dir: &Path, args: &[&str]) -> String {
     let o = run(binary, dir, args);

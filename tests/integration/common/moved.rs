@@ -2,6 +2,23 @@
 //! where the folder the build provided the denoiser's library in does not exist.
 
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A small two-frame shot for a moved binary to render (`out/f_####.exr`).
+pub(crate) const SCENE: &str = "[shot]\nframes = 2\n[output]\npath = \"out/f_####.exr\"\nwidth = 16\n\
+    height = 9\n[render]\nsamples = 2\n[camera]\nlook_from = [0.0, 0.0, 3.0]\n\
+    [[sphere]]\ncenter = [0.0, 0.0, -1.0]\nradius = 0.5\n\
+    material = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+
+/// Runs `binary` in `dir` with nothing from the environment pointing at a library.
+pub(crate) fn run(binary: &Path, dir: &Path, args: &[&str]) -> Output {
+    Command::new(binary)
+        .args(args)
+        .current_dir(dir)
+        .env_remove("LD_LIBRARY_PATH")
+        .output()
+        .unwrap()
+}
 
 /// The folder the build provided Intel Open Image Denoise in (the denoise crate's build.rs).
 pub(crate) const BUILD_FOLDER: &str = match raytrace_denoise::library::BUILD_FOLDER {
