@@ -30,14 +30,22 @@
 # after). Record its figures in docs/gpu.md and docs/denoising.md with the machine they came
 # from.
 set -euo pipefail
-cd "$(dirname "$0")/.."
 
 quick=false
 if [[ ${1:-} == --quick ]]; then
     quick=true
     shift
 fi
-raytrace=${1:-target/release/raytrace}
+# RAYTRACE and OUT as given, from where the script was called; the rest from the repository's
+# root (or an unpacked bundle's, contrib/bundle.sh).
+if [[ -n ${1:-} ]]; then
+    given=$(realpath -m "$1")
+fi
+if [[ -n ${OUT:-} ]]; then
+    OUT=$(realpath -m "$OUT")
+fi
+cd "$(dirname "$0")/.."
+raytrace=${given:-target/release/raytrace}
 if [[ ! -x $raytrace ]]; then
     cargo build --release --quiet
 fi
