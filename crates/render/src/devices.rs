@@ -103,11 +103,6 @@ impl Devices {
         self.denoiser.as_deref().map(Denoiser::name)
     }
 
-    /// The GPU, when a scene opened it.
-    pub fn gpu(&self) -> Option<&Gpu> {
-        self.gpu.as_ref()
-    }
-
     /// The GPU and its start-up, as `--stats` says them once a run (`llvmpipe (...),
     /// start-up 0.180 s (...)`, [`Gpu::startup`]): the first time it is asked for once the
     /// GPU is open, after a frame on it is rendered (its tracer compiled beside the shot's
