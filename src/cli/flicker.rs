@@ -16,6 +16,7 @@ use raytrace_core::image::Image;
 
 use super::args::{BudgetArgs, ConvergeArgs};
 use super::frames::Selection;
+use super::jobs::survey_frames;
 use super::progress::print_line;
 use super::seeds::{DEFAULT_SEEDS, measured_seeds};
 use raytrace_core::error::Error;
@@ -207,15 +208,10 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     };
     // The frames' point caches surveyed, and on the GPU the room for their most points
     // checked, before anything is opened.
-    let frames = || point_cache::Frames {
-        first: selection.first().expect("two frames or more"),
-        last: selection.last().expect("two frames or more"),
-        each: Box::new(selection.iter()),
-    };
     let caches = ShotPoints::survey(
         &scenes[0][1],
-        Some(frames()),
-        Some(frames()),
+        survey_frames(&selection),
+        survey_frames(&selection),
         point_cache::SurveyDepth::Files,
     )?;
     room_for_points(&base, &overrides, caches.most().points)?;

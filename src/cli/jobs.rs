@@ -88,14 +88,21 @@ fn survey_points(
     selected: &Selection,
     depth: SurveyDepth,
 ) -> Result<ShotPoints, Error> {
-    fn frames(s: &Selection) -> Option<Frames<'_>> {
-        s.first().zip(s.last()).map(|(first, last)| Frames {
-            first,
-            last,
-            each: Box::new(s.iter()),
-        })
-    }
-    ShotPoints::survey(scene, frames(&targets.frames), frames(selected), depth)
+    ShotPoints::survey(
+        scene,
+        survey_frames(&targets.frames),
+        survey_frames(selected),
+        depth,
+    )
+}
+
+/// The frames of `s` as a point caches' survey takes them; `None` for no frames.
+pub(crate) fn survey_frames(s: &Selection) -> Option<Frames<'_>> {
+    s.first().zip(s.last()).map(|(first, last)| Frames {
+        first,
+        last,
+        each: Box::new(s.iter()),
+    })
 }
 
 /// Loads and validates every scene of a run, selects the frames of each (`--frames` applies
