@@ -94,11 +94,17 @@ sed -e "s/^fps = .*/fps = 24.0/" \
 # One run: its name, then the arguments after `render CLIP`. Prints its lines and keeps its
 # totals for the table.
 totals=()
+
+# Seconds since START (a `date +%s.%N`): a run's whole-process wall time.
+seconds_since() {
+    awk -v a="$1" -v b="$(date +%s.%N)" 'BEGIN { print b - a }'
+}
+
 run() {
     local name=$1
     shift
     local log=$out/$name.log
-    local start end
+    local start wall
     start=$(date +%s.%N)
     "$raytrace" render "$clip" --noise-threshold "$threshold" --stats \
         -o "$out/$name/f_####.exr" "$@" >"$log" 2>&1 || {
@@ -106,11 +112,11 @@ run() {
         echo "$name: failed" >&2
         exit 1
     }
-    end=$(date +%s.%N)
+    wall=$(seconds_since "$start")
     echo
     echo "== $name: render CLIP (${width}x$height) --noise-threshold $threshold $*"
     grep -E '^(frame [0-9]+|gpu|denoiser)' "$log"
-    totals+=("$(awk -v name="$name" -v wall="$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')" '
+    totals+=("$(awk -v name="$name" -v wall="$wall" '
         /^frame [0-9]+: / { frames++ }
         / stats: / {
             if (match($0, /render [0-9.]+ s/)) render += substr($0, RSTART + 7, RLENGTH - 9)
@@ -146,7 +152,7 @@ printf '%s\n' "${totals[@]}"
 measure() {
     local scene=$1 spp=$2 device=$3
     local log=$out/$(basename "$scene" .toml)-$device.log
-    local start end
+    local start wall
     start=$(date +%s.%N)
     if ! "$raytrace" render "$scene" --device "$device" --width "$scene_width" \
         --height "$scene_height" --samples "$spp" --stats -o "$out/scene.exr" >"$log" 2>&1; then
@@ -154,8 +160,8 @@ measure() {
         echo "failed failed - -"
         return
     fi
-    end=$(date +%s.%N)
-    awk -v wall="$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')" '
+    wall=$(seconds_since "$start")
+    awk -v wall="$wall" '
         / stats: / {
             if (match($0, /samples [0-9]+ \([0-9.]+ M\/s\)/)) {
                 s = substr($0, RSTART, RLENGTH)
@@ -206,7 +212,7 @@ printf '%s\n' "${rows[@]}"
 # cache | wall s |` from its `gpu:` line.
 startup() {
     local name=$1 log=$out/startup-$1.log
-    local start end
+    local start wall
     start=$(date +%s.%N)
     RAYTRACE_GPU_CACHE=$out/pipeline-cache "$raytrace" render bench/bouncing_spheres_seed7.toml \
         --device gpu --width 16 --height 8 --samples 1 --stats -o "$out/startup.exr" \
@@ -215,8 +221,8 @@ startup() {
         echo "start-up $name: failed" >&2
         exit 1
     }
-    end=$(date +%s.%N)
-    awk -v name="$name" -v wall="$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')" '
+    wall=$(seconds_since "$start")
+    awk -v name="$name" -v wall="$wall" '
         /^gpu: / {
             match($0, /start-up [0-9.]+ s/); paid = substr($0, RSTART + 9, RLENGTH - 11)
             match($0, /adapter and device [0-9.]+ s/); dev = substr($0, RSTART + 19, RLENGTH - 21)
