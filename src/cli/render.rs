@@ -186,6 +186,15 @@ fn render_shot(
 ) -> Result<RunSummary, Error> {
     let start = Instant::now();
     let tracer = devices.shot(scene)?;
+    // The GPU's start-up is known once its first shot is made: its tracer compiled beside
+    // the shot's build.
+    if args.stats
+        && !args.scene_args.quiet
+        && scene.render.device == Device::Gpu
+        && let Some(startup) = devices.gpu_startup_once()
+    {
+        progress.line(&format!("gpu: {startup}"));
+    }
     let shot = ShotFrames {
         scene,
         caches,
@@ -209,15 +218,6 @@ fn render_shot(
         }
         shot.render_history(frame, &mut finishing)?;
         let (result, read) = shot.render_frame(frame, &mut finishing)?;
-        // The GPU's start-up is known once its first frame is rendered: its tracer compiled
-        // beside the shot's build and the frame's preparation.
-        if args.stats
-            && !args.scene_args.quiet
-            && scene.render.device == Device::Gpu
-            && let Some(startup) = devices.gpu_startup_once()
-        {
-            progress.line(&format!("gpu: {startup}"));
-        }
         let st = &result.stats;
         let non_finite =
             output::write_frame(&path, scene.output.format, scene, &result, &shot.budget)?;

@@ -236,9 +236,8 @@ impl Gpu {
 
     /// Opens a device on `adapter` with its limits ([`Adapter::limits`]) and begins
     /// compiling the tracer of one page on its own thread: the shot is built and uploaded
-    /// meanwhile ([`GpuShot::new`](super::GpuShot::new)), and the first frame prepared; it
-    /// waits for the tracer to dispatch ([`Gpu::fitting`]). A shader the device refuses is an
-    /// error there.
+    /// meanwhile, then waits for it ([`GpuShot::new`](super::GpuShot::new), [`Gpu::fitting`]).
+    /// A shader the device refuses is an error there.
     pub fn open(adapter: Adapter) -> Result<Gpu, GpuError> {
         let limits = adapter.limits();
         Gpu::open_limited(adapter, limits)

@@ -33,13 +33,10 @@ use raytrace_core::world::StaticGeometry;
 /// hierarchy it was uploaded from (which each frame's preparation starts from).
 #[derive(Debug)]
 pub struct GpuShot {
-    /// The device; its tracer is still compiling until the first frame waits for it
-    /// ([`GpuShot::upload_frame`]).
+    /// The device with the tracer for the shot's words.
     gpu: Gpu,
     statics: StaticGeometry,
     words: ShotWords,
-    /// How the shot's words lie over bindings: the fewest pages that hold them.
-    layout: Pages,
     /// The shot's words, page by page.
     pages: Vec<wgpu::Buffer>,
     /// The device's pace, carried from frame to frame (behind a lock: a shot is shared by
@@ -50,21 +47,21 @@ pub struct GpuShot {
 impl GpuShot {
     /// Uploads what `scene`'s frames share: its materials, the Sobol tables, and its spheres
     /// that never move, with their hierarchy (built here), over the pages its spheres' words
-    /// take. The tracer for those pages compiles on its own thread meanwhile
-    /// ([`Gpu::begin`]), and on through the first frame's preparation (its points read, their
-    /// hierarchy built): the first frame waits for it to dispatch ([`GpuShot::upload_frame`]).
+    /// take, on the tracer for those pages; a frame whose points take more pages gets the
+    /// tracer for those ([`GpuShot::upload_frame`]). The tracer compiles on its own thread
+    /// while the hierarchy is built and uploaded ([`Gpu::begin`]), and is waited for here,
+    /// before any frame's clock starts: a frame's times (its time limit, the host's share)
+    /// never count the compilation.
     pub fn new(gpu: &Gpu, scene: &Scene) -> Result<GpuShot, GpuError> {
         let bytes = buffer_bytes(scene, 0);
         gpu.begin(bytes);
         let statics = StaticGeometry::new(scene);
         let words = ShotWords::new(scene, &statics);
-        let layout = gpu.pages().holding(bytes);
-        let pages = upload(gpu, layout, "shot", &words.words)?;
+        let pages = upload(gpu, gpu.pages().holding(bytes), "shot", &words.words)?;
         Ok(GpuShot {
-            gpu: gpu.clone(),
+            gpu: gpu.fitting(bytes)?,
             statics,
             words,
-            layout,
             pages,
             pace: Mutex::new(Pace::default()),
         })
@@ -85,7 +82,9 @@ impl GpuShot {
         // The shot's tracer, or where the frame's points take more pages than it binds, the
         // tracer for those: the shot's words lie in its first pages either way.
         let bytes = 4 * words.words.0.len() as u64;
-        let gpu = self.gpu.fitting(bytes.max(self.layout.bytes()))?;
+        let gpu = self
+            .gpu
+            .fitting(bytes.max(self.gpu.tracer().pages.bytes()))?;
         let pages = upload(&gpu, gpu.tracer().pages, "frame", &words.words)?;
         let scene = prepared.scene;
         let pixels = scene.output.width as usize * scene.output.height as usize;

@@ -13,10 +13,9 @@ pub(crate) struct Startup {
     /// Seconds to find the adapter and open the device and its pipeline cache.
     pub(crate) device_seconds: f64,
     /// Seconds to compile the tracers' shaders and create their pipelines, on their own
-    /// threads beside the shot's build and the first frame's preparation.
+    /// threads beside the shot's build.
     pub(crate) pipelines_seconds: f64,
-    /// Of those, the seconds the run waited for them (the rest overlapped the shot's build
-    /// and the first frame's preparation).
+    /// Of those, the seconds the run waited for them (the rest overlapped the shot's build).
     pub(crate) waited_seconds: f64,
     /// Whether the pipelines came from the cache on disk.
     pub(crate) cache: CacheUse,

@@ -105,8 +105,8 @@ impl Devices {
 
     /// The GPU and its start-up, as `--stats` says them once a run (`llvmpipe (...),
     /// start-up 0.180 s (...)`, [`Gpu::startup`]): the first time it is asked for once the
-    /// GPU is open, after a frame on it is rendered (its tracer compiled beside the shot's
-    /// build and the frame's preparation); None after, or without a GPU.
+    /// GPU is open, after a shot on it is made (its tracer compiled beside the shot's build);
+    /// None after, or without a GPU.
     pub fn gpu_startup_once(&self) -> Option<String> {
         use std::sync::atomic::Ordering;
         let g = self.gpu.as_ref()?;
