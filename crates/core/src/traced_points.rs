@@ -290,6 +290,43 @@ impl TracedPoints {
         }
         best
     }
+    /// [`TracedPoints::closest`] for up to [`PACKET`] rays that need not be coherent (the
+    /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
+    /// hits, each ray walking the hierarchy alone, the rays in turns
+    /// ([`BvhView::closest_hits_in_turns`]), so one ray's misses in a frame's millions of
+    /// records overlap the others' work.
+    #[inline]
+    pub(crate) fn closest_in_turns(
+        &self,
+        rays: &[Ray],
+        lanes: &[PacketRay],
+        dt: &[f64; PACKET],
+        skip: &[u32; PACKET],
+        mut t_max: [f64; PACKET],
+        stack: &mut TraversalStack,
+    ) -> [Option<PointHit>; PACKET] {
+        let mut best = [None; PACKET];
+        for g in &self.groups {
+            let found = g.view().closest_hits_in_turns(
+                lanes,
+                t_max,
+                stack,
+                TurnsTest {
+                    group: g,
+                    rays,
+                    dt,
+                    skip,
+                },
+            );
+            for r in 0..rays.len() {
+                if let Some((t, pos)) = found[r] {
+                    t_max[r] = t;
+                    best[r] = Some(g.hit(t, pos, dt[r]));
+                }
+            }
+        }
+        best
+    }
 }
 
 /// A group's points as one ray tests them, the sphere numbered `skip` left out.
@@ -330,6 +367,37 @@ impl PacketLeaves for PacketTest<'_> {
     fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64> {
         let g = self.group;
         let q = &g.records[pos as usize];
+        intersect(
+            g.center(q, self.dt[r]),
+            q.radius.into(),
+            &self.rays[r],
+            t_max,
+        )
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.group.prefetch(first, count);
+    }
+}
+
+/// A group's points as walks in turns test them: ray `r` at `dt[r]` after the opening, the
+/// sphere numbered `skip[r]` left out.
+struct TurnsTest<'a> {
+    group: &'a Group,
+    rays: &'a [Ray],
+    dt: &'a [f64; PACKET],
+    skip: &'a [u32; PACKET],
+}
+
+impl PacketLeaves for TurnsTest<'_> {
+    #[inline(always)]
+    fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64> {
+        let g = self.group;
+        let q = &g.records[pos as usize];
+        if q.id == self.skip[r] {
+            return None;
+        }
         intersect(
             g.center(q, self.dt[r]),
             q.radius.into(),
@@ -446,9 +514,9 @@ mod tests {
         }
     }
 
-    /// Every ray finds, alone and in packets, the point testing every point finds, at the
-    /// same distance bit for bit (the same centres, computed the same way), over moving and
-    /// still intervals.
+    /// Every ray finds, alone, in packets and walking in turns, the point testing every point
+    /// finds, at the same distance bit for bit (the same centres, computed the same way), over
+    /// moving and still intervals; skipping the point hit, the next one.
     #[test]
     fn finds_what_testing_every_point_finds() {
         let points = frame_points(3000, 5);
@@ -493,8 +561,22 @@ mod tests {
                 }
                 let packet =
                     traced.closest_packet(&rays, &lanes, &dt, [f64::INFINITY; PACKET], &mut stack);
+                let wants: Vec<_> = rays
+                    .iter()
+                    .map(|ray| brute(&points, 7, interval, ray))
+                    .collect();
+                let in_turns = |skip: &[u32; PACKET], stack: &mut TraversalStack| {
+                    traced
+                        .closest_in_turns(&rays, &lanes, &dt, skip, [f64::INFINITY; PACKET], stack)
+                        .map(|h| h.map(|h| (h.t, h.id)))
+                };
+                let turns = in_turns(&[u32::MAX; PACKET], &mut stack);
+                // Each ray skipping the point it hits (as a ray leaving it does).
+                let skip = std::array::from_fn(|k| wants[k].map_or(u32::MAX, |w| w.1));
+                let turns_skipping = in_turns(&skip, &mut stack);
                 for (k, ray) in rays.iter().enumerate() {
-                    let want = brute(&points, 7, interval, ray);
+                    let want = wants[k];
+                    assert_eq!(turns[k], want, "in turns: {ray:?}");
                     let alone = traced
                         .closest(ray, dt[k], lanes[k].s, u32::MAX, f64::INFINITY, &mut stack)
                         .map(|h| (h.t, h.id));
@@ -505,6 +587,7 @@ mod tests {
                     if let Some((_, id)) = want {
                         let next =
                             traced.closest(ray, dt[k], lanes[k].s, id, f64::INFINITY, &mut stack);
+                        assert_eq!(turns_skipping[k], next.map(|h| (h.t, h.id)), "{ray:?}");
                         let mut others = points.clone();
                         let (mut set, mut i) = (0, (id - 7) as usize);
                         while i >= others.sets[set].len() {

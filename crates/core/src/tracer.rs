@@ -61,6 +61,88 @@ pub(crate) fn radiance_packet<S: Sampler>(
     camera_radiance_packet(world, rays, at, max_depth, sampler, stats, false, |_, _| {})
 }
 
+/// [`radiance_packet`] with the paths' bounces traced together too: after the camera rays'
+/// first intersections, every bounce's rays of the paths still going are found at once
+/// ([`World::hit_in_turns`]: each ray walks alone, the rays in turns, so one ray's cache
+/// misses overlap the others' work). Each path takes its own sample's numbers, from its own
+/// copy of `sampler`. The same values, bit for bit, as [`radiance`] of each ray in turn.
+#[inline]
+pub(crate) fn radiance_in_turns<S: Sampler + Clone>(
+    world: &World,
+    rays: &[Ray],
+    (x, y, first_sample): (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+) -> [DVec3; PACKET] {
+    let mut found = world.hit_packet(rays, &mut stats.stack);
+    let mut out = [DVec3::ZERO; PACKET];
+    let mut throughput = [DVec3::ONE; PACKET];
+    let mut ray = [Ray {
+        origin: DVec3::ZERO,
+        dir: DVec3::ZERO,
+        time: 0.0,
+    }; PACKET];
+    // The sphere each ray just left through its outside, which it cannot hit again.
+    let mut skip = [u32::MAX; PACKET];
+    let mut samplers: [S; PACKET] = std::array::from_fn(|_| sampler.clone());
+    // The paths still going, a bit each.
+    let mut going = 0u32;
+    for (k, r) in rays.iter().enumerate() {
+        samplers[k].start_sample(x, y, first_sample + k as u32);
+        ray[k] = *r;
+        if r.origin.is_finite() && r.dir.is_finite() && r.time.is_finite() {
+            going |= 1 << k;
+        } else {
+            out[k] = DVec3::NAN;
+        }
+    }
+    for depth in 0..max_depth {
+        let mut bits = going;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            stats.rays += 1;
+            let Some(hit) = found[k].take() else {
+                out[k] = throughput[k] * world.background.radiance(ray[k].dir);
+                going &= !(1 << k);
+                continue;
+            };
+            match bounce(
+                &hit,
+                &ray[k],
+                &mut samplers[k],
+                &mut throughput[k],
+                &mut skip[k],
+            ) {
+                Some(next) => ray[k] = next,
+                None => going &= !(1 << k),
+            }
+        }
+        if going == 0 || depth + 1 == max_depth {
+            break;
+        }
+        // The next bounce's rays of the paths still going, side by side.
+        let mut path = [0usize; PACKET];
+        let mut next = [ray[0]; PACKET];
+        let mut next_skip = [u32::MAX; PACKET];
+        let mut n = 0;
+        let mut bits = going;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            (path[n], next[n], next_skip[n]) = (k, ray[k], skip[k]);
+            n += 1;
+        }
+        let hits = world.hit_in_turns(&next[..n], &next_skip, &mut stats.stack);
+        for (k, hit) in path[..n].iter().zip(hits) {
+            found[*k] = hit;
+        }
+    }
+    // A path still going after `max_depth` bounces returns black (`out` is zero).
+    out
+}
+
 /// [`radiance_packet`] handing each camera ray's first intersection to `first` (with the
 /// ray's index in `rays`); with `transparent`, a camera ray that misses every sphere returns
 /// black. Otherwise the same values, bit for bit, as [`radiance`] of each ray in turn.
@@ -134,21 +216,39 @@ fn trace<S: Sampler, F: FnOnce(Option<&Hit>)>(
             }
             return throughput * world.background.radiance(ray.dir);
         };
-        let sample: BounceSample = sampler.next_bounce();
-        match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
-            Scatter::Absorbed => return DVec3::ZERO,
-            Scatter::Continue {
-                dir,
-                attenuation,
-                leaves_outside,
-            } => {
-                throughput *= attenuation;
-                skip = if leaves_outside { hit.sphere } else { u32::MAX };
-                ray = scattered(&hit, dir, ray.time);
-            }
+        match bounce(&hit, &ray, sampler, &mut throughput, &mut skip) {
+            Some(next) => ray = next,
+            None => return DVec3::ZERO,
         }
     }
     DVec3::ZERO
+}
+
+/// A path's bounce at `hit` of `ray`: the sample's next bounce numbers scatter the ray, the
+/// path's `throughput` takes the attenuation, and `skip` the sphere the new ray cannot hit
+/// again (the one it leaves through its outside). The new ray, or `None` where the path is
+/// absorbed.
+#[inline(always)]
+fn bounce<S: Sampler>(
+    hit: &Hit,
+    ray: &Ray,
+    sampler: &mut S,
+    throughput: &mut DVec3,
+    skip: &mut u32,
+) -> Option<Ray> {
+    let sample: BounceSample = sampler.next_bounce();
+    match hit.material.scatter(ray.dir, hit.surface.normal, sample) {
+        Scatter::Absorbed => None,
+        Scatter::Continue {
+            dir,
+            attenuation,
+            leaves_outside,
+        } => {
+            *throughput *= attenuation;
+            *skip = if leaves_outside { hit.sphere } else { u32::MAX };
+            Some(scattered(hit, dir, ray.time))
+        }
+    }
 }
 
 /// The ray scattered from `hit` in direction `dir`, offset off the surface.
@@ -279,6 +379,86 @@ mod tests {
             assert!(radiance(&world, ray, 8, &mut sampler, &mut stats).is_nan());
         }
         assert_eq!(stats.rays, 0);
+    }
+
+    /// The room with a cloud of moving points in it, some coloured, over a shutter.
+    fn room_with_points(n: usize) -> (Scene, crate::points::FramePoints) {
+        use crate::points::{FramePoints, PointSet};
+        let mut scene = room();
+        scene.shot.shutter = 0.02;
+        let mut r = Pcg32::new(4, 4);
+        let mut u = || (r.next_f64() * 2.0 - 1.0) as f32;
+        let set = |material, colors: bool, u: &mut dyn FnMut() -> f32| PointSet {
+            material,
+            time: 0.0,
+            centers: (0..n)
+                .map(|_| glam::Vec3::new(u(), u(), u()) * 5.0)
+                .collect(),
+            velocities: (0..n)
+                .map(|_| glam::Vec3::new(u(), u(), u()) * 10.0)
+                .collect(),
+            radii: (0..n).map(|_| 0.02 + 0.1 * u().abs()).collect(),
+            radius: 0.1,
+            colors: if colors {
+                (0..n).map(|_| [u().abs(), u().abs(), u().abs()]).collect()
+            } else {
+                Vec::new()
+            },
+        };
+        let points = FramePoints {
+            sets: vec![set(0, true, &mut u), set(2, false, &mut u)],
+        };
+        (scene, points)
+    }
+
+    /// A pixel's paths traced together, their bounces walking the points in turns, give what
+    /// each path gives alone, bit for bit, with each sampler: up to a packet of rays, from
+    /// inside the room through a cloud of moving points, a ray that is not finite among them.
+    #[test]
+    fn paths_in_turns_give_what_each_gives_alone() {
+        fn check(mut sampler: impl Sampler + Clone) {
+            let (scene, points) = room_with_points(4000);
+            let statics = StaticGeometry::new(&scene);
+            let world = World::prepare_with(&scene, &statics, &points, scene.shot.interval(1));
+            assert!(world.takes_turns());
+            let mut r = Pcg32::new(7, 1);
+            let mut stats = TraceStats::default();
+            let (mut together, mut alone) = (0, 0);
+            for pixel in 0..300u32 {
+                let n = 1 + pixel as usize % PACKET;
+                let rays: Vec<Ray> = (0..n)
+                    .map(|k| Ray {
+                        origin: if pixel % 17 == 3 && k == 0 {
+                            DVec3::NAN
+                        } else {
+                            DVec3::new(0.0, 0.0, 4.0)
+                        },
+                        dir: crate::material::unit_vector((r.next_f64(), r.next_f64())),
+                        time: 0.02 * r.next_f64(),
+                    })
+                    .collect();
+                let before = stats.rays;
+                let got =
+                    radiance_in_turns(&world, &rays, (pixel, 1, 0), 12, &mut sampler, &mut stats);
+                together += stats.rays - before;
+                for (k, ray) in rays.iter().enumerate() {
+                    sampler.start_sample(pixel, 1, k as u32);
+                    let before = stats.rays;
+                    let want = radiance(&world, *ray, 12, &mut sampler, &mut stats);
+                    alone += stats.rays - before;
+                    assert_eq!(
+                        got[k].to_array().map(f64::to_bits),
+                        want.to_array().map(f64::to_bits),
+                        "pixel {pixel} ray {k}"
+                    );
+                }
+            }
+            // The same rays counted, many of them bounces.
+            assert_eq!(together, alone);
+            assert!(together > 3 * 300 * 4, "{together}");
+        }
+        check(IndependentSampler::new(3, 1));
+        check(SobolSampler::new(3, 1));
     }
 
     #[test]

@@ -456,6 +456,80 @@ impl<'a> World<'a> {
         self.hit_of(ray, dt, point, found, still)
     }
 
+    /// Whether the paths of a pixel's samples are traced bounce by bounce together, their
+    /// rays walking the points in turns ([`World::hit_in_turns`]): where the frame has points,
+    /// whose hierarchy is far larger than the cache (0.82 of the whole process's time on a
+    /// frame of ten million points). Spheres walk alone: on `generate --spheres 1000000
+    /// --moving 0.5` turns took 1.2 times the render's time.
+    pub(crate) fn takes_turns(&self) -> bool {
+        !self.points.is_empty()
+    }
+
+    /// [`World::hit`] of up to [`PACKET`] rays at once that need not be coherent (the
+    /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
+    /// hits. The spheres are searched ray by ray; the points, whose hierarchy is far larger
+    /// than the cache, by walks in turns ([`TracedPoints::closest_in_turns`]).
+    pub(crate) fn hit_in_turns(
+        &self,
+        rays: &[Ray],
+        skip: &[u32; PACKET],
+        stack: &mut TraversalStack,
+    ) -> [Option<Hit>; PACKET] {
+        let mut still = [None; PACKET];
+        let mut found = [None; PACKET];
+        let mut t_max = [f64::INFINITY; PACKET];
+        let mut dt = [0.0; PACKET];
+        let mut lanes = [PacketRay {
+            origin: DVec3::ZERO,
+            dir: DVec3::ZERO,
+            s: 0.0,
+        }; PACKET];
+        for (r, ray) in rays.iter().enumerate() {
+            still[r] = self.statics.closest(ray, skip[r], stack);
+            t_max[r] = still[r].map_or(f64::INFINITY, |b: (f64, u32)| b.0);
+            dt[r] = ray.time - self.interval.open;
+            lanes[r] = PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s: self.shutter_fraction(dt[r]),
+            };
+            if !self.animated.is_empty() {
+                let bvh = BvhView::new(&self.animated_topology, &self.animated_boxes);
+                found[r] = bvh.closest_hit(
+                    ray.origin,
+                    ray.dir,
+                    lanes[r].s,
+                    t_max[r],
+                    stack,
+                    #[inline(always)]
+                    |i, t_max| {
+                        let p = &self.animated[i as usize];
+                        if p.id == skip[r] {
+                            return None;
+                        }
+                        intersect(
+                            p.center_at(&self.motions, dt[r], ray.time),
+                            p.radius,
+                            ray,
+                            t_max,
+                        )
+                    },
+                );
+                t_max[r] = found[r].map_or(t_max[r], |f: (f64, u32)| f.0);
+            }
+        }
+        let points = if self.points.is_empty() {
+            [None; PACKET]
+        } else {
+            self.points
+                .closest_in_turns(rays, &lanes[..rays.len()], &dt, skip, t_max, stack)
+        };
+        std::array::from_fn(|r| {
+            let ray = rays.get(r)?;
+            self.hit_of(ray, dt[r], points[r], found[r], still[r])
+        })
+    }
+
     /// The ray's time as a fraction of the shutter (`dt` seconds after its opening), for the
     /// interpolated boxes.
     #[inline]

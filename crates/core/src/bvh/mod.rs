@@ -35,10 +35,14 @@
 //!   closing, straight into 8-wide nodes, reordering the primitives into leaf order;
 //! - `refit`: the nodes' boxes from the primitives', bottom up (after a build, or a refit);
 //! - `slab`: a ray against a node's eight boxes at once, in `f32` lanes or in `f64`;
-//! - `stack`: [`TraversalStack`], the fixed stacks of a ray's and a packet's traversal;
+//! - `stack`: [`TraversalStack`], the fixed stacks of a ray's walk, a packet's traversal and
+//!   walks in turns;
 //! - `leaves`: [`Leaves`], what a traversal tests in its leaves, and a hint to load a leaf
 //!   early;
-//! - `traverse`: [`BvhView`], the nearest-hit traversal;
+//! - `walks`: one ray's walk to its nearest hit, a node or a leaf a step; up to a packet's
+//!   rays walked in turns, so that one ray's loads overlap the others' work (for hierarchies
+//!   far larger than the cache);
+//! - `traverse`: [`BvhView`], the nearest hit of one ray (its walk, step after step);
 //! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes;
 //! - `export`: a node's children and their boxes read one by one ([`Child`]), for copies of a
@@ -58,6 +62,7 @@ mod slab;
 mod stack;
 mod topology;
 mod traverse;
+mod walks;
 
 #[cfg(test)]
 mod tests;

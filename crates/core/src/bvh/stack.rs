@@ -1,9 +1,11 @@
 //! The scratch space of traversals ([`TraversalStack`]): the fixed stack of one ray's walk
-//! (`traverse`) and that of a packet's (`packet`), made once per thread of work.
+//! (`walks`), that of a packet's (`packet`), and those of walks in turns, made once per thread
+//! of work.
 
 use super::build::MAX_SAH_DEPTH;
 use super::lanes::LANES;
 use super::links::Links;
+use super::walks::WalkStack;
 
 /// The most rays in a packet.
 pub(crate) const PACKET: usize = 8;
@@ -14,31 +16,30 @@ pub(super) const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
 
 /// Scratch space for traversals. Made once per thread of work and reused for every ray:
 /// clearing a fresh stack array per ray cost about 8% of a render.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct TraversalStack {
-    /// A child slot ([`COUNT_SHIFT`]): a node index, or a leaf's first position and count.
+    /// The stack of one ray's walk ([`BvhView::closest_hit`]).
     ///
-    /// [`COUNT_SHIFT`]: super::links::COUNT_SHIFT
-    pub(super) entry: [u32; STACK],
-    /// For a node entry, its children, read from the topology when the entry is pushed.
-    pub(super) links: [Links; STACK],
-    /// The ray's entry distance into the entry's box: entries beyond the nearest hit so far
-    /// are skipped.
-    pub(super) near: [f32; STACK],
+    /// [`BvhView::closest_hit`]: super::BvhView::closest_hit
+    pub(super) walk: WalkStack,
     /// The stack of packet traversals ([`BvhView::closest_hits`]).
     ///
     /// [`BvhView::closest_hits`]: super::BvhView::closest_hits
     pub(super) packet: PacketStack,
+    /// The stacks of the walks taken in turns ([`BvhView::closest_hits_in_turns`]), one a
+    /// ray; made at the first such walk (a frame without points never needs them).
+    ///
+    /// [`BvhView::closest_hits_in_turns`]: super::BvhView::closest_hits_in_turns
+    walks: Vec<WalkStack>,
 }
 
-impl Default for TraversalStack {
-    fn default() -> Self {
-        TraversalStack {
-            entry: [0; STACK],
-            links: [Links::default(); STACK],
-            near: [0.0; STACK],
-            packet: PacketStack::default(),
+impl TraversalStack {
+    /// The stacks of [`PACKET`] walks taken in turns.
+    pub(super) fn walks(&mut self) -> &mut [WalkStack] {
+        if self.walks.is_empty() {
+            self.walks = vec![WalkStack::default(); PACKET];
         }
+        &mut self.walks
     }
 }
 

@@ -142,6 +142,15 @@ fn non_finite_rays_and_boxes_find_nothing() {
         });
         assert_eq!(got, [None; super::PACKET]);
         assert!(visits.iter().all(|&v| v <= n), "{visits:?} of {n}");
+        // And for rays walking in turns.
+        let mut visits = [0usize; super::PACKET];
+        let got =
+            view.closest_hits_in_turns(&rays, [inf; super::PACKET], &mut stack, |lane, _, _| {
+                visits[lane] += 1;
+                None
+            });
+        assert_eq!(got, [None; super::PACKET]);
+        assert!(visits.iter().all(|&v| v <= n), "{visits:?} of {n}");
     }
 }
 
@@ -414,12 +423,13 @@ fn bytes_per_primitive_bounds_a_moving_hierarchy() {
     }
 }
 
-/// A packet of rays finds, ray for ray, the hit each finds alone: coherent packets (from
+/// A packet of rays, and as many rays walking in turns, find, ray for ray, the hit each finds
+/// alone: coherent packets (from
 /// around one point towards around another, as a pixel's camera rays) and random ones, some
 /// lanes with bounds on the distance, axis-parallel, tiny-direction or non-finite rays among
 /// them, packets of one to eight rays; still, moving and refitted hierarchies; every kernel.
 #[test]
-fn packets_find_what_each_ray_finds_alone() {
+fn packets_and_turns_find_what_each_ray_finds_alone() {
     use super::lanes::{Lanes, Plain};
     use super::packet::PacketRay;
     use super::stack::PACKET;
@@ -449,6 +459,11 @@ fn packets_find_what_each_ray_finds_alone() {
         let got = view.closest_hits_on(m, &packet, t_max, stack, |lane: usize, p: u32, t: f64| {
             test(&rays[lane], p, t)
         });
+        let turns =
+            view.closest_hits_in_turns_on(m, &packet, t_max, stack, |lane: usize, p: u32, t| {
+                test(&rays[lane], p, t)
+            });
+        assert_eq!(got, turns, "in turns");
         let mut hits = 0;
         for (lane, ray) in rays.iter().enumerate() {
             let alone = view.closest_hit_on(

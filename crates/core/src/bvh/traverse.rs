@@ -1,15 +1,16 @@
-//! Walking a hierarchy: the nearest hit along a ray, children visited nearest first, with a
-//! fixed stack; eight children tested at once, on the machine's widest lanes.
+//! A hierarchy as a traversal reads it ([`BvhView`]), and the nearest hit along one ray: the
+//! ray made once for the machine's widest lanes (eight children tested at once), then its
+//! walk (`walks.rs`), step after step.
 
 use glam::DVec3;
 
 use super::boxes::Boxes;
-use super::lanes::{LANES, Lanes};
+use super::lanes::Lanes;
 use super::leaves::Leaves;
-use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
-use super::slab::{RayF64, RayLanes, SlabTest, widened_limit};
+use super::slab::{RayF64, RayLanes, SlabTest};
 use super::stack::TraversalStack;
 use super::topology::Topology;
+use super::walks::Walk;
 
 /// A topology with boxes computed for it (by its build or by [`Topology::refit_moving`]), as
 /// a traversal reads them.
@@ -112,127 +113,29 @@ impl<'a> BvhView<'a> {
             return None;
         }
         match RayLanes::new(m, origin, dir, s) {
-            Some(ray) => self.traverse(stack, t_max, leaves, &ray),
+            Some(ray) => self.traverse(m, stack, t_max, leaves, ray),
             // Rare: an origin beyond 1e30 or a direction with a component below 1e-30 (an
             // axis-parallel ray), whose reciprocal has no `f32`.
             None => {
                 let ray = RayF64::new(origin, dir, s);
-                self.traverse(stack, t_max, leaves, &ray)
+                self.traverse(m, stack, t_max, leaves, ray)
             }
         }
     }
 
-    /// The traversal of [`BvhView::closest_hit`], with `test(node, limit)` the slab test of
-    /// the children of `node`: a bit per child the ray may enter before `limit` (a bound on
-    /// the distance, [`widened_limit`]), and its entry distance (at most the true one).
-    ///
-    /// One function on purpose: its steps are named by the comments inside (see
-    /// [`BvhView::closest_hits_on`] for what splitting the traversals cost).
+    /// The traversal of [`BvhView::closest_hit`]: one ray's [`Walk`], its steps one after
+    /// another (walks in turns, `walks.rs`, interleave several).
     #[inline(always)]
-    fn traverse(
+    fn traverse<M: Lanes>(
         &self,
+        m: M,
         stack: &mut TraversalStack,
-        mut t_max: f64,
+        t_max: f64,
         leaves: &mut impl Leaves,
-        ray: &impl SlabTest,
+        ray: impl SlabTest,
     ) -> Option<(f64, u32)> {
-        let links = &self.topology.links[..];
-        let mut limit = widened_limit(t_max);
-        let mut best = None;
-        let mut sp = 0usize;
-        let mut current = 0usize;
-        let mut node = links[0];
-        loop {
-            let (mask, near) = ray.test(self.boxes, current, limit, t_max);
-            // Every child entered is asked for now, a node's boxes or a leaf's primitives:
-            // the loads overlap this node's sorting and pushing and the descent, where a
-            // hierarchy far larger than the cache would wait for each (a fifth of a render
-            // of a million points).
-            let mut bits = mask;
-            while bits != 0 {
-                let w = node.child[bits.trailing_zeros() as usize];
-                bits &= bits - 1;
-                match w >> COUNT_SHIFT {
-                    0 => ray.prefetch(self.boxes, w as usize),
-                    count => leaves.prefetch(w & POSITION_MASK, count),
-                }
-            }
-            // The child to go to next (a child slot, 0 for none): the nearest child hit. The
-            // others are pushed, nearest last, so the nearest of them is popped first.
-            let mut next = 0;
-            if mask & mask.wrapping_sub(1) == 0 {
-                // None or one: nothing to sort or push (the most frequent cases).
-                if mask != 0 {
-                    next = node.child[mask.trailing_zeros() as usize];
-                }
-            } else {
-                // Sorted farthest first: an insertion sort of the children hit.
-                let mut hits = [0usize; LANES];
-                let mut n = 0;
-                let mut bits = mask;
-                while bits != 0 {
-                    let k = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let mut j = n;
-                    while j > 0 && near[hits[j - 1]] < near[k] {
-                        hits[j] = hits[j - 1];
-                        j -= 1;
-                    }
-                    hits[j] = k;
-                    n += 1;
-                }
-                for &k in &hits[..n - 1] {
-                    let w = node.child[k];
-                    // A node's children are read now, when it is pushed, not when it is
-                    // visited: the load then overlaps the rest of this node's work instead
-                    // of delaying the child's, which measured a few percent faster than
-                    // reading them at the visit. A leaf reads the root's (always cached)
-                    // without a branch.
-                    stack.links[sp] = links_of(links, w);
-                    stack.entry[sp] = w;
-                    stack.near[sp] = near[k];
-                    sp += 1;
-                }
-                next = node.child[hits[n - 1]];
-            }
-            // Its children, if it is a node (a leaf reads the root's).
-            let mut next_links = links_of(links, next);
-            // Intersect leaves until an inner node to descend into, popping the stack.
-            loop {
-                let count = next >> COUNT_SHIFT;
-                if count == 0 {
-                    // An empty slot (0), entered only through NaN boxes, would read as the
-                    // root, and descending into it would push the root again and again until
-                    // the stack overflowed. Skipped, every descent is one level down, so the
-                    // stack holds at most 7 entries per level of a tree `STACK` is sized for.
-                    if next != 0 {
-                        current = next as usize;
-                        node = next_links;
-                        break;
-                    }
-                } else {
-                    let first = next & POSITION_MASK;
-                    for pos in first..first + count {
-                        if let Some(t) = leaves.hit(pos, t_max) {
-                            t_max = t;
-                            limit = widened_limit(t);
-                            best = Some((t, pos));
-                        }
-                    }
-                }
-                // Pop the nearest child pushed that may still hold a nearer hit.
-                loop {
-                    if sp == 0 {
-                        return best;
-                    }
-                    sp -= 1;
-                    if stack.near[sp] <= limit {
-                        next = stack.entry[sp];
-                        next_links = stack.links[sp];
-                        break;
-                    }
-                }
-            }
-        }
+        let mut walk = Walk::new(ray, t_max);
+        while walk.step(m, self, &mut stack.walk, leaves) {}
+        walk.best
     }
 }

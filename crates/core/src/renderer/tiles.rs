@@ -17,7 +17,9 @@ use crate::prepared::PreparedFrame;
 use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
-use crate::tracer::{TraceStats, camera_radiance_packet, radiance, radiance_packet};
+use crate::tracer::{
+    TraceStats, camera_radiance_packet, radiance, radiance_in_turns, radiance_packet,
+};
 
 /// The settings of one frame, copied from the scene's (`[output]` size, `[render]` samples
 /// and depth) so the per-sample loop reads them from one small struct; the sampler's are the
@@ -58,7 +60,7 @@ impl CpuFrame<'_> {
     /// The camera rays of a packet are made in this loop, not in a function of their own:
     /// split out (commit 1969e91), the same frames rendered about 1% slower (held-out books'
     /// scene, 400x225, 100 spp, 2 cores, user time of 11 runs each).
-    fn sample_tile<S: Sampler>(
+    fn sample_tile<S: Sampler + Clone>(
         &self,
         sampler: &mut S,
         tile: &mut FilmTile,
@@ -75,6 +77,13 @@ impl CpuFrame<'_> {
         // from the tracer, in a function of its own (`observed_packet`), so that this loop
         // is compiled for frames without them as it would be without passes at all.
         let observed = self.passes.is_some() || prepared.scene.transparent;
+        let tracing = if observed {
+            Tracing::Observed
+        } else if prepared.world.takes_turns() {
+            Tracing::InTurns
+        } else {
+            Tracing::Packets
+        };
         let stride = self.passes.as_ref().map_or(0, |p| p.layout.stride);
         let mut targets = Vec::with_capacity(tile.pixels.len());
         plan.targets(&tile.rect, tile.pixels, &mut targets);
@@ -89,7 +98,9 @@ impl CpuFrame<'_> {
             let mut s = acc.taken();
             while s < target {
                 // A pixel's camera rays go in packets of up to `PACKET` samples: coherent
-                // rays, one traversal (`radiance_packet`, the same values as one by one).
+                // rays, one traversal (`radiance_packet`, the same values as one by one). In
+                // a frame with points, whose hierarchy dwarfs the cache, the packet's paths
+                // go on together, bounce by bounce (`radiance_in_turns`).
                 let n = (target - s).min(PACKET as u32);
                 let mut rays = [Ray {
                     origin: DVec3::ZERO,
@@ -118,21 +129,22 @@ impl CpuFrame<'_> {
                     *ray = view.ray(x, y, camera.pixel, camera.lens, time);
                 }
                 let rays = &rays[..n as usize];
-                let v = if observed {
-                    self.observed_packet(rays, &views, (x, y, s), sampler, &mut stats, sums)
-                } else if n == 1 {
-                    let mut v = [DVec3::ZERO; PACKET];
-                    v[0] = radiance(&prepared.world, rays[0], req.max_depth, sampler, &mut stats);
-                    v
-                } else {
-                    radiance_packet(
-                        &prepared.world,
-                        rays,
-                        (x, y, s),
-                        req.max_depth,
-                        sampler,
-                        &mut stats,
-                    )
+                let (world, depth, at) = (&prepared.world, req.max_depth, (x, y, s));
+                let v = match tracing {
+                    Tracing::Observed => {
+                        self.observed_packet(rays, &views, at, sampler, &mut stats, sums)
+                    }
+                    _ if n == 1 => {
+                        let mut v = [DVec3::ZERO; PACKET];
+                        v[0] = radiance(world, rays[0], depth, sampler, &mut stats);
+                        v
+                    }
+                    Tracing::InTurns => {
+                        radiance_in_turns(world, rays, at, depth, sampler, &mut stats)
+                    }
+                    Tracing::Packets => {
+                        radiance_packet(world, rays, at, depth, sampler, &mut stats)
+                    }
                 };
                 for v in &v[..n as usize] {
                     if !acc.add(*v) {
@@ -212,4 +224,17 @@ impl FrameTracer for CpuFrame<'_> {
             .reduce(RoundCounts::default, RoundCounts::plus);
         Ok(counts)
     }
+}
+
+/// How a tile's samples are traced, settled once a tile.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Tracing {
+    /// Camera rays in packets, each path then alone ([`radiance_packet`]).
+    Packets,
+    /// As `Packets`, each camera ray's first hit handed to the passes or the transparent
+    /// background ([`camera_radiance_packet`]).
+    Observed,
+    /// Camera rays in packets, then the paths bounce by bounce together, their rays walking
+    /// the hierarchies in turns ([`radiance_in_turns`]).
+    InTurns,
 }

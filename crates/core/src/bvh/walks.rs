@@ -1,0 +1,276 @@
+//! One ray's walk through a hierarchy ([`Walk`]): the nearest hit, children visited nearest
+//! first, with a fixed stack, one node or one leaf a step. [`BvhView::closest_hit`] takes the
+//! steps one after another; [`BvhView::closest_hits_in_turns`] walks up to [`PACKET`] rays at
+//! once, each alone, taking one step of each in turn, so the memory one ray's next step needs
+//! loads while the others work.
+//!
+//! Every step asks for what the ray may read next (the boxes and children of every node child
+//! it enters, the primitives of every leaf child), a few dozen instructions before a lone
+//! walk reads the nearest of them. On a frame of ten million points (0.8 GB of nodes and
+//! records) nearly every such read misses the cache, and a lone walk is a chain of misses,
+//! one after another. In turns the misses of up to eight walks are in flight at once
+//! (memory-level parallelism, as Kocberber et al. 2015, "Asynchronous Memory Access
+//! Chaining", interleave hash-table probes); rays that are not coherent (the bounces of a
+//! pixel's samples) gain as much as coherent ones, as nothing is shared but the turns.
+//!
+//! A walk in turns takes the same steps, in the same order, as the ray's walk alone: the same
+//! hit, distance for distance (a test checks). Where the hierarchy fits in the cache there is
+//! nothing to wait for and the turns only cost, so the caller chooses
+//! ([`crate::world::World`] takes turns for point caches).
+
+use glam::DVec3;
+
+use super::lanes::{LANES, Lanes};
+use super::leaves::{Leaves, OneOf, PacketLeaves};
+use super::links::{COUNT_SHIFT, POSITION_MASK};
+use super::packet::PacketRay;
+use super::slab::{RayLanes, SlabTest, widened_limit};
+use super::stack::{PACKET, STACK, TraversalStack};
+use super::traverse::BvhView;
+
+/// The stack of one ray's walk: per entry, the child slot (a node index, or a leaf's first
+/// position and count) and the ray's entry distance into it. A node's children are read
+/// when it is visited: asked for when its parent was tested, they have landed by then (read
+/// at the push instead, into the stack, measured the same on the books' scene, and the stack
+/// is then a fifth of the size).
+#[derive(Clone, Debug)]
+pub(super) struct WalkStack {
+    entry: [u32; STACK],
+    near: [f32; STACK],
+}
+
+impl Default for WalkStack {
+    fn default() -> Self {
+        WalkStack {
+            entry: [0; STACK],
+            near: [0.0; STACK],
+        }
+    }
+}
+
+/// One ray's walk in progress: its nearest hit so far, and the entry it visits next.
+pub(super) struct Walk<R> {
+    ray: R,
+    t_max: f64,
+    limit: f32,
+    pub(super) best: Option<(f64, u32)>,
+    /// Entries on the ray's stack.
+    sp: usize,
+    /// The child slot visited next: a node (the root, 0, at the start) or a leaf.
+    next: u32,
+}
+
+impl<R: SlabTest> Walk<R> {
+    /// A walk from a hierarchy's root, for hits before `t_max`.
+    #[inline(always)]
+    pub(super) fn new(ray: R, t_max: f64) -> Walk<R> {
+        Walk {
+            ray,
+            t_max,
+            limit: widened_limit(t_max),
+            best: None,
+            sp: 0,
+            next: 0,
+        }
+    }
+
+    /// Visits the next entry: tests a node's children, asking for the memory of every child
+    /// the ray enters and going on to the nearest (the others pushed, nearest last, so the
+    /// nearest of them is popped first), or tests a leaf's primitives and pops the nearest
+    /// entry pushed that may still hold a nearer hit. Returns whether anything is left.
+    ///
+    /// Alone (`BvhView::closest_hit`) the steps follow one another; walks in turns
+    /// ([`BvhView::closest_hits_in_turns`]) take one step each in turn.
+    #[inline(always)]
+    pub(super) fn step<M: Lanes>(
+        &mut self,
+        m: M,
+        view: &BvhView<'_>,
+        stack: &mut WalkStack,
+        leaves: &mut impl Leaves,
+    ) -> bool {
+        let next = self.next;
+        let count = next >> COUNT_SHIFT;
+        if count != 0 {
+            let first = next & POSITION_MASK;
+            for pos in first..first + count {
+                if let Some(t) = leaves.hit(pos, self.t_max) {
+                    self.t_max = t;
+                    self.limit = widened_limit(t);
+                    self.best = Some((t, pos));
+                }
+            }
+            return self.pop(stack);
+        }
+        let links = &view.topology.links[..];
+        let current = next as usize;
+        let node = links[current];
+        let (mask, near) = self.ray.test(view.boxes, current, self.limit, self.t_max);
+        // Every child entered is asked for now, a node's boxes and children or a leaf's
+        // primitives: the loads overlap this node's sorting and pushing and the descent (and
+        // other rays' steps), where a hierarchy far larger than the cache would wait for each
+        // (a fifth of a render of a million points).
+        let mut bits = mask;
+        while bits != 0 {
+            let w = node.child[bits.trailing_zeros() as usize];
+            bits &= bits - 1;
+            match w >> COUNT_SHIFT {
+                0 => {
+                    self.ray.prefetch(view.boxes, w as usize);
+                    if let Some(l) = links.get(w as usize) {
+                        m.prefetch(l);
+                    }
+                }
+                count => leaves.prefetch(w & POSITION_MASK, count),
+            }
+        }
+        if mask & mask.wrapping_sub(1) == 0 {
+            // None or one: nothing to sort or push (the most frequent cases).
+            self.next = if mask != 0 {
+                node.child[mask.trailing_zeros() as usize]
+            } else {
+                0
+            };
+        } else {
+            // Sorted farthest first: an insertion sort of the children hit.
+            let mut hits = [0usize; LANES];
+            let mut n = 0;
+            let mut bits = mask;
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let mut j = n;
+                while j > 0 && near[hits[j - 1]] < near[k] {
+                    hits[j] = hits[j - 1];
+                    j -= 1;
+                }
+                hits[j] = k;
+                n += 1;
+            }
+            for &k in &hits[..n - 1] {
+                let w = node.child[k];
+                stack.entry[self.sp] = w;
+                stack.near[self.sp] = near[k];
+                self.sp += 1;
+            }
+            self.next = node.child[hits[n - 1]];
+        }
+        // An empty slot (0), entered only through NaN boxes, would read as the root, and
+        // descending into it would push the root again and again until the stack overflowed.
+        // Skipped, every descent is one level down, so the stack holds at most 7 entries per
+        // level of a tree `STACK` is sized for.
+        self.next != 0 || self.pop(stack)
+    }
+
+    /// Pops the nearest entry pushed that may still hold a nearer hit (empty slots skipped);
+    /// returns whether there was one.
+    #[inline(always)]
+    fn pop(&mut self, stack: &WalkStack) -> bool {
+        while self.sp > 0 {
+            self.sp -= 1;
+            if stack.near[self.sp] <= self.limit && stack.entry[self.sp] != 0 {
+                self.next = stack.entry[self.sp];
+                return true;
+            }
+        }
+        false
+    }
+}
+
+impl BvhView<'_> {
+    /// [`BvhView::closest_hit`] for up to [`PACKET`] rays, walked in turns (see the module's
+    /// documentation): per ray `r` of `rays`, the closest primitive it hits at `t` in `(0,
+    /// t_max[r])`, with `leaves` the primitive test of ray `r`. The same hits, distance for
+    /// distance, as one call of `closest_hit` per ray; faster where the hierarchy is far
+    /// larger than the cache, slower where it fits.
+    #[inline]
+    pub(crate) fn closest_hits_in_turns(
+        &self,
+        rays: &[PacketRay],
+        t_max: [f64; PACKET],
+        stack: &mut TraversalStack,
+        leaves: impl PacketLeaves,
+    ) -> [Option<(f64, u32)>; PACKET] {
+        assert!(rays.len() <= PACKET, "more rays than walk in turns");
+        if self.topology.links.is_empty() {
+            return [None; PACKET];
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            use super::lanes::{Avx, Sse};
+            match pulp::x86::V3::try_new() {
+                Some(v3) => {
+                    let t_max = &t_max;
+                    v3.vectorize(
+                        #[inline(always)]
+                        move || self.closest_hits_in_turns_on(Avx(v3), rays, *t_max, stack, leaves),
+                    )
+                }
+                None => self.closest_hits_in_turns_on(Sse, rays, t_max, stack, leaves),
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.closest_hits_in_turns_on(super::lanes::Plain, rays, t_max, stack, leaves)
+    }
+
+    /// [`BvhView::closest_hits_in_turns`] on the lanes of machine `m`.
+    #[inline(always)]
+    pub(super) fn closest_hits_in_turns_on<M: Lanes>(
+        &self,
+        m: M,
+        rays: &[PacketRay],
+        t_max: [f64; PACKET],
+        stack: &mut TraversalStack,
+        mut leaves: impl PacketLeaves,
+    ) -> [Option<(f64, u32)>; PACKET] {
+        let mut best = [None; PACKET];
+        let placeholder = RayLanes::new(m, DVec3::ZERO, DVec3::ONE, 0.0).expect("a plain ray");
+        let mut walks = [(); PACKET].map(|_| Walk::new(placeholder, 0.0));
+        let mut active = 0u32;
+        for (r, ray) in rays.iter().enumerate() {
+            // Non-finite rays find nothing, as alone.
+            if !(ray.origin.is_finite() && ray.dir.is_finite() && !ray.s.is_nan()) {
+                continue;
+            }
+            match RayLanes::new(m, ray.origin, ray.dir, ray.s) {
+                Some(lanes) => {
+                    walks[r] = Walk::new(lanes, t_max[r]);
+                    active |= 1 << r;
+                }
+                // The rare ray the `f32` test cannot take walks alone.
+                None => {
+                    best[r] = self.closest_hit_on(
+                        m,
+                        ray.origin,
+                        ray.dir,
+                        ray.s,
+                        t_max[r],
+                        stack,
+                        &mut OneOf {
+                            packet: &mut leaves,
+                            r,
+                        },
+                    )
+                }
+            }
+        }
+        let stacks = stack.walks();
+        // The turns: each ray still walking takes one step.
+        while active != 0 {
+            let mut bits = active;
+            while bits != 0 {
+                let r = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let mut leaves = OneOf {
+                    packet: &mut leaves,
+                    r,
+                };
+                if !walks[r].step(m, self, &mut stacks[r], &mut leaves) {
+                    active &= !(1 << r);
+                    best[r] = walks[r].best;
+                }
+            }
+        }
+        best
+    }
+}
