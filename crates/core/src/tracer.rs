@@ -70,10 +70,28 @@ pub(crate) fn radiance_packet<S: Sampler>(
 pub(crate) fn radiance_in_turns<S: Sampler + Clone>(
     world: &World,
     rays: &[Ray],
+    at: (u32, u32, u32),
+    max_depth: u32,
+    sampler: &mut S,
+    stats: &mut TraceStats,
+) -> [DVec3; PACKET] {
+    camera_radiance_in_turns(world, rays, at, max_depth, sampler, stats, false, |_, _| {})
+}
+
+/// [`radiance_in_turns`] handing each camera ray's first intersection to `first`, in the
+/// rays' order, and with `transparent` a camera ray that misses every sphere returning
+/// black, as [`camera_radiance_packet`] does: the same values and the same calls.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn camera_radiance_in_turns<S: Sampler + Clone, F: FnMut(usize, Option<&Hit>)>(
+    world: &World,
+    rays: &[Ray],
     (x, y, first_sample): (u32, u32, u32),
     max_depth: u32,
     sampler: &mut S,
     stats: &mut TraceStats,
+    transparent: bool,
+    mut first: F,
 ) -> [DVec3; PACKET] {
     let mut found = world.hit_packet(rays, &mut stats.stack);
     let mut out = [DVec3::ZERO; PACKET];
@@ -93,6 +111,7 @@ pub(crate) fn radiance_in_turns<S: Sampler + Clone>(
         ray[k] = *r;
         if r.origin.is_finite() && r.dir.is_finite() && r.time.is_finite() {
             going |= 1 << k;
+            first(k, found[k].as_ref());
         } else {
             out[k] = DVec3::NAN;
         }
@@ -104,7 +123,9 @@ pub(crate) fn radiance_in_turns<S: Sampler + Clone>(
             bits &= bits - 1;
             stats.rays += 1;
             let Some(hit) = found[k].take() else {
-                out[k] = throughput[k] * world.background.radiance(ray[k].dir);
+                if !(transparent && depth == 0) {
+                    out[k] = throughput[k] * world.background.radiance(ray[k].dir);
+                }
                 going &= !(1 << k);
                 continue;
             };
@@ -413,7 +434,8 @@ mod tests {
 
     /// A pixel's paths traced together, their bounces walking the points in turns, give what
     /// each path gives alone, bit for bit, with each sampler: up to a packet of rays, from
-    /// inside the room through a cloud of moving points, a ray that is not finite among them.
+    /// inside the room through a cloud of moving points or from outside it, a ray that is not
+    /// finite among them; with a transparent background and the camera hits handed out too.
     #[test]
     fn paths_in_turns_give_what_each_gives_alone() {
         fn check(mut sampler: impl Sampler + Clone) {
@@ -423,15 +445,17 @@ mod tests {
             assert!(world.takes_turns());
             let mut r = Pcg32::new(7, 1);
             let mut stats = TraceStats::default();
-            let (mut together, mut alone) = (0, 0);
+            let (mut together, mut alone, mut misses) = (0, 0, 0);
             for pixel in 0..300u32 {
                 let n = 1 + pixel as usize % PACKET;
+                // From inside the room, or from outside it (where camera rays may miss it).
+                let from = if pixel % 2 == 0 { 4.0 } else { 25.0 };
                 let rays: Vec<Ray> = (0..n)
                     .map(|k| Ray {
                         origin: if pixel % 17 == 3 && k == 0 {
                             DVec3::NAN
                         } else {
-                            DVec3::new(0.0, 0.0, 4.0)
+                            DVec3::new(0.0, 0.0, from)
                         },
                         dir: crate::material::unit_vector((r.next_f64(), r.next_f64())),
                         time: 0.02 * r.next_f64(),
@@ -452,7 +476,41 @@ mod tests {
                         "pixel {pixel} ray {k}"
                     );
                 }
+                // With a transparent background and the camera hits handed out: the same
+                // values and the same calls as the packet's paths one by one.
+                let (mut seen_turns, mut seen_packet) = (vec![], vec![]);
+                let at = (pixel, 1, 0);
+                let turns = camera_radiance_in_turns(
+                    &world,
+                    &rays,
+                    at,
+                    12,
+                    &mut sampler,
+                    &mut stats,
+                    true,
+                    |k, hit| seen_turns.push((k, hit.map(|h| (h.t.to_bits(), h.sphere)))),
+                );
+                let packet = camera_radiance_packet(
+                    &world,
+                    &rays,
+                    at,
+                    12,
+                    &mut sampler,
+                    &mut stats,
+                    true,
+                    |k, hit| seen_packet.push((k, hit.map(|h| (h.t.to_bits(), h.sphere)))),
+                );
+                assert_eq!(seen_turns, seen_packet, "pixel {pixel}");
+                misses += seen_turns.iter().filter(|(_, h)| h.is_none()).count();
+                for k in 0..n {
+                    assert_eq!(
+                        turns[k].to_array().map(f64::to_bits),
+                        packet[k].to_array().map(f64::to_bits),
+                        "pixel {pixel} ray {k}, transparent"
+                    );
+                }
             }
+            assert!(misses > 50, "{misses}");
             // The same rays counted, many of them bounces.
             assert_eq!(together, alone);
             assert!(together > 3 * 300 * 4, "{together}");

@@ -12,13 +12,15 @@ use crate::bvh::PACKET;
 use crate::camera::View;
 use crate::error::Error;
 use crate::film::{Film, FilmTile};
+use crate::hit::Hit;
 use crate::passes::PassContext;
 use crate::prepared::PreparedFrame;
 use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::tracer::{
-    TraceStats, camera_radiance_packet, radiance, radiance_in_turns, radiance_packet,
+    TraceStats, camera_radiance_in_turns, camera_radiance_packet, radiance, radiance_in_turns,
+    radiance_packet,
 };
 
 /// The settings of one frame, copied from the scene's (`[output]` size, `[render]` samples
@@ -162,7 +164,7 @@ impl CpuFrame<'_> {
     /// passes or a transparent background: their radiance, and their passes into the
     /// pixel's sums `sums` (each ray seen through its view in `views`).
     #[inline(never)]
-    fn observed_packet<S: Sampler>(
+    fn observed_packet<S: Sampler + Clone>(
         &self,
         rays: &[Ray],
         views: &[View; PACKET],
@@ -171,20 +173,18 @@ impl CpuFrame<'_> {
         stats: &mut TraceStats,
         sums: &mut [f64],
     ) -> [DVec3; PACKET] {
-        camera_radiance_packet(
-            &self.prepared.world,
-            rays,
-            at,
-            self.req.max_depth,
-            sampler,
-            stats,
-            self.prepared.scene.transparent,
-            |k, hit| {
-                if let Some(passes) = &self.passes {
-                    passes.record(sums, &rays[k], &views[k], hit);
-                }
-            },
-        )
+        let (world, depth) = (&self.prepared.world, self.req.max_depth);
+        let transparent = self.prepared.scene.transparent;
+        let first = |k: usize, hit: Option<&Hit>| {
+            if let Some(passes) = &self.passes {
+                passes.record(sums, &rays[k], &views[k], hit);
+            }
+        };
+        if world.takes_turns() {
+            camera_radiance_in_turns(world, rays, at, depth, sampler, stats, transparent, first)
+        } else {
+            camera_radiance_packet(world, rays, at, depth, sampler, stats, transparent, first)
+        }
     }
 }
 
@@ -231,8 +231,9 @@ impl FrameTracer for CpuFrame<'_> {
 enum Tracing {
     /// Camera rays in packets, each path then alone ([`radiance_packet`]).
     Packets,
-    /// As `Packets`, each camera ray's first hit handed to the passes or the transparent
-    /// background ([`camera_radiance_packet`]).
+    /// Each camera ray's first hit handed to the passes or the transparent background
+    /// ([`camera_radiance_packet`], or [`camera_radiance_in_turns`] where the world takes
+    /// turns).
     Observed,
     /// Camera rays in packets, then the paths bounce by bounce together, their rays walking
     /// the hierarchies in turns ([`radiance_in_turns`]).
