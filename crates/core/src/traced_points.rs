@@ -273,23 +273,15 @@ impl TracedPoints {
         rays: &[Ray],
         lanes: &[PacketRay],
         dt: &[f64; PACKET],
-        mut t_max: [f64; PACKET],
+        t_max: [f64; PACKET],
         stack: &mut TraversalStack,
     ) -> [Option<PointHit>; PACKET] {
-        let mut best = [None; PACKET];
-        for g in &self.groups {
-            let found =
-                g.view()
-                    .closest_hits(lanes, t_max, stack, PacketTest { group: g, rays, dt });
-            for r in 0..rays.len() {
-                if let Some((t, pos)) = found[r] {
-                    t_max[r] = t;
-                    best[r] = Some(g.hit(t, pos, dt[r]));
-                }
-            }
-        }
-        best
+        let skip = &[u32::MAX; PACKET];
+        self.closest_each(rays, dt, skip, t_max, |view, t_max, test| {
+            view.closest_hits(lanes, t_max, stack, test)
+        })
     }
+
     /// [`TracedPoints::closest`] for up to [`PACKET`] rays that need not be coherent (the
     /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
     /// hits, each ray walking the hierarchy alone, the rays in turns
@@ -302,22 +294,40 @@ impl TracedPoints {
         lanes: &[PacketRay],
         dt: &[f64; PACKET],
         skip: &[u32; PACKET],
-        mut t_max: [f64; PACKET],
+        t_max: [f64; PACKET],
         stack: &mut TraversalStack,
+    ) -> [Option<PointHit>; PACKET] {
+        self.closest_each(rays, dt, skip, t_max, |view, t_max, test| {
+            view.closest_hits_in_turns(lanes, t_max, stack, test)
+        })
+    }
+
+    /// The nearest points of `rays` (ray `r` at `dt[r]` after the opening, skipping the
+    /// sphere numbered `skip[r]`, up to `t_max[r]`): each group searched by `search` (a
+    /// packet's traversal, or walks in turns) with the group's test, each ray's search
+    /// bounded by its nearest hit in the groups before.
+    #[inline(always)]
+    fn closest_each(
+        &self,
+        rays: &[Ray],
+        dt: &[f64; PACKET],
+        skip: &[u32; PACKET],
+        mut t_max: [f64; PACKET],
+        mut search: impl FnMut(
+            BvhView<'_>,
+            [f64; PACKET],
+            PacketTest<'_>,
+        ) -> [Option<(f64, u32)>; PACKET],
     ) -> [Option<PointHit>; PACKET] {
         let mut best = [None; PACKET];
         for g in &self.groups {
-            let found = g.view().closest_hits_in_turns(
-                lanes,
-                t_max,
-                stack,
-                TurnsTest {
-                    group: g,
-                    rays,
-                    dt,
-                    skip,
-                },
-            );
+            let test = PacketTest {
+                group: g,
+                rays,
+                dt,
+                skip,
+            };
+            let found = search(g.view(), t_max, test);
             for r in 0..rays.len() {
                 if let Some((t, pos)) = found[r] {
                     t_max[r] = t;
@@ -355,42 +365,16 @@ impl Leaves for RayTest<'_> {
     }
 }
 
-/// A group's points as a packet of rays tests them, ray `r` at `dt[r]` after the opening.
+/// A group's points as a packet's rays, or walks in turns, test them: ray `r` at `dt[r]`
+/// after the opening, the sphere numbered `skip[r]` left out.
 struct PacketTest<'a> {
-    group: &'a Group,
-    rays: &'a [Ray],
-    dt: &'a [f64; PACKET],
-}
-
-impl PacketLeaves for PacketTest<'_> {
-    #[inline(always)]
-    fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64> {
-        let g = self.group;
-        let q = &g.records[pos as usize];
-        intersect(
-            g.center(q, self.dt[r]),
-            q.radius.into(),
-            &self.rays[r],
-            t_max,
-        )
-    }
-
-    #[inline(always)]
-    fn prefetch(&self, first: u32, count: u32) {
-        self.group.prefetch(first, count);
-    }
-}
-
-/// A group's points as walks in turns test them: ray `r` at `dt[r]` after the opening, the
-/// sphere numbered `skip[r]` left out.
-struct TurnsTest<'a> {
     group: &'a Group,
     rays: &'a [Ray],
     dt: &'a [f64; PACKET],
     skip: &'a [u32; PACKET],
 }
 
-impl PacketLeaves for TurnsTest<'_> {
+impl PacketLeaves for PacketTest<'_> {
     #[inline(always)]
     fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64> {
         let g = self.group;

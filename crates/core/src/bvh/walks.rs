@@ -191,7 +191,7 @@ impl BvhView<'_> {
         stack: &mut TraversalStack,
         leaves: impl PacketLeaves,
     ) -> [Option<(f64, u32)>; PACKET] {
-        assert!(rays.len() <= PACKET, "more rays than walk in turns");
+        assert!(rays.len() <= PACKET, "more rays than a packet holds");
         if self.topology.links.is_empty() {
             return [None; PACKET];
         }
