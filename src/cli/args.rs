@@ -339,8 +339,9 @@ pub(crate) struct ConvergeArgs {
     #[arg(long)]
     pub denoise: bool,
     /// Measure a sequence instead of one frame: these frames (`1-12`, as render's --frames)
-    /// rendered at --max-samples (default: the scene's), raw, denoised frame by frame and
-    /// denoised with --temporal; prints each one's true error and its flicker (its
+    /// rendered at --max-samples (default: the scene's), raw, denoised frame by frame,
+    /// denoised with --temporal, and by the routes that carry other frames (history,
+    /// accumulated, centred); prints each one's true error and its flicker (its
     /// frame-to-frame change beyond the true change) against references of every frame.
     #[arg(long, value_name = "FRAMES", conflicts_with_all = ["frame", "reference", "write_reference", "budget", "csv", "plot"])]
     pub flicker: Option<String>,

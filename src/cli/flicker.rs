@@ -52,10 +52,19 @@ pub(crate) enum Route {
     /// New samples every frame, each frame's raw film pooled with the two frames' before it
     /// where they agree, then denoised (`Carry::Raw`).
     Accumulated,
+    /// New samples every frame, denoised and combined with the frame before it and the frame
+    /// after it (`Carry::Centred`).
+    Centred,
+    /// The same sample points every frame, denoised and combined with the frame before it
+    /// and the frame after it.
+    StableCentred,
 }
 
 /// How many routes [`Route::ALL`] lists.
-const ROUTES: usize = 6;
+const ROUTES: usize = 8;
+
+/// How many scenes a seed's routes are rendered and finished with ([`SeedRenders::scenes`]).
+const SCENES: usize = 5;
 
 impl Route {
     /// Every route, in the order the table lists them.
@@ -66,6 +75,8 @@ impl Route {
         Route::StableHistory,
         Route::Temporal,
         Route::Accumulated,
+        Route::Centred,
+        Route::StableCentred,
     ];
 
     /// The route's name in the table.
@@ -77,16 +88,18 @@ impl Route {
             Route::StableHistory => "stable + history",
             Route::Temporal => "--temporal",
             Route::Accumulated => "accumulated",
+            Route::Centred => "centred",
+            Route::StableCentred => "stable + centred",
         }
     }
 
     /// The sample pattern the route's frames are sampled with.
     fn pattern(self) -> SamplePattern {
         match self {
-            Route::Raw | Route::Denoised | Route::History | Route::Accumulated => {
+            Route::Raw | Route::Denoised | Route::History | Route::Accumulated | Route::Centred => {
                 SamplePattern::PerFrame
             }
-            Route::StableHistory | Route::Temporal => SamplePattern::Stable,
+            Route::StableHistory | Route::Temporal | Route::StableCentred => SamplePattern::Stable,
         }
     }
 
@@ -95,6 +108,7 @@ impl Route {
         match self {
             Route::History | Route::StableHistory => 2,
             Route::Accumulated => 3,
+            Route::Centred | Route::StableCentred => 4,
             // `--temporal`'s own, whose frames state their flicker.
             Route::Temporal => 1,
             _ => 0,
@@ -181,22 +195,27 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
     };
     let seeds = measured_seeds(&base, args.seeds.unwrap_or(DEFAULT_SEEDS) as usize);
     // Per seed, the scene of each pattern, per frame (--denoise) and stable (--temporal),
-    // and the first with history.
+    // and one for each way of carrying other frames ([`Route::finishing_scene`]).
     let scenes = seeds
         .iter()
         .map(|&seed| {
             let denoised = with(samples, seed, false)?;
-            let mut historic = denoised.clone();
-            if let Some(d) = &mut historic.output.denoise {
-                d.carry = Carry::Written;
-            }
-            let mut pooled = denoised.clone();
-            if let Some(d) = &mut pooled.output.denoise {
-                d.carry = Carry::Raw;
-            }
-            Ok([denoised, with(samples, seed, true)?, historic, pooled])
+            let carrying = |carry: Carry| {
+                let mut scene = denoised.clone();
+                if let Some(d) = &mut scene.output.denoise {
+                    d.carry = carry;
+                }
+                scene
+            };
+            Ok([
+                carrying(Carry::Nothing),
+                with(samples, seed, true)?,
+                carrying(Carry::Written),
+                carrying(Carry::Raw),
+                carrying(Carry::Centred),
+            ])
         })
-        .collect::<Result<Vec<[Scene; 4]>, Error>>()?;
+        .collect::<Result<Vec<[Scene; SCENES]>, Error>>()?;
     let reference_samples = args.reference_samples.unwrap_or(DEFAULT_REFERENCE_SAMPLES);
     // A seed of its own, so the references' noise is independent of the measured renders'.
     let reference_seed = hash_words(&[base.render.seed, 0x0066_6c69_636b_6572]) >> 1;
@@ -238,9 +257,10 @@ pub(crate) fn measure_flicker(args: &ConvergeArgs, spec: &str) -> Result<Vec<Var
 /// finishing.
 struct SeedRenders<'a> {
     /// The scenes of [`SamplePattern::PerFrame`] (`--denoise`), [`SamplePattern::Stable`]
-    /// (`--temporal`), the first with history (which finishes the routes with history) and
-    /// the one with accumulation, in that order ([`Route::finishing_scene`]).
-    scenes: &'a [Scene; 4],
+    /// (`--temporal`), then those that carry other frames, with history (which finishes
+    /// the routes with history), accumulation and a centred window, in that order
+    /// ([`Route::finishing_scene`]).
+    scenes: &'a [Scene; SCENES],
     tracers: [Box<dyn ShotTracer>; 2],
     /// Each route's finishing, in [`Route::ALL`]'s order (`None` for the raw route).
     finishings: Vec<Option<Finishing<'a>>>,
@@ -258,7 +278,7 @@ fn slot(pattern: SamplePattern) -> usize {
 
 impl<'a> SeedRenders<'a> {
     fn open(
-        scenes: &'a [Scene; 4],
+        scenes: &'a [Scene; SCENES],
         budget: Budget,
         devices: &'a Devices,
     ) -> Result<SeedRenders<'a>, Error> {
@@ -290,7 +310,7 @@ impl<'a> SeedRenders<'a> {
         'a: 'j,
     {
         // The job borrows the scenes, not `self`, whose finishing then finishes it.
-        let scenes: &'a [Scene; 4] = self.scenes;
+        let scenes: &'a [Scene; SCENES] = self.scenes;
         let read = raytrace_render::finish::passes_read(&scenes[2]);
         FrameJob::new(&scenes[slot(pattern)], frame)
             .points(points)
@@ -316,17 +336,28 @@ impl<'a> SeedRenders<'a> {
     }
 
     /// `frame` finished by every route, with each route's seconds (first, the frames before
-    /// it that a route's history reads and has not: rendered, not measured). At the scenes'
-    /// samples, the frame is sampled once with each pattern and the routes of a pattern
-    /// finish the same samples; under a noise threshold, each route samples its own.
+    /// it that a route's history reads and has not, and the frame after it that a centred
+    /// window reads: rendered, not measured). At the scenes' samples, the frame is sampled
+    /// once with each pattern and the routes of a pattern finish the same samples; under a
+    /// noise threshold, each route samples its own.
     fn measure(&mut self, frame: u32, caches: &mut ShotPoints) -> Result<Measured, Error> {
         for r in 0..ROUTES {
             let Some(finishing) = &self.finishings[r] else {
                 continue;
             };
-            for earlier in finishing.needs(frame) {
+            let (needs, ahead) = (finishing.needs(frame), finishing.ahead(frame));
+            for earlier in needs {
                 let points = caches.read_frame(&self.scenes[1], earlier)?;
                 self.render(r, earlier, &points)?;
+            }
+            if let Some(next) = ahead {
+                let points = caches.read_frame(&self.scenes[1], next)?;
+                let pattern = Route::ALL[r].pattern();
+                let job = self.job(pattern, next, &points);
+                let tracer = self.tracers[slot(pattern)].as_ref();
+                if let Some(f) = &mut self.finishings[r] {
+                    f.render_ahead(job, tracer)?;
+                }
             }
         }
         let points = caches.read_frame(&self.scenes[1], frame)?;
@@ -442,7 +473,7 @@ fn variants(sums: &[Sums], frames: u64) -> Vec<Variant> {
 /// against a reference of each frame rendered from `reference`; the frames' points are read
 /// from `caches`, surveyed over `selection`.
 fn measure(
-    scenes: &[[Scene; 4]],
+    scenes: &[[Scene; SCENES]],
     budget: Budget,
     reference: &Scene,
     (selection, mut caches): (&Selection, ShotPoints),

@@ -293,7 +293,8 @@ struct PointsRead {
 
 impl ShotFrames<'_> {
     /// Renders and finishes, through `finishing`, the frames `frame`'s history reads that this
-    /// run has not rendered, as they would be in sequence; they are not written.
+    /// run has not rendered, as they would be in sequence, and samples the frame after it
+    /// that a centred window reads; they are not written.
     fn render_history(&self, frame: u32, finishing: &mut Finishing) -> Result<(), Error> {
         for earlier in finishing.needs(frame) {
             let points = self.caches.read_frame(self.scene, earlier)?;
@@ -304,6 +305,13 @@ impl ShotFrames<'_> {
             self.progress.line(&format!(
                 "frame {earlier}: rendered for frame {frame}'s history, not written"
             ));
+        }
+        if let Some(next) = finishing.ahead(frame) {
+            let points = self.caches.read_frame(self.scene, next)?;
+            let job = FrameJob::new(self.scene, next)
+                .points(&points)
+                .budget(self.budget);
+            finishing.render_ahead(job, self.tracer)?;
         }
         Ok(())
     }

@@ -13,7 +13,7 @@ use ::image::codecs::png::PngEncoder;
 use raytrace_core::error::Error;
 use raytrace_core::image::Image;
 use raytrace_core::pass::Pass;
-use raytrace_core::pass::{DEPTH, NORMAL, SAMPLES, VARIANCE};
+use raytrace_core::pass::{DEPTH, FORWARD, NORMAL, SAMPLES, VARIANCE};
 use raytrace_core::passes::NO_DEPTH;
 use raytrace_core::renderer::FrameResult;
 use raytrace_core::scene::Scene;
@@ -96,7 +96,7 @@ fn pass_picture(image: &Image, pass: Pass) -> Vec<u8> {
                 .collect()
         }
         Pass::Motion => {
-            let (u, v) = (channel("forward.u"), channel("forward.v"));
+            let (u, v) = (channel(FORWARD[0]), channel(FORWARD[1]));
             let most = u.iter().chain(v).map(|x| x.abs()).fold(0.0f32, f32::max);
             let scale = if most > 0.0 { 1.0 / most } else { 0.0 };
             (0..n)

@@ -490,3 +490,56 @@ fn temporal_takes_denoising() {
     assert!(text(&o).contains("quick.toml"), "{}", text(&o));
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn a_centred_window_reads_the_frame_after_and_the_frame_before() {
+    // A still shot of three frames finished with a centred window (`Carry::Centred`, which
+    // `converge --flicker` measures): frame 1 has no frame before it, so what its history
+    // takes (`history_share`) is frame 2's, sampled ahead; the history route finishes frame
+    // 1 with nothing. Frame 3, the shot's last, has no frame after it and reads frame 2.
+    use raytrace_core::renderer::{CpuShot, FrameJob, FrameResult};
+    use raytrace_core::scene::{Carry, Scene};
+    use raytrace_render::devices::{Devices, Needs};
+    use raytrace_scene::scene_file::{Overrides, SceneFile};
+
+    let d = tempfile::tempdir().unwrap();
+    let path = d.path().join("still.toml");
+    std::fs::write(&path, common::still_shot(3, 8)).unwrap();
+    let overrides = Overrides {
+        denoise: Some(true),
+        ..Overrides::default()
+    };
+    let devices = Devices::opened(Needs {
+        denoiser: true,
+        ..Needs::default()
+    })
+    .unwrap();
+    let with = |carry: Carry| {
+        let mut s = Scene::load_with(&path, &overrides).unwrap();
+        s.output.denoise.as_mut().unwrap().carry = carry;
+        s
+    };
+    let history_share = |r: &FrameResult| r.denoised.unwrap().history_share.unwrap();
+    let (centred, before) = (with(Carry::Centred), with(Carry::Written));
+    let tracer = CpuShot::new(&centred);
+
+    let mut history = devices.finishing(&before).unwrap();
+    assert_eq!(history.ahead(1), None);
+    let alone = history.render(FrameJob::new(&before, 1), &tracer).unwrap();
+    assert_eq!(history_share(&alone), 0.0);
+
+    let mut f = devices.finishing(&centred).unwrap();
+    assert_eq!((f.needs(1), f.ahead(1)), (vec![], Some(2)));
+    f.render_ahead(FrameJob::new(&centred, 2), &tracer).unwrap();
+    assert_eq!(f.ahead(1), None, "frame 2 is held");
+    let first = f.render(FrameJob::new(&centred, 1), &tracer).unwrap();
+    assert!(history_share(&first) > 0.1, "{}", history_share(&first));
+    // The same samples as the history route's frame 1, combined with frame 2's.
+    assert_ne!(first.image, alone.image);
+    assert_eq!(first.film.colour(), alone.film.colour());
+    f.render_ahead(FrameJob::new(&centred, 3), &tracer).unwrap();
+    f.render(FrameJob::new(&centred, 2), &tracer).unwrap();
+    assert_eq!(f.ahead(3), None, "the shot's last frame");
+    let last = f.render(FrameJob::new(&centred, 3), &tracer).unwrap();
+    assert!(history_share(&last) > 0.1, "{}", history_share(&last));
+}

@@ -129,7 +129,7 @@ fn turntable_flicker(args: &[&str]) -> Vec<String> {
     ];
     all.extend(args);
     let rows = figures(&common::ok(d.path(), &all));
-    assert_eq!(rows.len(), 6, "{rows:?}");
+    assert_eq!(rows.len(), 8, "{rows:?}");
     rows
 }
 

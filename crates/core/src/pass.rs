@@ -38,6 +38,10 @@ pub const DEPTH: &str = "Z";
 /// The normal pass's channels: the first hit's world-space unit normal.
 pub const NORMAL: Rgb = Rgb(["N.X", "N.Y", "N.Z"]);
 
+/// The motion pass's forward channels: where the first hit's surface will be one frame period
+/// later, in pixels (`u` right, `v` up).
+pub const FORWARD: [&str; 2] = ["forward.u", "forward.v"];
+
 /// The motion pass's backward channels: where the first hit's surface was one frame period
 /// earlier, in pixels (`u` right, `v` up).
 pub const BACKWARD: [&str; 2] = ["backward.u", "backward.v"];
@@ -85,7 +89,7 @@ impl Pass {
             Pass::Depth => &[DEPTH],
             Pass::Normal => &NORMAL.0,
             Pass::Albedo => &["albedo.R", "albedo.G", "albedo.B"],
-            Pass::Motion => &["forward.u", "forward.v", BACKWARD[0], BACKWARD[1]],
+            Pass::Motion => &[FORWARD[0], FORWARD[1], BACKWARD[0], BACKWARD[1]],
             Pass::Variance => &VARIANCE.0,
             Pass::Samples => &[SAMPLES],
             Pass::Noisy => &["noisy.R", "noisy.G", "noisy.B"],

@@ -55,19 +55,31 @@ pub struct DenoiseSettings {
     pub device: DenoiseDevice,
 }
 
-/// What a denoised frame takes from the two frames before it, carried to its pixels along the
+/// What a denoised frame takes from the frames beside it, carried to its pixels along the
 /// motion vectors ([`DenoiseSettings::carry`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Carry {
     /// Nothing: each frame is denoised alone.
     #[default]
     Nothing,
-    /// Their written frames, combined with this one's by estimated error
-    /// (`raytrace_denoise::history`).
+    /// The two frames before it: their written frames, combined with this one's by estimated
+    /// error (`raytrace_denoise::history`).
     Written,
-    /// Their raw films, pooled with this one's where they agree, before the denoise
-    /// (`raytrace_denoise::accumulate`).
+    /// A centred window: the written frames of the frame before it and the frame after it,
+    /// combined with this one's as [`Carry::Written`] combines them, so that the frame is
+    /// finished once the frame after it is sampled.
+    Centred,
+    /// The two frames before it: their raw films, pooled with this one's where they agree,
+    /// before the denoise (`raytrace_denoise::accumulate`).
     Raw,
+}
+
+impl Carry {
+    /// Whether the frame's written frame is combined with other frames' (history's
+    /// combination, `raytrace_denoise::history`).
+    pub fn combines_written(self) -> bool {
+        matches!(self, Carry::Written | Carry::Centred)
+    }
 }
 
 /// Where the denoiser runs (`--denoise-device`).

@@ -25,7 +25,7 @@
 use glam::DVec3;
 
 use super::estimate::box_mean;
-use super::reproject::{HISTORY, reproject};
+use super::reproject::{Along, HISTORY, reproject};
 use raytrace_core::image::{Image, Precision, Rgb, Values};
 use raytrace_core::pass::{SAMPLES, VARIANCE};
 use raytrace_core::replicates::{REPLICATE_A, REPLICATE_B, Replicates, replicate_counts};
@@ -87,7 +87,7 @@ pub fn accumulate(current: &Image, earlier: &[&Image]) -> Accumulated {
     let n = current.pixels();
     let width = current.width() as usize;
     let own = Replicates::of(current);
-    let carried = reproject(current, earlier, &CARRIED);
+    let carried = reproject(current, earlier, &CARRIED, Along::Backward);
     let carried_planes: Vec<[&[f32]; 7]> = carried
         .iter()
         .map(|r| CARRIED.map(|name| r.image.floats(name).expect("carried")))

@@ -27,6 +27,11 @@
 //! moved), its error term is large and its weight falls; where the scene holds still, two
 //! earlier frames of independent noise divide the noise's variance by up to three, and the
 //! noise left is shared by consecutive frames: it no longer flickers.
+//!
+//! The other frames need not come before: a **centred window** (`Carry::Centred`) gives the
+//! frame before and the frame after, each carried along the motion vectors that lead to it
+//! (`reproject::Along`). The derivation asks only that they were rendered from samples of
+//! their own, independent of this frame's `F`, which the frame after is too.
 
 use glam::{DVec3, Vec3};
 
@@ -41,10 +46,11 @@ use raytrace_core::image::{COLOUR, Image, RgbPlanes};
 const MOST: usize = 1 + super::reproject::HISTORY;
 
 /// The frame of `written` (a written frame's terms, `estimate::DenoiseTerms::written`) combined
-/// with `earlier`, its earlier frames' colours carried to its pixels (at most
-/// [`super::reproject::HISTORY`]): see the module's notes.
+/// with `earlier`, other frames' colours carried to its pixels (at most
+/// [`super::reproject::HISTORY`]; the frames before it, or the frame before and the frame
+/// after): see the module's notes.
 pub fn combine(written: &Image, earlier: &[Reprojected]) -> Blend {
-    assert!(earlier.len() < MOST, "at most {} earlier frames", MOST - 1);
+    assert!(earlier.len() < MOST, "at most {} other frames", MOST - 1);
     let n = written.pixels();
     let estimates = Estimates::new(written, earlier);
     let smoothed = estimates.smoothed(n, written.width() as usize);

@@ -1,25 +1,45 @@
-//! An earlier frame's channels carried to a frame's pixels along their motion vectors, where it
+//! Another frame's channels carried to a frame's pixels along their motion vectors, where it
 //! shows the same surface: its written colour, which `denoise::history` combines with the
 //! frame, or its raw replicates, which `denoise::accumulate` adds to the frame's, so that a
 //! denoised sequence does not flicker.
 //!
 //! Each pixel follows its backward motion vector (where its surface was one frame period
 //! earlier, in pixels) into the frame before, then that frame's vector into the one before
-//! it, up to [`HISTORY`] frames back. At each step the earlier frame's images are read
-//! bilinearly, and the step is taken only where the surface is the same: unit normals within
-//! [`MIN_NORMAL_DOT`] and depths within [`DEPTH_TOLERANCE`] of the later frame's, or both
-//! background, and the position inside the image. The first step that fails ends the walk: a
-//! pixel uncovered in frame `n - 1` does not borrow from `n - 2`. What the geometry does not
-//! catch (a shadow or a reflection moving over a still surface, shading that changes) the
-//! combination weighs by its estimated error (`denoise::history`).
+//! it, up to [`HISTORY`] frames back; or its forward vectors ([`Along::Forward`]) into the
+//! frames after it. At each step the other frame's images are read bilinearly, and the step
+//! is taken only where the surface is the same: unit normals within [`MIN_NORMAL_DOT`] and
+//! depths within [`DEPTH_TOLERANCE`] of the nearer frame's, or both background, and the
+//! position inside the image. The first step that fails ends the walk: a pixel uncovered in
+//! frame `n - 1` does not borrow from `n - 2`. What the geometry does not catch (a shadow or
+//! a reflection moving over a still surface, shading that changes) the combination weighs by
+//! its estimated error (`denoise::history`).
 
 #[cfg(doc)]
 use raytrace_core::image::COLOUR;
 use raytrace_core::image::{Image, Precision, Values};
-use raytrace_core::pass::{BACKWARD, DEPTH, NORMAL};
+use raytrace_core::pass::{BACKWARD, DEPTH, FORWARD, NORMAL};
 
 /// The frames before a frame that its temporal denoising reads.
 pub const HISTORY: usize = 2;
+
+/// Which way a pixel walks to the other frames: which of the motion pass's vectors it follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Along {
+    /// Into the frames before, along the backward vectors ([`BACKWARD`]).
+    Backward,
+    /// Into the frames after, along the forward vectors ([`FORWARD`]).
+    Forward,
+}
+
+impl Along {
+    /// The motion pass's channels the walk follows.
+    fn channels(self) -> [&'static str; 2] {
+        match self {
+            Along::Backward => BACKWARD,
+            Along::Forward => FORWARD,
+        }
+    }
+}
 
 /// The least cosine between the unit normals of a pixel and where it lands in an earlier
 /// frame for both to show one surface (about 25 degrees).
@@ -34,12 +54,12 @@ pub(crate) const DEPTH_TOLERANCE: f32 = 0.1;
 /// hit).
 const BACKGROUND_DEPTH: f32 = 1e9;
 
-/// An earlier frame's channels at a frame's pixels ([`reproject`]).
+/// Another frame's channels at a frame's pixels ([`reproject`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reprojected {
     /// The channels carried (for history, [`COLOUR`]); 0 where not found.
     pub image: Image,
-    /// Whether the pixel's surface was found in the earlier frame.
+    /// Whether the pixel's surface was found in the other frame.
     pub found: Vec<bool>,
 }
 
@@ -49,8 +69,8 @@ pub fn frame_bytes(pixels: u64) -> u64 {
     Image::bytes_for(pixels, 11)
 }
 
-/// The bytes [`reproject`] gives for a frame of `pixels` pixels: each earlier frame's colour
-/// carried to it, and where it was found.
+/// The bytes [`reproject`] gives for a frame of `pixels` pixels: each other frame's colour
+/// carried to it ([`HISTORY`] of them at most), and where it was found.
 pub fn reprojected_bytes(pixels: u64) -> u64 {
     HISTORY as u64 * (Image::bytes_for(pixels, 3) + pixels * std::mem::size_of::<bool>() as u64)
 }
@@ -85,22 +105,22 @@ fn bilinear<const N: usize>(
 }
 
 /// The planes a frame's history reads of it: the channels carried (none of the frame
-/// itself), its depth, normal and backward motion (see [`reproject`]).
+/// itself), its depth, normal and the motion the walk follows (see [`reproject`]).
 struct Planes<'a> {
     carried: Vec<[&'a [f32]; 1]>,
     depth: [&'a [f32]; 1],
     normal: [&'a [f32]; 3],
-    backward: [&'a [f32]; 2],
+    motion: [&'a [f32]; 2],
 }
 
 impl<'a> Planes<'a> {
-    fn of(frame: &'a Image, carried: &[&str]) -> Planes<'a> {
+    fn of(frame: &'a Image, carried: &[&str], along: Along) -> Planes<'a> {
         let plane = |name: &str| frame.floats(name).expect("a frame's history channels");
         Planes {
             carried: carried.iter().map(|name| [plane(name)]).collect(),
             depth: [plane(DEPTH)],
             normal: NORMAL.0.map(plane),
-            backward: BACKWARD.map(plane),
+            motion: along.channels().map(plane),
         }
     }
 }
@@ -146,38 +166,42 @@ impl Surface {
     }
 }
 
-/// The float channels `carried` of `earlier` (the frame before `current` first, then the one
-/// before that) carried to `current`'s pixels, where each pixel's surface is found there (see
-/// the module's notes). Every frame has `current`'s size and holds what a frame's history
-/// reads: the channels carried (the colour written before its own history, [`COLOUR`], or
-/// the raw replicates), the first hit's depth ([`DEPTH`]; the
+/// The float channels `carried` of `others` (the frame next to `current` first, then the one
+/// next to that, `along` the way they lie) carried to `current`'s pixels, where each pixel's
+/// surface is found there (see the module's notes). Every frame has `current`'s size and
+/// holds what a frame's history reads: the channels carried (the colour written before its
+/// own history, [`COLOUR`], or the raw replicates), the first hit's depth ([`DEPTH`]; the
 /// background's: 1e10 or more), its mean shading normal ([`NORMAL`]; zero for the
-/// background) and its backward motion ([`BACKWARD`]).
+/// background) and its motion ([`BACKWARD`] and [`FORWARD`]).
 pub fn reproject(
     current: &Image,
-    earlier: &[&Image],
+    others: &[&Image],
     carried: &[&'static str],
+    along: Along,
 ) -> Vec<Reprojected> {
     let (w, h) = (current.width() as usize, current.height() as usize);
     assert!(
-        earlier
+        others
             .iter()
             .all(|f| (f.width(), f.height()) == (current.width(), current.height())),
         "frames of different sizes"
     );
     let n = w * h;
-    let here_planes = Planes::of(current, &[]);
-    let planes: Vec<Planes> = earlier.iter().map(|f| Planes::of(f, carried)).collect();
-    let mut values: Vec<Vec<Vec<f32>>> = earlier
+    let here_planes = Planes::of(current, &[], along);
+    let planes: Vec<Planes> = others
+        .iter()
+        .map(|f| Planes::of(f, carried, along))
+        .collect();
+    let mut values: Vec<Vec<Vec<f32>>> = others
         .iter()
         .map(|_| carried.iter().map(|_| vec![0.0; n]).collect())
         .collect();
-    let mut found: Vec<Vec<bool>> = earlier.iter().map(|_| vec![false; n]).collect();
+    let mut found: Vec<Vec<bool>> = others.iter().map(|_| vec![false; n]).collect();
     for i in 0..n {
         let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
         let at = |p: [&[f32]; 3]| [p[0][i], p[1][i], p[2][i]];
         let mut here = Surface::new(here_planes.depth[0][i], at(here_planes.normal));
-        let mut motion = [here_planes.backward[0][i], here_planes.backward[1][i]];
+        let mut motion = [here_planes.motion[0][i], here_planes.motion[1][i]];
         let mut pos = (x, y);
         for ((frame, value), found) in planes.iter().zip(&mut values).zip(&mut found) {
             // u right, v up; rows grow downward.
@@ -186,7 +210,7 @@ pub fn reproject(
             let (Some(normal), Some([depth]), Some(m)) = (
                 read(frame.normal),
                 bilinear(frame.depth, w, h, pos.0, pos.1),
-                bilinear(frame.backward, w, h, pos.0, pos.1),
+                bilinear(frame.motion, w, h, pos.0, pos.1),
             ) else {
                 break;
             };
@@ -223,7 +247,8 @@ mod tests {
     use raytrace_core::image::COLOUR;
 
     /// A frame of `w` x `h` whose colour at pixel (x, y) is `colour(x, y)`, at depth 5 with
-    /// normal +z everywhere, moving by `motion` (u, v) pixels a frame.
+    /// normal +z everywhere, moving steadily: `motion` (u, v) pixels back to the frame
+    /// before, the opposite to the frame after.
     fn frame(w: usize, h: usize, colour: impl Fn(usize, usize) -> f32, motion: [f32; 2]) -> Image {
         let n = w * h;
         let mut f = Image::new(w as u32, h as u32);
@@ -232,6 +257,8 @@ mod tests {
         f.set_rgb(NORMAL, (0..n).map(|_| Vec3::Z));
         set(&mut f, BACKWARD[0], vec![motion[0]; n]);
         set(&mut f, BACKWARD[1], vec![motion[1]; n]);
+        set(&mut f, FORWARD[0], vec![-motion[0]; n]);
+        set(&mut f, FORWARD[1], vec![-motion[1]; n]);
         f
     }
 
@@ -260,7 +287,7 @@ mod tests {
         let cur = frame(4, 3, |_, _| 3.0, [0.0, 0.0]);
         let one = frame(4, 3, |_, _| 6.0, [0.0, 0.0]);
         let two = frame(4, 3, |_, _| 0.5, [0.0, 0.0]);
-        let r = reproject(&cur, &[&one, &two], &COLOUR.0);
+        let r = reproject(&cur, &[&one, &two], &COLOUR.0, Along::Backward);
         assert!(r.iter().all(|r| r.found.iter().all(|&v| v)));
         assert!(red(&r[0]).iter().all(|&v| v == 6.0));
         assert!(red(&r[1]).iter().all(|&v| v == 0.5));
@@ -275,7 +302,7 @@ mod tests {
         let cur = frame(w, h, ramp(0.0), [-1.0, 0.0]);
         let one = frame(w, h, ramp(-1.0), [-1.0, 0.0]);
         let two = frame(w, h, ramp(-2.0), [-1.0, 0.0]);
-        let r = reproject(&cur, &[&one, &two], &COLOUR.0);
+        let r = reproject(&cur, &[&one, &two], &COLOUR.0, Along::Backward);
         for x in 0..w {
             // Pixels 0 and 1 leave the image two and one steps back.
             assert_eq!(r[0].found[x], x >= 1, "pixel {x}");
@@ -289,6 +316,32 @@ mod tests {
     }
 
     #[test]
+    fn the_frames_after_are_followed_along_the_forward_vectors() {
+        // The same ramp moving right by one pixel a frame: the colour at x in frame n is at
+        // x + 1 in frame n + 1 and x + 2 in n + 2. The backward vectors lead nowhere there
+        // (they point to frame n - 1), so reading the same value means the forward ones led.
+        let ramp = |shift: f32| move |x: usize, _y: usize| x as f32 - shift;
+        let (w, h) = (8, 2);
+        let cur = frame(w, h, ramp(0.0), [-1.0, 0.0]);
+        let one = frame(w, h, ramp(1.0), [-1.0, 0.0]);
+        let two = frame(w, h, ramp(2.0), [-1.0, 0.0]);
+        let r = reproject(&cur, &[&one, &two], &COLOUR.0, Along::Forward);
+        for x in 0..w {
+            // Pixels 7 and 6 leave the image one and two steps ahead.
+            assert_eq!(r[0].found[x], x + 1 < w, "pixel {x}");
+            assert_eq!(r[1].found[x], x + 2 < w, "pixel {x}");
+            for (k, ahead) in r.iter().enumerate() {
+                if ahead.found[x] {
+                    assert_eq!(red(ahead)[x], x as f32, "pixel {x}, {k} ahead");
+                }
+            }
+        }
+        // Backward, the same frames read other values: the pattern is not where they lead.
+        let back = reproject(&cur, &[&one], &COLOUR.0, Along::Backward);
+        assert!((1..w).all(|x| back[0].found[x] && red(&back[0])[x] == x as f32 - 2.0));
+    }
+
+    #[test]
     fn another_surface_ends_the_walk() {
         let cur = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
         let mut nearer = frame(3, 1, |_, _| 2.0, [0.0, 0.0]);
@@ -297,14 +350,14 @@ mod tests {
         let mut tilted = frame(3, 1, |_, _| 3.0, [0.0, 0.0]);
         // Pixel 2's normal turned 90 degrees in the frame two back.
         tilted.set_rgb(NORMAL, [Vec3::Z, Vec3::Z, Vec3::X].into_iter());
-        let r = reproject(&cur, &[&nearer, &tilted], &COLOUR.0);
+        let r = reproject(&cur, &[&nearer, &tilted], &COLOUR.0, Along::Backward);
         assert_eq!(r[0].found, vec![true, false, true]);
         assert_eq!(r[1].found, vec![true, false, false]);
         // The background matches only the background.
         let mut sky = frame(3, 1, |_, _| 1.0, [0.0, 0.0]);
         set(&mut sky, DEPTH, vec![1e10; 3]);
         sky.set_rgb(NORMAL, [Vec3::ZERO; 3].into_iter());
-        let r = reproject(&sky, &[&sky.clone(), &cur], &COLOUR.0);
+        let r = reproject(&sky, &[&sky.clone(), &cur], &COLOUR.0, Along::Backward);
         assert_eq!(r[0].found, vec![true; 3]);
         assert_eq!(r[1].found, vec![false; 3]);
     }

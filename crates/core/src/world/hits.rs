@@ -68,7 +68,8 @@ impl World<'_> {
     /// [`World::hit`] of up to [`PACKET`] rays at once that need not be coherent (the
     /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
     /// hits. The spheres are searched ray by ray; the points, whose hierarchy is far larger
-    /// than the cache, by walks in turns ([`TracedPoints::closest_in_turns`]).
+    /// than the cache, by walks in turns
+    /// ([`closest_in_turns`](crate::traced_points::TracedPoints::closest_in_turns)).
     pub(crate) fn hit_in_turns(
         &self,
         rays: &[Ray],

@@ -14,6 +14,10 @@
 //! error (`denoise::history`, derived there). A frame reads the frames before it as they were
 //! written before their own history, so it depends on those two frames' renders and no
 //! others': the command renders them first where its run does not ([`Finishing::needs`]).
+//! A **centred window** (`Carry::Centred`, measured by `converge --flicker`, set by no option)
+//! combines it with the frame before it and the frame after it instead; the frame after is
+//! sampled and denoised ahead ([`Finishing::ahead`], [`Finishing::render_ahead`]) and finished
+//! again in its own turn, the same samples.
 //!
 //! **The clip's stated flicker** (`Change`, `--temporal`'s frames, written alone):
 //! each written frame states the change of its error from the frame before it, where this
@@ -49,7 +53,7 @@ use std::time::Instant;
 use accumulation::Accumulation;
 use change::Change;
 use denoising::Denoising;
-use history::History;
+use history::{History, Window};
 use raytrace_core::error::Error;
 use raytrace_core::image::Image;
 use raytrace_core::pass::{Pass, PassSet};
@@ -89,7 +93,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
     let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
-    let history = match settings.carry == Carry::Written {
+    let history = match settings.carry.combines_written() {
         true => {
             estimate::written_bytes(pixels)
                 + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
@@ -144,6 +148,7 @@ pub struct Finishing<'d> {
     /// The clip's stated flicker, for `--temporal`'s frames.
     change: Option<Change>,
     first_frame: u32,
+    last_frame: u32,
     /// The passes the stages read ([`passes_read`]).
     read: PassSet,
     raw: RawStop,
@@ -166,8 +171,8 @@ impl<'d> Finishing<'d> {
         let history = scene
             .output
             .denoise
-            .filter(|d| d.carry == Carry::Written)
-            .map(|_| History::default());
+            .and_then(|d| Window::of(d.carry))
+            .map(History::new);
         let accumulation = scene
             .output
             .denoise
@@ -184,6 +189,7 @@ impl<'d> Finishing<'d> {
             accumulation,
             change,
             first_frame: scene.shot.first_frame,
+            last_frame: scene.shot.last_frame(),
             read: passes_read(scene),
             raw: RawStop,
         })
@@ -217,16 +223,52 @@ impl<'d> Finishing<'d> {
     }
 
     /// The frames that must be finished before `frame`, in order, that have not been: with
-    /// history, the [`HISTORY`] frames before it (of the shot); none otherwise. A command
-    /// renders and finishes them first, without writing them.
+    /// history or accumulation, the frames before it (of the shot) that it reads, [`HISTORY`]
+    /// or, for a centred window, one; none otherwise. A command renders and finishes them
+    /// first, without writing them.
     pub fn needs(&self, frame: u32) -> Vec<u32> {
-        let from = frame.saturating_sub(HISTORY as u32).max(self.first_frame);
+        let back = match (&self.history, &self.accumulation) {
+            (Some(h), _) => h.window().before(),
+            (None, Some(_)) => HISTORY,
+            (None, None) => 0,
+        };
+        let from = frame.saturating_sub(back as u32).max(self.first_frame);
         let held = |k: u32| match (&self.history, &self.accumulation) {
             (Some(h), _) => h.holds(k),
             (None, Some(a)) => a.holds(k),
             (None, None) => true,
         };
         (from..frame).filter(|k| !held(*k)).collect()
+    }
+
+    /// The frame that must be sampled before `frame` is finished, and is not held: with a
+    /// centred window, the frame after it, where the shot has one; none otherwise. A command
+    /// renders it with [`Finishing::render_ahead`] before it samples `frame`.
+    pub fn ahead(&self, frame: u32) -> Option<u32> {
+        let h = self.history.as_ref()?;
+        let next = frame.checked_add(h.window().after() as u32)?;
+        (next > frame && next <= self.last_frame && !h.holds(next)).then_some(next)
+    }
+
+    /// `job` (the frame [`Finishing::ahead`] names) sampled as [`Finishing::render`] samples
+    /// it and denoised, its written frame held for the window of the frame before it; it is
+    /// not finished.
+    pub fn render_ahead(
+        &mut self,
+        job: FrameJob<'_>,
+        tracer: &dyn ShotTracer,
+    ) -> Result<(), Error> {
+        let raw = job
+            .reading(self.passes_read())
+            .sample_with(tracer, self.stop_rule())?;
+        let (Some(d), Some(h)) = (&mut self.denoising, &mut self.history) else {
+            return Ok(());
+        };
+        let written = written_frame(d, &raw).map_err(|e| e.in_frame(raw.frame))?;
+        h.hold_ahead(&raw, &written.terms);
+        // What the frame's denoising spent is counted in its own turn.
+        d.begin();
+        Ok(())
     }
 
     /// `result`, sampled (with [`stop_rule`](Self::stop_rule) as its stop rule, or none),
@@ -246,8 +288,7 @@ impl<'d> Finishing<'d> {
                     Some(pooled.history_share),
                 )
             }
-            (None, StopReason::TimeLimit) => (d.written_within_time(&result.film), None),
-            (None, _) => (d.written(&result.film), None),
+            (None, _) => (written_frame(d, &result), None),
         };
         let written = written.map_err(|e| e.in_frame(frame))?;
         let change = self
@@ -280,5 +321,14 @@ impl<'d> Finishing<'d> {
         });
         d.begin();
         Ok(result)
+    }
+}
+
+/// The written frame of `result`'s film by `d`: under a time limit the last denoise's, which
+/// the frame stopped on (`Denoising::written_within_time`).
+fn written_frame(d: &mut Denoising, result: &FrameResult) -> Result<denoising::Written, Error> {
+    match result.stats.stop {
+        StopReason::TimeLimit => d.written_within_time(&result.film),
+        _ => d.written(&result.film),
     }
 }
