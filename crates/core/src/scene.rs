@@ -74,14 +74,6 @@ pub enum Carry {
     Raw,
 }
 
-impl Carry {
-    /// Whether the frame's written frame is combined with other frames' (history's
-    /// combination, `raytrace_denoise::history`).
-    pub fn combines_written(self) -> bool {
-        matches!(self, Carry::Written | Carry::Centred)
-    }
-}
-
 /// Where the denoiser runs (`--denoise-device`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum DenoiseDevice {

@@ -93,7 +93,7 @@ pub fn bytes_for(scene: &Scene) -> u64 {
     let snapshot = estimate::terms_bytes(pixels);
     let denoise = Filter::run_bytes(pixels) + Image::bytes_for(pixels, 2 * 3) + snapshot;
     let blend = estimate::blending_bytes(pixels);
-    let history = match settings.carry.combines_written() {
+    let history = match Window::of(settings.carry).is_some() {
         true => {
             estimate::written_bytes(pixels)
                 + (HISTORY as u64 + 1) * reproject::frame_bytes(pixels)
