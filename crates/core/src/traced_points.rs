@@ -55,10 +55,10 @@ pub(crate) const RECORD_BYTES: usize = std::mem::size_of::<Record>();
 const NODES_PER_POINT: f64 = 0.11;
 
 /// Bytes per point a frame's [`TracedPoints`] hold at their peak, about: the record, and its
-/// share of the hierarchy's moving nodes (their links and boxes). The build itself
+/// share of the hierarchy's compact nodes (their links and boxes). The build itself
 /// holds nothing per point but the links it pushes (reordering the records in place).
 pub const BYTES_PER_POINT: u64 =
-    (RECORD_BYTES as f64 + NODES_PER_POINT * crate::bvh::MOVING_NODE_BYTES as f64) as u64;
+    (RECORD_BYTES as f64 + NODES_PER_POINT * crate::bvh::COMPACT_NODE_BYTES as f64) as u64;
 
 /// The points of the sets that share one time, with their hierarchy.
 #[derive(Debug)]
@@ -108,7 +108,7 @@ impl Group {
         } else {
             // As `PreparedPoint::shutter_boxes`: the sphere at the opening and at the
             // closing, padded for the interpolation's rounding.
-            group.topology.refit_moving_with(&|pos| {
+            group.topology.refit_compact_with(&|pos| {
                 let q = &group.records[pos as usize];
                 let r = f64::from(q.radius);
                 let start = group.center(q, 0.0);

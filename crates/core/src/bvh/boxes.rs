@@ -1,8 +1,10 @@
 //! The boxes of a hierarchy's nodes: per 8-wide node, its eight children's boxes as `f32`
-//! structure-of-arrays, still or moving over the shutter.
+//! structure-of-arrays, still or moving over the shutter, or moving and compact
+//! (`compact.rs`).
 
 use crate::aabb::Aabb;
 
+use super::compact::CompactNode;
 use super::lanes::LANES;
 use super::rounding::{f32_above, f32_below, moving_lower};
 
@@ -44,58 +46,93 @@ impl ChildBoxes {
 }
 
 /// The boxes of the nodes of a [`Topology`], which a refit recomputes: per node, its eight
-/// children's boxes, and for a moving hierarchy their change over the shutter. Only one of
-/// `still` and `moving` has entries.
+/// children's boxes, still, moving over the shutter, or moving and compact.
 ///
 /// [`Topology`]: super::topology::Topology
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Boxes {
-    /// For a still hierarchy, per node, its children's boxes.
-    pub(super) still: Vec<ChildBoxes>,
-    /// For a moving hierarchy, per node, its children's boxes at the shutter's opening and
-    /// their change until its closing (about `close - open`, widened: see [`moving_lower`]),
-    /// side by side: a traversal step reads both, with one bounds check.
-    pub(super) moving: Vec<[ChildBoxes; 2]>,
+    pub(super) nodes: Nodes,
     /// The box of everything (over the whole shutter, for a moving hierarchy).
     pub(super) bounds: Aabb,
 }
 
-impl Boxes {
-    /// The summed surface areas of every child box of every node, over the whole shutter: the
-    /// cost a ray pays to traverse the hierarchy, up to a constant. It grows as refitted
-    /// primitives move away from where the topology was built.
-    pub fn area(&self) -> f64 {
-        let child = |node: &ChildBoxes, k: usize| {
-            let mut b = Aabb::EMPTY;
-            for a in 0..3 {
-                b.min[a] = f64::from(node.planes[a][k]);
-                b.max[a] = f64::from(node.planes[3 + a][k]);
-            }
-            b
-        };
-        let mut sum = 0.0;
-        for node in &self.still {
-            for k in 0..LANES {
-                let b = child(node, k);
-                // Skips an empty slot.
-                if b.min.x.is_finite() {
-                    sum += b.surface_area();
-                }
-            }
+/// Every node's children's boxes, in one of three layouts.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Nodes {
+    /// Per node, its children's boxes.
+    Still(Vec<ChildBoxes>),
+    /// Per node, its children's boxes at the shutter's opening and their change until its
+    /// closing (about `close - open`, widened: see [`moving_lower`]), side by side: a
+    /// traversal step reads both, with one bounds check.
+    Moving(Vec<[ChildBoxes; 2]>),
+    /// Per node, its children's boxes at the opening and the closing, quantised on a grid of
+    /// the node's own ([`CompactNode`]): a third of the bytes of `Moving`, for hierarchies
+    /// far larger than the cache.
+    Compact(Vec<CompactNode>),
+}
+
+impl Default for Boxes {
+    fn default() -> Self {
+        Boxes {
+            nodes: Nodes::Still(Vec::new()),
+            bounds: Aabb::default(),
         }
-        for [node, delta] in &self.moving {
-            for k in 0..LANES {
-                let b = child(node, k);
-                if !b.min.x.is_finite() {
-                    continue;
-                }
+    }
+}
+
+impl Boxes {
+    /// Number of nodes.
+    pub(super) fn len(&self) -> usize {
+        match &self.nodes {
+            Nodes::Still(n) => n.len(),
+            Nodes::Moving(n) => n.len(),
+            Nodes::Compact(n) => n.len(),
+        }
+    }
+
+    /// Slot `k` of node `node`: its boxes at the shutter's opening and closing as stored (in
+    /// `f64`; the same box twice for a still node), or `None` for an empty slot.
+    pub(super) fn child(&self, node: usize, k: usize) -> Option<(Aabb, Aabb)> {
+        let read = |b: &ChildBoxes| {
+            let mut out = Aabb::EMPTY;
+            for a in 0..3 {
+                out.min[a] = f64::from(b.planes[a][k]);
+                out.max[a] = f64::from(b.planes[3 + a][k]);
+            }
+            out
+        };
+        let (open, close) = match &self.nodes {
+            Nodes::Still(n) => {
+                let b = read(&n[node]);
+                (b, b)
+            }
+            Nodes::Moving(n) => {
+                let [b, d] = &n[node];
+                let (b, d) = (read(b), read(d));
                 // The box at the closing, from the one at the opening and the change.
-                let d = child(delta, k);
                 let close = Aabb {
                     min: b.min + d.min,
                     max: b.max + d.max,
                 };
-                sum += b.union(&close).surface_area();
+                (b, close)
+            }
+            Nodes::Compact(n) => n[node].child(k),
+        };
+        // An empty slot: sides not finite (still and moving), or inside out (compact).
+        let empty = |b: &Aabb| !(b.min.x.is_finite() && b.min.x <= b.max.x);
+        (!empty(&open)).then_some((open, close))
+    }
+
+    /// The summed surface areas of every child box of every node, over the whole shutter: the
+    /// cost a ray pays to traverse the hierarchy, up to a constant. It grows as refitted
+    /// primitives move away from where the topology was built.
+    pub fn area(&self) -> f64 {
+        let mut sum = 0.0;
+        for node in 0..self.len() {
+            for k in 0..LANES {
+                if let Some((open, close)) = self.child(node, k) {
+                    sum += open.union(&close).surface_area();
+                }
             }
         }
         sum
@@ -109,12 +146,13 @@ impl Boxes {
     /// Bytes held.
     #[cfg(test)]
     pub(crate) fn memory_bytes(&self) -> usize {
-        self.still.capacity() * std::mem::size_of::<ChildBoxes>()
-            + self.moving.capacity() * std::mem::size_of::<[ChildBoxes; 2]>()
+        match &self.nodes {
+            Nodes::Still(n) => n.capacity() * std::mem::size_of::<ChildBoxes>(),
+            Nodes::Moving(n) => n.capacity() * std::mem::size_of::<[ChildBoxes; 2]>(),
+            Nodes::Compact(n) => n.capacity() * std::mem::size_of::<CompactNode>(),
+        }
     }
-}
 
-impl Boxes {
     /// Asks for node `node`'s boxes to be loaded into the cache (every line of them), to be
     /// read later; nothing for a number past the last node.
     #[inline(always)]
@@ -125,11 +163,23 @@ impl Boxes {
                 m.prefetch(&b.planes[k]);
             }
         };
-        if let Some([b, d]) = self.moving.get(node) {
-            lines(b);
-            lines(d);
-        } else if let Some(b) = self.still.get(node) {
-            lines(b);
+        match &self.nodes {
+            Nodes::Still(n) => {
+                if let Some(b) = n.get(node) {
+                    lines(b);
+                }
+            }
+            Nodes::Moving(n) => {
+                if let Some([b, d]) = n.get(node) {
+                    lines(b);
+                    lines(d);
+                }
+            }
+            Nodes::Compact(n) => {
+                if let Some(c) = n.get(node) {
+                    c.prefetch(m);
+                }
+            }
         }
     }
 }

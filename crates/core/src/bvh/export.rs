@@ -2,7 +2,7 @@
 //! holds and its box. For copies of a hierarchy in other layouts (the GPU's, `raytrace_gpu`),
 //! which then depend on this file alone and not on how nodes are packed.
 
-use super::boxes::ChildBoxes;
+use super::boxes::{ChildBoxes, Nodes, set_moving};
 use super::lanes::LANES;
 use super::traverse::BvhView;
 
@@ -35,13 +35,12 @@ impl BvhView<'_> {
         self.topology.links.len()
     }
 
-    /// The children of node `node`, in slot order, empty slots left out.
+    /// The children of node `node`, in slot order, empty slots left out. A compact node's
+    /// boxes are given as the `f32` sides and changes that contain them ([`moving_lower`]).
+    ///
+    /// [`moving_lower`]: super::rounding::moving_lower
     pub fn children(&self, node: usize) -> Vec<Child> {
         let links = &self.topology.links[node];
-        let (boxes, change) = match self.boxes.moving.get(node) {
-            Some([b, d]) => (b, Some(d)),
-            None => (&self.boxes.still[node], None),
-        };
         let side =
             |b: &ChildBoxes, first: usize, k: usize| [0, 1, 2].map(|a| b.planes[first + a][k]);
         (0..LANES)
@@ -52,14 +51,29 @@ impl BvhView<'_> {
                     (0, node) => ChildKind::Node(node),
                     (count, first) => ChildKind::Leaf { first, count },
                 };
-                let (lower_change, upper_change) = match change {
-                    Some(d) => (side(d, 0, k), side(d, 3, k)),
-                    None => ([0.0; 3], [0.0; 3]),
+                let (lower, upper, lower_change, upper_change) = match &self.boxes.nodes {
+                    Nodes::Still(n) => (
+                        side(&n[node], 0, k),
+                        side(&n[node], 3, k),
+                        [0.0; 3],
+                        [0.0; 3],
+                    ),
+                    Nodes::Moving(n) => {
+                        let [b, d] = &n[node];
+                        (side(b, 0, k), side(b, 3, k), side(d, 0, k), side(d, 3, k))
+                    }
+                    Nodes::Compact(_) => {
+                        let (open, close) = self.boxes.child(node, k)?;
+                        let mut moving = [ChildBoxes::EMPTY, ChildBoxes::ZERO];
+                        set_moving(&mut moving, 0, &open, &close);
+                        let [b, d] = &moving;
+                        (side(b, 0, 0), side(b, 3, 0), side(d, 0, 0), side(d, 3, 0))
+                    }
                 };
                 Some(Child {
                     kind,
-                    lower: side(boxes, 0, k),
-                    upper: side(boxes, 3, k),
+                    lower,
+                    upper,
                     lower_change,
                     upper_change,
                 })

@@ -15,6 +15,11 @@ use super::traverse::BvhView;
 pub(crate) const MOVING_NODE_BYTES: usize =
     std::mem::size_of::<Links>() + std::mem::size_of::<[ChildBoxes; 2]>();
 
+/// Bytes of an 8-wide compact node (`Topology::refit_compact_with`): its children's links
+/// and their boxes at the opening and the closing, quantised.
+pub(crate) const COMPACT_NODE_BYTES: usize =
+    std::mem::size_of::<Links>() + std::mem::size_of::<super::compact::CompactNode>();
+
 /// Bytes per primitive of a hierarchy, at most about: its place in the leaf order, and an
 /// 8-wide moving node's children and boxes per two and a half primitives (a leaf holds one
 /// to four and a node about four children: 0.38 nodes a primitive over 100 random spheres,

@@ -22,6 +22,11 @@ pub(super) trait Lanes: Copy {
     type V: Copy;
     fn splat(self, x: f32) -> Self::V;
     fn load(self, a: &[f32; LANES]) -> Self::V;
+    /// Eight bytes as `f32`s (exactly).
+    #[inline(always)]
+    fn load_u8(self, a: &[u8; LANES]) -> Self::V {
+        self.load(&a.map(f32::from))
+    }
     fn add(self, a: Self::V, b: Self::V) -> Self::V;
     fn sub(self, a: Self::V, b: Self::V) -> Self::V;
     fn mul(self, a: Self::V, b: Self::V) -> Self::V;

@@ -28,11 +28,3 @@ impl Links {
         (w & POSITION_MASK, w >> COUNT_SHIFT)
     }
 }
-
-/// The children of the child word `w`'s node, read ahead of descending into it; a leaf's word
-/// (or an empty slot) reads the root's, which a traversal never uses, so the read needs no
-/// branch on what the traversal does next.
-#[inline]
-pub(super) fn links_of(links: &[Links], w: u32) -> Links {
-    links[if w >> COUNT_SHIFT == 0 { w as usize } else { 0 }]
-}

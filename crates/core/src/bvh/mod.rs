@@ -29,6 +29,7 @@
 //! - `rounding`: `f64` sides rounded outward to `f32`, still and moving;
 //! - `lanes`: eight `f32` lanes (AVX chosen at run time, SSE, or plain arrays);
 //! - `boxes`: [`Boxes`], the nodes' `f32` boxes (eight children a node, still or moving);
+//! - `compact`: a moving node's boxes quantised on a grid of its own, a third of the bytes;
 //! - `links`: a node's eight children packed one word a slot;
 //! - `topology`: [`Topology`], the nodes' children and the leaf order; the refit;
 //! - `build`: the binned SAH build, on the primitives' boxes at the shutter's opening and
@@ -50,6 +51,7 @@
 
 mod boxes;
 mod build;
+mod compact;
 mod export;
 mod hierarchy;
 mod lanes;
@@ -73,7 +75,7 @@ pub(crate) use build::BuildBox;
 pub use export::{Child, ChildKind};
 pub(crate) use hierarchy::BYTES_PER_PRIMITIVE;
 pub use hierarchy::Bvh;
-pub(crate) use hierarchy::MOVING_NODE_BYTES;
+pub(crate) use hierarchy::COMPACT_NODE_BYTES;
 pub use leaves::Leaves;
 pub(crate) use leaves::PacketLeaves;
 pub(crate) use packet::PacketRay;

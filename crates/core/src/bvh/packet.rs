@@ -13,7 +13,7 @@ use glam::DVec3;
 
 use super::lanes::{LANES, Lanes};
 use super::leaves::{OneOf, PacketLeaves};
-use super::links::{COUNT_SHIFT, POSITION_MASK, links_of};
+use super::links::{COUNT_SHIFT, POSITION_MASK};
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{PACKET, TraversalStack};
 use super::traverse::BvhView;
@@ -117,7 +117,6 @@ impl BvhView<'_> {
         if active == 0 {
             return best;
         }
-        let links = &self.topology.links[..];
         let stack = &mut stack.packet;
         let mut limit = [0.0f32; PACKET];
         for r in 0..PACKET {
@@ -125,7 +124,7 @@ impl BvhView<'_> {
         }
         let mut sp = 0usize;
         let mut current = 0usize;
-        let mut node = links[0];
+        let mut node = self.links(0);
         // Per ray, the entry distances into the current node's children. Filled once here:
         // a node overwrites the rows of the rays in it, and only those are read.
         let mut near = [[f32::INFINITY; LANES]; PACKET];
@@ -187,7 +186,7 @@ impl BvhView<'_> {
                 }
                 for &k in &order[..n - 1] {
                     let w = node.child[k];
-                    stack.links[sp] = links_of(links, w);
+                    stack.links[sp] = self.links_of(w);
                     stack.entry[sp] = w;
                     let lanes_k = ((by_child >> (8 * k)) & 0xff) as u32;
                     stack.lanes[sp] = lanes_k;
@@ -201,7 +200,7 @@ impl BvhView<'_> {
                 next = node.child[k];
                 next_lanes = ((by_child >> (8 * k)) & 0xff) as u32;
             }
-            let mut next_links = links_of(links, next);
+            let mut next_links = self.links_of(next);
             // Intersect leaves until an inner node to descend into, popping the stack.
             loop {
                 let count = next >> COUNT_SHIFT;

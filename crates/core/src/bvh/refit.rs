@@ -7,19 +7,22 @@ use rayon::prelude::*;
 use crate::aabb::Aabb;
 
 use super::boxes::{ChildBoxes, set_moving};
+use super::compact::CompactNode;
 use super::lanes::LANES;
 use super::links::Links;
 
 /// Subtrees of more nodes than this have their children's subtrees refitted in parallel.
 const PARALLEL_REFIT: usize = 512;
 
-/// A node's children's boxes as a hierarchy stores them: still, or moving over the shutter.
+/// A node's children's boxes as a hierarchy stores them: still, moving over the shutter, or
+/// moving and compact.
 pub(super) trait NodeBoxes: Copy + Send + Sync {
     /// Every slot empty: no ray enters it.
     const EMPTY: Self;
-    /// Sets slot `k` to the boxes `open` (at the shutter's opening) and `close` (at its
-    /// closing), rounded outward.
-    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb);
+    /// The node whose slot `k` holds `children[k]`: the boxes at the shutter's opening and
+    /// at its closing, rounded outward (`None`: an empty slot). `links` are its children, which
+    /// a compact node keeps beside its boxes.
+    fn new(children: &[Option<(Aabb, Aabb)>; LANES], links: &Links) -> Self;
 }
 
 impl NodeBoxes for ChildBoxes {
@@ -27,8 +30,14 @@ impl NodeBoxes for ChildBoxes {
 
     /// A still node holds the union (for a still primitive, `open` and `close` are one box).
     #[inline]
-    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb) {
-        ChildBoxes::set(self, k, &open.union(close));
+    fn new(children: &[Option<(Aabb, Aabb)>; LANES], _: &Links) -> Self {
+        let mut node = Self::EMPTY;
+        for (k, c) in children.iter().enumerate() {
+            if let Some((open, close)) = c {
+                node.set(k, &open.union(close));
+            }
+        }
+        node
     }
 }
 
@@ -36,8 +45,23 @@ impl NodeBoxes for [ChildBoxes; 2] {
     const EMPTY: Self = [ChildBoxes::EMPTY, ChildBoxes::ZERO];
 
     #[inline]
-    fn set(&mut self, k: usize, open: &Aabb, close: &Aabb) {
-        set_moving(self, k, open, close);
+    fn new(children: &[Option<(Aabb, Aabb)>; LANES], _: &Links) -> Self {
+        let mut node = Self::EMPTY;
+        for (k, c) in children.iter().enumerate() {
+            if let Some((open, close)) = c {
+                set_moving(&mut node, k, open, close);
+            }
+        }
+        node
+    }
+}
+
+impl NodeBoxes for CompactNode {
+    const EMPTY: Self = CompactNode::EMPTY;
+
+    #[inline]
+    fn new(children: &[Option<(Aabb, Aabb)>; LANES], links: &Links) -> Self {
+        CompactNode::new(children, links)
     }
 }
 
@@ -111,15 +135,17 @@ fn subtree<T: NodeBoxes>(
         child[k] = b;
     }
     let mut all = (Aabb::EMPTY, Aabb::EMPTY);
+    let mut slots = [None; LANES];
     for (k, (o, c)) in child.iter().enumerate() {
         let (at, count) = node.slot(k);
         if count == 0 && at == 0 {
             // An empty slot (the root is nobody's child): it stays empty.
             continue;
         }
-        head.set(k, o, c);
+        slots[k] = Some((*o, *c));
         all = (all.0.union(o), all.1.union(c));
     }
+    *head = T::new(&slots, &node);
     all
 }
 

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 
-use super::boxes::Boxes;
+use super::boxes::{Boxes, Nodes};
 use super::lanes::{LANES, Lanes};
 use super::rounding::f32_below;
 
@@ -38,11 +38,6 @@ pub(super) trait SlabTest {
     /// or `limit` (an `f32` at or above it, [`widened_limit`]), as bits, and their entry
     /// distances, at most the true ones.
     fn test(&self, boxes: &Boxes, node: usize, limit: f32, t_max: f64) -> (u32, [f32; LANES]);
-    /// Asks for the boxes of `node` to be loaded into the cache, for a test later.
-    #[inline(always)]
-    fn prefetch(&self, boxes: &Boxes, node: usize) {
-        let _ = (boxes, node);
-    }
 }
 
 /// A ray as the `f32` slab test reads it, on the lanes of machine `M`: per axis, its
@@ -61,6 +56,8 @@ pub(super) struct RayLanes<M: Lanes> {
     /// Per axis, whether the direction is negative: the ray enters through the upper side.
     negative: [bool; 3],
     s: M::V,
+    /// The shutter time in `f32`, for compact nodes' per-node terms.
+    s32: f32,
 }
 
 impl<M: Lanes> RayLanes<M> {
@@ -85,6 +82,7 @@ impl<M: Lanes> RayLanes<M> {
             o_down: splat3(m, down),
             negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
             s: m.splat(s as f32),
+            s32: s as f32,
         })
     }
 
@@ -112,11 +110,6 @@ fn splat3<M: Lanes>(m: M, v: glam::Vec3) -> [M::V; 3] {
 }
 
 impl<M: Lanes> SlabTest for RayLanes<M> {
-    #[inline(always)]
-    fn prefetch(&self, boxes: &Boxes, node: usize) {
-        boxes.prefetch(self.m, node);
-    }
-
     /// Entry distances at most the exact ones (computed in real arithmetic from the `f64`
     /// origin and direction, against the box a traversal's `f32` evaluation gives).
     #[inline(always)]
@@ -127,18 +120,22 @@ impl<M: Lanes> SlabTest for RayLanes<M> {
         // `max` and `min` keep the running value when the new one is NaN (0 * inf cannot
         // arise with a finite reciprocal, but a NaN side can), which leaves that axis out.
         for a in 0..3 {
-            let (lower, upper) = if boxes.moving.is_empty() {
-                let planes = &boxes.still[node].planes;
-                (m.load(&planes[a]), m.load(&planes[3 + a]))
-            } else {
-                let [planes, d] = &boxes.moving[node];
-                let (planes, d) = (&planes.planes, &d.planes);
-                // Evaluated in `f32` (a product, then a sum: no fused multiply-add), as
-                // `moving_lower` allows for.
-                (
-                    m.add(m.load(&planes[a]), m.mul(self.s, m.load(&d[a]))),
-                    m.add(m.load(&planes[3 + a]), m.mul(self.s, m.load(&d[3 + a]))),
-                )
+            let (lower, upper) = match &boxes.nodes {
+                Nodes::Still(n) => {
+                    let planes = &n[node].planes;
+                    (m.load(&planes[a]), m.load(&planes[3 + a]))
+                }
+                Nodes::Moving(n) => {
+                    let [planes, d] = &n[node];
+                    let (planes, d) = (&planes.planes, &d.planes);
+                    // Evaluated in `f32` (a product, then a sum: no fused multiply-add), as
+                    // `moving_lower` allows for.
+                    (
+                        m.add(m.load(&planes[a]), m.mul(self.s, m.load(&d[a]))),
+                        m.add(m.load(&planes[3 + a]), m.mul(self.s, m.load(&d[3 + a]))),
+                    )
+                }
+                Nodes::Compact(n) => n[node].sides(m, a, self.s32),
             };
             let (n, f) = self.axis(a, lower, upper);
             near = m.max_keep(n, near);
@@ -189,27 +186,23 @@ impl SlabTest for RayF64 {
         let mut far = [t_max; LANES];
         // `max` and `min` ignore a NaN (0 * inf: a ray in a box's face plane, parallel
         // to it), which leaves that axis out of the interval.
-        if boxes.moving.is_empty() {
-            let planes = &boxes.still[node].planes;
-            for a in 0..3 {
-                let (e, x) = (self.entry[a], self.exit[a]);
-                for k in 0..LANES {
-                    near[k] = near[k].max((f64::from(planes[e][k]) - o[a]) * inv[a]);
-                    far[k] = far[k].min((f64::from(planes[x][k]) - o[a]) * inv[a]);
+        // Per side (as `ChildBoxes::planes` numbers them), its eight children's values.
+        let side = |i: usize| -> [f64; LANES] {
+            match &boxes.nodes {
+                Nodes::Still(n) => n[node].planes[i].map(f64::from),
+                // In `f32`, which `moving_lower`'s margin allows for.
+                Nodes::Moving(n) => {
+                    let [planes, d] = &n[node];
+                    std::array::from_fn(|k| f64::from(planes.planes[i][k] + s32 * d.planes[i][k]))
                 }
+                Nodes::Compact(n) => n[node].side_values(i, s32).map(f64::from),
             }
-        } else {
-            let [planes, d] = &boxes.moving[node];
-            let (planes, d) = (&planes.planes, &d.planes);
-            for a in 0..3 {
-                let (e, x) = (self.entry[a], self.exit[a]);
-                for k in 0..LANES {
-                    // In `f32`, which `moving_lower`'s margin allows for.
-                    let n = f64::from(planes[e][k] + s32 * d[e][k]);
-                    let f = f64::from(planes[x][k] + s32 * d[x][k]);
-                    near[k] = near[k].max((n - o[a]) * inv[a]);
-                    far[k] = far[k].min((f - o[a]) * inv[a]);
-                }
+        };
+        for a in 0..3 {
+            let (entry, exit) = (side(self.entry[a]), side(self.exit[a]));
+            for k in 0..LANES {
+                near[k] = near[k].max((entry[k] - o[a]) * inv[a]);
+                far[k] = far[k].min((exit[k] - o[a]) * inv[a]);
             }
         }
         let mut mask = 0;
@@ -225,6 +218,7 @@ mod tests {
     use super::*;
     use crate::aabb::Aabb;
     use crate::bvh::boxes::{ChildBoxes, set_moving};
+    use crate::bvh::compact::CompactNode;
     use crate::bvh::lanes::Plain;
     use crate::rng::Pcg32;
 
@@ -267,11 +261,21 @@ mod tests {
             }
             let nodes = [
                 Boxes {
-                    still: vec![still],
+                    nodes: Nodes::Still(vec![still]),
                     ..Boxes::default()
                 },
                 Boxes {
-                    moving: vec![moving],
+                    nodes: Nodes::Moving(vec![moving]),
+                    ..Boxes::default()
+                },
+                Boxes {
+                    nodes: Nodes::Compact(vec![CompactNode::new(
+                        &std::array::from_fn(|k| {
+                            (k < LANES - 3 * usize::from(round % 4 == 1))
+                                .then(|| (boxes[k], moved[k]))
+                        }),
+                        &crate::bvh::links::Links::default(),
+                    )]),
                     ..Boxes::default()
                 },
             ];

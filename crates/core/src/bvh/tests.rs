@@ -116,6 +116,9 @@ fn non_finite_rays_and_boxes_find_nothing() {
         // the slab test ignores NaN: the traversal still visits each leaf once, no more.
         let bad = vec![Aabb::point(DVec3::splat(nan)); n];
         let boxes = moving.topology().refit_moving(&bad, &bad);
+        // Compact nodes cannot hold them: a compact refit keeps `f32` sides instead.
+        let kept = moving.topology().refit_compact_with(&|_| (bad[0], bad[0]));
+        assert!(matches!(kept.nodes, super::boxes::Nodes::Moving(_)));
         let view = BvhView::new(moving.topology(), &boxes);
         for ray in random_rays(&mut r, 20) {
             let mut visits = 0;
@@ -164,10 +167,24 @@ fn moving_agrees_with_brute_force() {
         // A third still, the others slow or fast.
         let (spheres, open, close) = moving_spheres(&mut r, n);
         let bvh = Bvh::build_moving(&open, &close);
+        let compact = compact_boxes(&bvh, &open, &close);
         for ray in random_rays(&mut r, 400) {
             assert!(moving_hit_is_brute(bvh.view(), &spheres, &ray, &mut stack));
+            let view = BvhView::new(bvh.topology(), &compact);
+            assert!(moving_hit_is_brute(view, &spheres, &ray, &mut stack));
         }
     }
+}
+
+/// The boxes of `bvh`'s topology over primitives with boxes `open` and `close`, compact.
+fn compact_boxes(bvh: &Bvh, open: &[Aabb], close: &[Aabb]) -> super::Boxes {
+    let topology = bvh.topology();
+    let boxes = topology.refit_compact_with(&|pos| {
+        let i = topology.order()[pos as usize] as usize;
+        (open[i], close[i])
+    });
+    assert!(matches!(boxes.nodes, super::boxes::Nodes::Compact(_)));
+    boxes
 }
 
 /// Whether `bvh` over the moving `spheres` finds what testing every sphere at the ray's
@@ -341,7 +358,8 @@ type Visits = (Vec<(u32, u64)>, Option<(f64, u32)>);
 /// Every kernel of the traversal (plain arrays; SSE and, where the processor has it, AVX on
 /// x86-64) visits the same primitives in the same order with the same distance bounds, and
 /// finds the same hit: their lanes give the same bits, so a render is the same bytes on any
-/// of them. Still, moving and refitted hierarchies; rays of every kind `random_rays` makes.
+/// of them. Still, moving, refitted and compact hierarchies; rays of every kind `random_rays`
+/// makes.
 #[test]
 fn every_kernel_visits_the_same_primitives() {
     use super::lanes::{Lanes, Plain};
@@ -384,10 +402,12 @@ fn every_kernel_visits_the_same_primitives() {
             .map(|&(c, _, rad)| (c, DVec3::ZERO, rad))
             .collect();
         let still = Bvh::build(&open);
+        let compact = compact_boxes(&moving, &open, &close);
         let cases = [
             (moving.view(), &spheres),
             (BvhView::new(moving.topology(), &refitted), &spheres),
             (still.view(), &still_spheres),
+            (BvhView::new(moving.topology(), &compact), &spheres),
         ];
         for ray in random_rays(&mut r, 1000) {
             for (view, spheres) in cases {
@@ -427,7 +447,8 @@ fn bytes_per_primitive_bounds_a_moving_hierarchy() {
 /// alone: coherent packets (from
 /// around one point towards around another, as a pixel's camera rays) and random ones, some
 /// lanes with bounds on the distance, axis-parallel, tiny-direction or non-finite rays among
-/// them, packets of one to eight rays; still, moving and refitted hierarchies; every kernel.
+/// them, packets of one to eight rays; still, moving, refitted and compact hierarchies; every
+/// kernel.
 #[test]
 fn packets_and_turns_find_what_each_ray_finds_alone() {
     use super::lanes::{Lanes, Plain};
@@ -492,10 +513,12 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
             .map(|&(c, _, rad)| (c, DVec3::ZERO, rad))
             .collect();
         let still = Bvh::build(&open);
+        let compact = compact_boxes(&moving, &open, &close);
         let cases = [
             (moving.view(), &spheres),
             (BvhView::new(moving.topology(), &refitted), &spheres),
             (still.view(), &still_spheres),
+            (BvhView::new(moving.topology(), &compact), &spheres),
         ];
         for round in 0..300 {
             let len = 1 + round % PACKET;

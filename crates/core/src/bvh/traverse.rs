@@ -4,9 +4,10 @@
 
 use glam::DVec3;
 
-use super::boxes::Boxes;
+use super::boxes::{Boxes, Nodes};
 use super::lanes::Lanes;
 use super::leaves::Leaves;
+use super::links::{COUNT_SHIFT, Links};
 use super::slab::{RayF64, RayLanes, SlabTest};
 use super::stack::TraversalStack;
 use super::topology::Topology;
@@ -25,10 +26,41 @@ impl<'a> BvhView<'a> {
     /// of nodes.
     #[inline]
     pub fn new(topology: &'a Topology, boxes: &'a Boxes) -> BvhView<'a> {
-        // One of the two is empty.
-        let n = boxes.still.len().max(boxes.moving.len());
-        assert!(n == topology.links.len(), "boxes of another topology");
+        assert!(
+            boxes.len() == topology.links.len(),
+            "boxes of another topology"
+        );
         BvhView { topology, boxes }
+    }
+
+    /// The children of node `node`: beside its boxes in a compact hierarchy, in the
+    /// topology otherwise.
+    #[inline(always)]
+    pub(super) fn links(&self, node: usize) -> Links {
+        match &self.boxes.nodes {
+            Nodes::Compact(n) => n[node].links,
+            _ => self.topology.links[node],
+        }
+    }
+
+    /// The children of the child word `w`'s node, read ahead of descending into it; a leaf's
+    /// word (or an empty slot) reads the root's, which a traversal never uses, so the read
+    /// needs no branch on what the traversal does next.
+    #[inline(always)]
+    pub(super) fn links_of(&self, w: u32) -> Links {
+        self.links(if w >> COUNT_SHIFT == 0 { w as usize } else { 0 })
+    }
+
+    /// Asks for node `node`'s boxes and children to be loaded (nothing past the last node).
+    #[inline(always)]
+    pub(super) fn prefetch<M: Lanes>(&self, m: M, node: usize) {
+        self.boxes.prefetch(m, node);
+        // A compact node's children are on its boxes' lines.
+        if !matches!(self.boxes.nodes, Nodes::Compact(_))
+            && let Some(l) = self.topology.links.get(node)
+        {
+            m.prefetch(l);
+        }
     }
 
     /// Finds the closest primitive hit by the ray `origin + t dir`, `t` in `(0, t_max)`, at

@@ -102,9 +102,8 @@ impl<R: SlabTest> Walk<R> {
             }
             return self.pop(stack);
         }
-        let links = &view.topology.links[..];
         let current = next as usize;
-        let node = links[current];
+        let node = view.links(current);
         let (mask, near) = self.ray.test(view.boxes, current, self.limit, self.t_max);
         // Every child entered is asked for now, a node's boxes and children or a leaf's
         // primitives: the loads overlap this node's sorting and pushing and the descent (and
@@ -115,12 +114,7 @@ impl<R: SlabTest> Walk<R> {
             let w = node.child[bits.trailing_zeros() as usize];
             bits &= bits - 1;
             match w >> COUNT_SHIFT {
-                0 => {
-                    self.ray.prefetch(view.boxes, w as usize);
-                    if let Some(l) = links.get(w as usize) {
-                        m.prefetch(l);
-                    }
-                }
+                0 => view.prefetch(m, w as usize),
                 count => leaves.prefetch(w & POSITION_MASK, count),
             }
         }

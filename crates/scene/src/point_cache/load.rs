@@ -10,8 +10,9 @@ use raytrace_core::scene::Scene;
 /// (the file's values as read, position, velocity and radius in `f64` and colour, beside
 /// the sets' `f32` columns made from them) and what tracing holds (the sets' columns, `f32`
 /// position, velocity and radius and colour, with the tracer's records and hierarchy,
-/// [`raytrace_core::traced_points::BYTES_PER_POINT`]). Measured: 1.16 GB at the peak of a frame of
-/// 1.009e7 points (docs/performance.md), film and process included.
+/// [`raytrace_core::traced_points::BYTES_PER_POINT`]; reading is now the larger). Measured:
+/// 1.035 GB at the peak of a frame of 1.009e7 points (docs/performance.md), film and process
+/// included.
 const BYTES_PER_POINT: u64 = {
     use std::mem::size_of;
     let columns = 2 * size_of::<glam::Vec3>() + size_of::<f32>() + size_of::<[f32; 3]>();

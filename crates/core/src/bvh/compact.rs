@@ -1,0 +1,345 @@
+//! A moving node's eight children's boxes in 128 bytes instead of 384: each side of each
+//! child at the shutter's opening and at its closing as an 8-bit step on a grid of the node's
+//! own (its lower corner and a power-of-two step per axis, at each end of the shutter), as
+//! Embree's compressed nodes quantise a child's box in its parent's (Ylitie, Karras and
+//! Laine 2017, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs").
+//! With a copy of the node's children (its links) beside them, a node is 160 bytes on three
+//! cache lines of one page, where a moving node and its links are seven lines on two pages;
+//! each side rounded outward, so a box only grows. For hierarchies far larger than the cache
+//! (a frame of ten million points), whose every node a ray reads is a miss.
+//!
+//! **Why the evaluated box holds the primitives.** Per axis and end `e` (0 the opening, 1 the
+//! closing) a node stores an `f32` origin `O_e` and a step `S_e = 2^x_e`; a child's lower side
+//! at that end is `P_e = O_e + q_e S_e` (exact in real arithmetic) with an integer `q_e` in
+//! 0..=255 chosen so that `P_e <= L_e - δ`, `L_e` the side it stands for and `δ` a margin
+//! (upper sides the mirror: `P_e >= U_e + δ`). A traversal at shutter time `s` evaluates, in
+//! `f32` (`s` rounded to `f32`: `σ`),
+//!
+//! `lower = (Os + q_0 * A_0) + q_1 * A_1`, with `Os = O_0 + σ * (O_1 - O_0)`,
+//! `A_0 = (1 - σ) * S_0` and `A_1 = σ * S_1`
+//!
+//! (`Os`, `A_0`, `A_1` once per node and axis, the rest in lanes; a product, then a sum, no
+//! fused multiply-add, so every machine gives the same bits). In real arithmetic that is
+//! `P(σ) = (1 - σ) P_0 + σ P_1`, at most `(1 - σ) L_0 + σ L_1 - δ`: the interpolation every
+//! box of a moving hierarchy stands for, less `δ`. Let `M` be the largest magnitude of the
+//! node's own box's sides at either end; then `|O_e| <= 1.01 M` and `255 S_e < 2 (2M + 2δ)`.
+//! The roundings (pbrt-v4's reasoning, `u = 2^-24`): `Os` three, at most `7u` of `1.01 M`;
+//! `A_1` none (a power of two times `σ`), `A_0` one; each product one and each sum one, at most
+//! `u` of their magnitudes (below `K + 2Q`, `K = 1.01 M`, `Q = 4.1 M`): in all under
+//! `9uK + 6uQ + 2u (K + 2Q)`; and `σ` is off `s` by at most `u`, which moves `P` by at most
+//! `u |P_1 - P_0| <= 2u (K + Q)`. Together under `63 u M < 2^-18 M`, and
+//! `δ = 2^-16 M + 2^-130` is four times that (its last term for the roundings of nodes below
+//! the normal range, whose steps are at least `2^-126`): the evaluated lower side lies
+//! below the exact interpolation at every `s` in [0, 1], the upper side above it. The rare
+//! rays the lanes cannot take (`RayF64`) read the same `f32` sides.
+//!
+//! The grid needs the node's sides finite and within `2^100` of the origin (so no step or
+//! sum overflows); [`representable`] says whether a hierarchy's box is, and a hierarchy
+//! beyond it keeps `f32` sides (`Topology::refit_compact_with`). An empty slot is stored as
+//! the node's whole grid turned inside out (lower sides at step 255, upper at 0), which no
+//! ray enters but by the rounding of a distance hundreds of millions of steps away, and a
+//! traversal skips an empty slot it enters.
+
+use crate::aabb::Aabb;
+
+use super::lanes::{LANES, Lanes};
+use super::links::Links;
+
+/// The margin `δ` of a node whose sides are at most `m` in magnitude (see the module's
+/// documentation): `2^-16 m + 2^-130`.
+fn margin(m: f64) -> f64 {
+    m * 2f64.powi(-16) + 2f64.powi(-130)
+}
+
+/// The largest magnitude a hierarchy's box may have for its nodes to be stored compact.
+const LARGEST: f64 = 1.2676506002282294e30; // 2^100
+
+/// Whether boxes inside `bounds` can be stored compact: finite and within `2^100` of the
+/// origin (an empty box, infinite, cannot).
+pub(super) fn representable(bounds: &Aabb) -> bool {
+    // Written so that a NaN side is not representable.
+    (0..3).all(|a| bounds.min[a].abs() <= LARGEST && bounds.max[a].abs() <= LARGEST)
+}
+
+/// The sides of eight children, quantised on the node's grid at the shutter's opening and
+/// closing, and the node's children: 32 bytes of links, 96 of steps, 24 of origins and the
+/// steps' exponents, 160 in all, on three cache lines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(32))]
+pub(super) struct CompactNode {
+    /// The node's children, a copy of the topology's: read with the boxes, from the same
+    /// lines (in a hierarchy far larger than the cache, one page walk a node instead of two).
+    pub(super) links: Links,
+    /// `q[6 e + side][child]`: end `e` (0 opening, 1 closing), sides as
+    /// `ChildBoxes::planes` orders them (lower x, y, z, then upper x, y, z).
+    q: [[u8; LANES]; 12],
+    /// `origin[e][axis]`: the grid's lower corner at end `e`.
+    origin: [[f32; 3]; 2],
+    /// `exponent[e][axis]`: the grid's step at end `e` is `2^exponent`, at least `2^-126`.
+    exponent: [[i8; 3]; 2],
+}
+
+/// The `f32` power of two `2^x`, for `x` in -126..=127.
+#[inline(always)]
+fn power_of_two(x: i8) -> f32 {
+    f32::from_bits(((i32::from(x) + 127) as u32) << 23)
+}
+
+impl CompactNode {
+    /// Every slot empty (see the module's documentation).
+    pub(super) const EMPTY: CompactNode = CompactNode {
+        links: Links { child: [0; LANES] },
+        q: [
+            [255; LANES],
+            [255; LANES],
+            [255; LANES],
+            [0; LANES],
+            [0; LANES],
+            [0; LANES],
+            [255; LANES],
+            [255; LANES],
+            [255; LANES],
+            [0; LANES],
+            [0; LANES],
+            [0; LANES],
+        ],
+        origin: [[0.0; 3]; 2],
+        exponent: [[0; 3]; 2],
+    };
+
+    /// The node whose slot `k` holds `children[k]`, its boxes at the shutter's opening and
+    /// closing (a slot of `None` is empty), every side rounded outward on the node's grid.
+    /// Boxes beyond [`representable`] give a node of no use, which the caller discards.
+    pub(super) fn new(children: &[Option<(Aabb, Aabb)>; LANES], links: &Links) -> CompactNode {
+        let mut node = CompactNode::EMPTY;
+        node.links = *links;
+        for e in 0..2 {
+            let end = |c: &(Aabb, Aabb)| if e == 0 { c.0 } else { c.1 };
+            let whole = children
+                .iter()
+                .flatten()
+                .fold(Aabb::EMPTY, |b, c| b.union(&end(c)));
+            for a in 0..3 {
+                // The largest magnitude at either end, as the bound on the roundings takes it.
+                let m = children
+                    .iter()
+                    .flatten()
+                    .map(|(o, c)| {
+                        let [o, c] = [o, c].map(|b| b.min[a].abs().max(b.max[a].abs()));
+                        o.max(c)
+                    })
+                    .fold(0.0, f64::max);
+                let delta = margin(m);
+                let origin = super::rounding::f32_below(whole.min[a] - delta);
+                let o = f64::from(origin);
+                // The smallest power of two whose 255 steps reach past the upper side.
+                // Rounded up past the `f64` division's last bit.
+                let span = (whole.max[a] + delta - o) / 255.0 * (1.0 + 2f64.powi(-50));
+                let x = if span > 0.0 {
+                    span.log2().ceil().clamp(-126.0, 127.0) as i8
+                } else {
+                    -126
+                };
+                let x = if f64::from(power_of_two(x)) < span {
+                    x.saturating_add(1)
+                } else {
+                    x
+                };
+                let step = f64::from(power_of_two(x));
+                node.origin[e][a] = origin;
+                node.exponent[e][a] = x;
+                for (k, child) in children.iter().enumerate() {
+                    let Some(c) = child else { continue };
+                    let b = end(c);
+                    // Down (up) to the grid, then checked, as the quotient may round across a
+                    // step: `o + q step` is exact but for the sum's last bit, well inside `δ`.
+                    let mut lo = ((b.min[a] - delta - o) / step).floor().clamp(0.0, 255.0) as u8;
+                    while lo > 0 && o + f64::from(lo) * step > b.min[a] - delta {
+                        lo -= 1;
+                    }
+                    let mut hi = ((b.max[a] + delta - o) / step).ceil().clamp(0.0, 255.0) as u8;
+                    while hi < 255 && o + f64::from(hi) * step < b.max[a] + delta {
+                        hi += 1;
+                    }
+                    node.q[6 * e + a][k] = lo;
+                    node.q[6 * e + 3 + a][k] = hi;
+                }
+            }
+        }
+        node
+    }
+
+    /// Asks for the node's three lines to be loaded: 160 bytes aligned to 32 lie on exactly
+    /// three, the first holding its start, the last its 129th byte.
+    #[inline(always)]
+    pub(super) fn prefetch<M: Lanes>(&self, m: M) {
+        m.prefetch(&self.links);
+        m.prefetch(&self.q[4]);
+        m.prefetch(&self.origin);
+    }
+
+    /// Along axis `a` at shutter time `s` (in [0, 1], as `f32`), the eight children's lower
+    /// and upper sides, evaluated as the module's documentation derives.
+    #[inline(always)]
+    pub(super) fn sides<M: Lanes>(&self, m: M, a: usize, s: f32) -> (M::V, M::V) {
+        let [o0, o1] = [self.origin[0][a], self.origin[1][a]];
+        let os = o0 + s * (o1 - o0);
+        let a0 = (1.0 - s) * power_of_two(self.exponent[0][a]);
+        let a1 = s * power_of_two(self.exponent[1][a]);
+        let (os, a0, a1) = (m.splat(os), m.splat(a0), m.splat(a1));
+        let side = |i: usize| {
+            let q0 = m.load_u8(&self.q[i]);
+            let q1 = m.load_u8(&self.q[6 + i]);
+            m.add(m.add(os, m.mul(q0, a0)), m.mul(q1, a1))
+        };
+        (side(a), side(3 + a))
+    }
+
+    /// [`CompactNode::sides`] one child after another, for the rays the lanes cannot take
+    /// (whose test is in `f64` against the box the lanes evaluate): per child, the side `side`
+    /// (as `ChildBoxes::planes` numbers them) at `s`, the same bits.
+    pub(super) fn side_values(&self, side: usize, s: f32) -> [f32; LANES] {
+        let a = side % 3;
+        let [o0, o1] = [self.origin[0][a], self.origin[1][a]];
+        let os = o0 + s * (o1 - o0);
+        let a0 = (1.0 - s) * power_of_two(self.exponent[0][a]);
+        let a1 = s * power_of_two(self.exponent[1][a]);
+        std::array::from_fn(|k| {
+            let [q0, q1] = [self.q[side][k], self.q[6 + side][k]].map(f32::from);
+            (os + q0 * a0) + q1 * a1
+        })
+    }
+
+    /// Slot `k`'s boxes at the shutter's opening and closing, exactly as stored (each side an
+    /// `f32` plus a whole number of power-of-two steps, in `f64`).
+    pub(super) fn child(&self, k: usize) -> (Aabb, Aabb) {
+        let end = |e: usize| {
+            let mut b = Aabb::EMPTY;
+            for a in 0..3 {
+                let o = f64::from(self.origin[e][a]);
+                let step = f64::from(power_of_two(self.exponent[e][a]));
+                b.min[a] = o + f64::from(self.q[6 * e + a][k]) * step;
+                b.max[a] = o + f64::from(self.q[6 * e + 3 + a][k]) * step;
+            }
+            b
+        };
+        (end(0), end(1))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::lanes::Plain;
+    use crate::rng::Pcg32;
+    use glam::DVec3;
+
+    /// Three cache lines wherever it lies: 160 bytes, aligned to 32; the lines
+    /// `prefetch` asks for are the node's.
+    #[test]
+    fn a_node_is_three_lines() {
+        assert_eq!(std::mem::size_of::<CompactNode>(), 160);
+        assert_eq!(std::mem::align_of::<CompactNode>(), 32);
+        let node = CompactNode::EMPTY;
+        let at = |r: *const u8| r as usize - &node as *const CompactNode as usize;
+        assert_eq!(at((&node.links as *const Links).cast()), 0);
+        assert_eq!(at(node.q[4].as_ptr()), 64);
+        assert_eq!(at(node.origin.as_ptr().cast()), 128);
+    }
+
+    /// Children at every scale from 1e-30 to 1e30, near and far from the origin, still, slow
+    /// and fast, some slots empty: at any shutter time the sides a traversal evaluates (on
+    /// every machine and one child after another, the same bits) hold the exact
+    /// interpolation of the children's boxes; and they are not loose: within a few of the node's steps.
+    fn conservative_on<M: Lanes>(m: M) {
+        let mut r = Pcg32::new(43, 11);
+        for round in 0..20_000 {
+            let scale = 10f64.powi((round % 61) - 30);
+            let offset = [0.0, 1e6, -3e4, 2e-6, 7.0][round as usize % 5] * scale.max(1.0);
+            let v = |r: &mut Pcg32| {
+                (DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5) * scale
+            };
+            let speed = [0.0, 0.1, 3.0][(round / 5) as usize % 3];
+            let children: [Option<(Aabb, Aabb)>; LANES] = std::array::from_fn(|k| {
+                if k >= LANES - (round as usize % 4) {
+                    return None;
+                }
+                let c = DVec3::splat(offset) + v(&mut r);
+                let open = Aabb {
+                    min: c - v(&mut r).abs(),
+                    max: c + v(&mut r).abs(),
+                };
+                let shift = v(&mut r) * speed;
+                let grow = v(&mut r).abs() * speed * 0.1;
+                let close = Aabb {
+                    min: open.min + shift - grow,
+                    max: open.max + shift + grow,
+                };
+                Some((open, close))
+            });
+            let node = CompactNode::new(&children, &Links::default());
+            for s in [0.0, 1.0, 0.5, r.next_f64(), 1e-9, 1.0 - 1e-9] {
+                let s32 = s as f32;
+                for a in 0..3 {
+                    let (lo, hi) = node.sides(m, a, s32);
+                    let (plo, phi) = node.sides(Plain, a, s32);
+                    let (lo, hi) = (m.to_array(lo), m.to_array(hi));
+                    assert_eq!(lo.map(f32::to_bits), plo.map(f32::to_bits));
+                    assert_eq!(hi.map(f32::to_bits), phi.map(f32::to_bits));
+                    let (one_lo, one_hi) = (node.side_values(a, s32), node.side_values(3 + a, s32));
+                    assert_eq!(one_lo.map(f32::to_bits), lo.map(f32::to_bits));
+                    assert_eq!(one_hi.map(f32::to_bits), hi.map(f32::to_bits));
+                    for (k, child) in children.iter().enumerate() {
+                        let Some((open, close)) = child else {
+                            assert!(lo[k] > hi[k], "an empty slot is inside out");
+                            continue;
+                        };
+                        let lerp = |x: f64, y: f64| if s == 1.0 { y } else { x + s * (y - x) };
+                        let exact_lo = lerp(open.min[a], close.min[a]);
+                        let exact_hi = lerp(open.max[a], close.max[a]);
+                        assert!(f64::from(lo[k]) <= exact_lo, "{round} {s} {a} {k}");
+                        assert!(f64::from(hi[k]) >= exact_hi, "{round} {s} {a} {k}");
+                        // Tight: within two steps of either end and the margin.
+                        let step = |e: usize| f64::from(power_of_two(node.exponent[e][a]));
+                        let slack = 2.0 * step(0).max(step(1));
+                        assert!(exact_lo - f64::from(lo[k]) <= slack + 1e-4 * exact_lo.abs());
+                        assert!(f64::from(hi[k]) - exact_hi <= slack + 1e-4 * exact_hi.abs());
+                    }
+                }
+            }
+            // The stored ends hold the children too.
+            for (k, child) in children.iter().enumerate() {
+                if let Some((open, close)) = child {
+                    let (o, c) = node.child(k);
+                    assert!(o.union(open) == o && c.union(close) == c, "{round} {k}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn compact_sides_are_conservative() {
+        conservative_on(Plain);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::bvh::lanes::{Avx, Sse, avx_where_available};
+            conservative_on(Sse);
+            if let Some(v3) = avx_where_available() {
+                v3.vectorize(|| conservative_on(Avx(v3)));
+            }
+        }
+    }
+
+    #[test]
+    fn only_finite_boxes_within_range_are_representable() {
+        let b = |lo: f64, hi: f64| Aabb {
+            min: DVec3::splat(lo),
+            max: DVec3::splat(hi),
+        };
+        assert!(representable(&b(-1e29, 1e29)));
+        assert!(!representable(&b(-1e31, 0.0)));
+        assert!(!representable(&b(0.0, f64::INFINITY)));
+        assert!(!representable(&b(f64::NAN, 0.0)));
+        assert!(!representable(&Aabb::EMPTY));
+    }
+}
