@@ -79,6 +79,20 @@ pub(super) struct CompactNode {
     exponent: [[i8; 3]; 2],
 }
 
+/// The exponent of the smallest `f32` power of two at or above `span`, within -126..=127
+/// (read from the bits of `span`, positive and normal, or -126).
+fn exponent_above(span: f64) -> i8 {
+    // Also a NaN.
+    if span.is_nan() || span < f64::MIN_POSITIVE {
+        return -126;
+    }
+    let bits = span.to_bits();
+    let exponent = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    // Above the power of two its exponent gives, unless the mantissa is zero.
+    let up = exponent + i64::from(bits & ((1 << 52) - 1) != 0);
+    up.clamp(-126, 127) as i8
+}
+
 /// The `f32` power of two `2^x`, for `x` in -126..=127.
 #[inline(always)]
 fn power_of_two(x: i8) -> f32 {
@@ -135,17 +149,10 @@ impl CompactNode {
                 // The smallest power of two whose 255 steps reach past the upper side.
                 // Rounded up past the `f64` division's last bit.
                 let span = (whole.max[a] + delta - o) / 255.0 * (1.0 + 2f64.powi(-50));
-                let x = if span > 0.0 {
-                    span.log2().ceil().clamp(-126.0, 127.0) as i8
-                } else {
-                    -126
-                };
-                let x = if f64::from(power_of_two(x)) < span {
-                    x.saturating_add(1)
-                } else {
-                    x
-                };
+                let x = exponent_above(span);
                 let step = f64::from(power_of_two(x));
+                // A power of two, so dividing by the step is multiplying by this, exactly.
+                let per_step = 1.0 / step;
                 node.origin[e][a] = origin;
                 node.exponent[e][a] = x;
                 for (k, child) in children.iter().enumerate() {
@@ -153,11 +160,17 @@ impl CompactNode {
                     let b = end(c);
                     // Down (up) to the grid, then checked, as the quotient may round across a
                     // step: `o + q step` is exact but for the sum's last bit, well inside `δ`.
-                    let mut lo = ((b.min[a] - delta - o) / step).floor().clamp(0.0, 255.0) as u8;
+                    // `as u8` truncates, which for the nonnegative quotients is the floor, and
+                    // saturates (a NaN to 0).
+                    let mut lo = ((b.min[a] - delta - o) * per_step) as u8;
                     while lo > 0 && o + f64::from(lo) * step > b.min[a] - delta {
                         lo -= 1;
                     }
-                    let mut hi = ((b.max[a] + delta - o) / step).ceil().clamp(0.0, 255.0) as u8;
+                    let up = (b.max[a] + delta - o) * per_step;
+                    let mut hi = up as u8;
+                    if f64::from(hi) < up && hi < 255 {
+                        hi += 1;
+                    }
                     while hi < 255 && o + f64::from(hi) * step < b.max[a] + delta {
                         hi += 1;
                     }
@@ -326,6 +339,27 @@ mod tests {
             conservative_on(Sse);
             if let Some(v3) = avx_where_available() {
                 v3.vectorize(|| conservative_on(Avx(v3)));
+            }
+        }
+    }
+
+    #[test]
+    fn the_exponent_above_a_span_is_the_smallest_power_of_two_at_or_above_it() {
+        assert_eq!(exponent_above(1.0), 0);
+        assert_eq!(exponent_above(1.0 + f64::EPSILON), 1);
+        assert_eq!(exponent_above(0.75), 0);
+        assert_eq!(exponent_above(0.5), -1);
+        assert_eq!(exponent_above(3e-40), -126);
+        assert_eq!(exponent_above(0.0), -126);
+        assert_eq!(exponent_above(f64::NAN), -126);
+        assert_eq!(exponent_above(1e300), 127);
+        let mut r = Pcg32::new(44, 1);
+        for _ in 0..10_000 {
+            let span = r.next_f64() * 2f64.powi((r.next_f64() * 200.0) as i32 - 110);
+            let x = exponent_above(span);
+            if (-126..127).contains(&x) && span >= f64::MIN_POSITIVE {
+                let p = f64::from(power_of_two(x));
+                assert!(p >= span && p / 2.0 < span, "{span:e} {x}");
             }
         }
     }
