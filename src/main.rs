@@ -1,12 +1,14 @@
 //! `raytrace`: renders animation sequences of moving spheres, with motion blur and defocus
 //! blur, as EXR or PNG frames. This binary is the command line ([`cli`]: one module per
 //! command), the live preview ([`preview`]) and `converge`'s analysis ([`analysis`]), with
-//! how their lines state a frame's estimated error ([`estimated_error`]); the renderer is the
-//! workspace's library crates (docs/architecture.md).
+//! how their lines state a frame's estimated error ([`estimated_error`]) and the processor a
+//! build needs ([`cpu`]); the renderer is the workspace's library crates
+//! (docs/architecture.md).
 #![forbid(unsafe_code)]
 
 mod analysis;
 mod cli;
+mod cpu;
 mod estimated_error;
 mod preview;
 
@@ -16,6 +18,7 @@ use clap::Parser;
 use cli::Cli;
 
 fn main() -> ExitCode {
+    cpu::require();
     let mut cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

@@ -16,6 +16,7 @@ mod bundle;
 mod cli;
 mod clip;
 mod converge;
+mod cpu;
 mod denoise;
 mod denoise_estimate;
 mod docs;

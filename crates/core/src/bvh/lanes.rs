@@ -2,7 +2,10 @@
 //! lane: AVX (one 256-bit register), chosen at run time where the processor has AVX2 and FMA
 //! (the `pulp` crate detects them and compiles the traversal for them, so no `unsafe` is
 //! written here); SSE otherwise on x86-64 (two 128-bit registers; SSE2 is part of the
-//! baseline; `safe_arch` wraps the intrinsics); plain arrays on other targets.
+//! baseline; `safe_arch` wraps the intrinsics); plain arrays on other targets. A release
+//! build targets x86-64-v3 (`.cargo/config.toml`), whose processors all take the AVX lanes;
+//! the SSE lanes are what a build for any x86-64 (`RUSTFLAGS=`) takes on older ones, and the
+//! tests run all three wherever they run.
 //!
 //! Why `pulp`: the standard library's intrinsics may only be called safely inside a function
 //! compiled for their target feature, and calling such a function from code compiled without
