@@ -70,9 +70,9 @@ pub(super) struct CompactNode {
     /// The node's children, a copy of the topology's: read with the boxes, from the same
     /// lines (in a hierarchy far larger than the cache, one page walk a node instead of two).
     pub(super) links: Links,
-    /// `q[6 e + side][child]`: end `e` (0 opening, 1 closing), sides as
+    /// `q[e][side][child]`: end `e` (0 opening, 1 closing), sides as
     /// `ChildBoxes::planes` orders them (lower x, y, z, then upper x, y, z).
-    q: [[u8; LANES]; 12],
+    q: [[[u8; LANES]; 6]; 2],
     /// `origin[e][axis]`: the grid's lower corner at end `e`.
     origin: [[f32; 3]; 2],
     /// `exponent[e][axis]`: the grid's step at end `e` is `2^exponent`, at least `2^-126`.
@@ -99,24 +99,22 @@ fn power_of_two(x: i8) -> f32 {
     f32::from_bits(((i32::from(x) + 127) as u32) << 23)
 }
 
+/// An end's sides of eight empty slots: the grid inside out, lower sides at its last step and
+/// upper sides at its first.
+const EMPTY_END: [[u8; LANES]; 6] = [
+    [255; LANES],
+    [255; LANES],
+    [255; LANES],
+    [0; LANES],
+    [0; LANES],
+    [0; LANES],
+];
+
 impl CompactNode {
     /// Every slot empty (see the module's documentation).
     pub(super) const EMPTY: CompactNode = CompactNode {
         links: Links { child: [0; LANES] },
-        q: [
-            [255; LANES],
-            [255; LANES],
-            [255; LANES],
-            [0; LANES],
-            [0; LANES],
-            [0; LANES],
-            [255; LANES],
-            [255; LANES],
-            [255; LANES],
-            [0; LANES],
-            [0; LANES],
-            [0; LANES],
-        ],
+        q: [EMPTY_END; 2],
         origin: [[0.0; 3]; 2],
         exponent: [[0; 3]; 2],
     };
@@ -174,8 +172,8 @@ impl CompactNode {
                     while hi < 255 && o + f64::from(hi) * step < b.max[a] + delta {
                         hi += 1;
                     }
-                    node.q[6 * e + a][k] = lo;
-                    node.q[6 * e + 3 + a][k] = hi;
+                    node.q[e][a][k] = lo;
+                    node.q[e][3 + a][k] = hi;
                 }
             }
         }
@@ -187,7 +185,7 @@ impl CompactNode {
     #[inline(always)]
     pub(super) fn prefetch<M: Lanes>(&self, m: M) {
         m.prefetch(&self.links);
-        m.prefetch(&self.q[4]);
+        m.prefetch(&self.q[0][4]);
         m.prefetch(&self.origin);
     }
 
@@ -201,8 +199,8 @@ impl CompactNode {
         let a1 = s * power_of_two(self.exponent[1][a]);
         let (os, a0, a1) = (m.splat(os), m.splat(a0), m.splat(a1));
         let side = |i: usize| {
-            let q0 = m.load_u8(&self.q[i]);
-            let q1 = m.load_u8(&self.q[6 + i]);
+            let q0 = m.load_u8(&self.q[0][i]);
+            let q1 = m.load_u8(&self.q[1][i]);
             m.add(m.add(os, m.mul(q0, a0)), m.mul(q1, a1))
         };
         (side(a), side(3 + a))
@@ -218,7 +216,7 @@ impl CompactNode {
         let a0 = (1.0 - s) * power_of_two(self.exponent[0][a]);
         let a1 = s * power_of_two(self.exponent[1][a]);
         std::array::from_fn(|k| {
-            let [q0, q1] = [self.q[side][k], self.q[6 + side][k]].map(f32::from);
+            let [q0, q1] = [self.q[0][side][k], self.q[1][side][k]].map(f32::from);
             (os + q0 * a0) + q1 * a1
         })
     }
@@ -231,8 +229,8 @@ impl CompactNode {
             for a in 0..3 {
                 let o = f64::from(self.origin[e][a]);
                 let step = f64::from(power_of_two(self.exponent[e][a]));
-                b.min[a] = o + f64::from(self.q[6 * e + a][k]) * step;
-                b.max[a] = o + f64::from(self.q[6 * e + 3 + a][k]) * step;
+                b.min[a] = o + f64::from(self.q[e][a][k]) * step;
+                b.max[a] = o + f64::from(self.q[e][3 + a][k]) * step;
             }
             b
         };
@@ -256,7 +254,7 @@ mod tests {
         let node = CompactNode::EMPTY;
         let at = |r: *const u8| r as usize - &node as *const CompactNode as usize;
         assert_eq!(at((&node.links as *const Links).cast()), 0);
-        assert_eq!(at(node.q[4].as_ptr()), 64);
+        assert_eq!(at(node.q[0][4].as_ptr()), 64);
         assert_eq!(at(node.origin.as_ptr().cast()), 128);
     }
 
