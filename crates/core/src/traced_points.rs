@@ -589,6 +589,47 @@ mod tests {
         }
     }
 
+    /// A point far beyond the range compact nodes take (1e35, where their steps would
+    /// overflow; the hierarchy keeps `f32` sides then, a choice `bvh`'s tests check) leaves
+    /// every point found as testing every point finds it, alone and in turns.
+    #[test]
+    fn a_point_beyond_the_compact_range_leaves_the_others_found() {
+        let mut points = frame_points(400, 6);
+        points.sets[0].centers[17] = Vec3::new(1e35, -1e35, 3e34);
+        let interval = Interval {
+            open: 0.1,
+            close: 0.12,
+        };
+        let traced = TracedPoints::prepare(&points, 0, interval);
+        let mut stack = TraversalStack::default();
+        let mut r = Pcg32::new(2, 2);
+        let mut hits = 0;
+        for _ in 0..400 {
+            let ray = random_ray(&mut r, interval);
+            let dt = ray.time - interval.open;
+            let s = dt / (interval.close - interval.open);
+            let want = brute(&points, 0, interval, &ray);
+            let alone = traced.closest(&ray, dt, s, u32::MAX, f64::INFINITY, &mut stack);
+            assert_eq!(alone.map(|h| (h.t, h.id)), want, "{ray:?}");
+            let lanes = [PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s,
+            }];
+            let turns = traced.closest_in_turns(
+                std::slice::from_ref(&ray),
+                &lanes,
+                &[dt; PACKET],
+                &[u32::MAX; PACKET],
+                [f64::INFINITY; PACKET],
+                &mut stack,
+            );
+            assert_eq!(turns[0].map(|h| (h.t, h.id)), want, "{ray:?}");
+            hits += usize::from(want.is_some());
+        }
+        assert!(hits > 40, "{hits}");
+    }
+
     /// The same records and hierarchies on one thread and on three.
     #[test]
     fn prepared_alike_on_any_number_of_threads() {
