@@ -125,23 +125,25 @@ impl CompactNode {
     pub(super) fn new(children: &[Option<(Aabb, Aabb)>; LANES], links: &Links) -> CompactNode {
         let mut node = CompactNode::EMPTY;
         node.links = *links;
+        // Per axis, the margin of the largest magnitude at either end, as the bound on the
+        // roundings takes it.
+        let delta: [f64; 3] = std::array::from_fn(|a| {
+            margin(
+                children
+                    .iter()
+                    .flatten()
+                    .flat_map(|(o, c)| [o, c])
+                    .map(|b| b.min[a].abs().max(b.max[a].abs()))
+                    .fold(0.0, f64::max),
+            )
+        });
         for e in 0..2 {
             let end = |c: &(Aabb, Aabb)| if e == 0 { c.0 } else { c.1 };
             let whole = children
                 .iter()
                 .flatten()
                 .fold(Aabb::EMPTY, |b, c| b.union(&end(c)));
-            for a in 0..3 {
-                // The largest magnitude at either end, as the bound on the roundings takes it.
-                let m = children
-                    .iter()
-                    .flatten()
-                    .map(|(o, c)| {
-                        let [o, c] = [o, c].map(|b| b.min[a].abs().max(b.max[a].abs()));
-                        o.max(c)
-                    })
-                    .fold(0.0, f64::max);
-                let delta = margin(m);
+            for (a, &delta) in delta.iter().enumerate() {
                 let origin = super::rounding::f32_below(whole.min[a] - delta);
                 let o = f64::from(origin);
                 // The smallest power of two whose 255 steps reach past the upper side.
@@ -189,15 +191,23 @@ impl CompactNode {
         m.prefetch(&self.origin);
     }
 
+    /// Along axis `a` at shutter time `s`, the terms every side takes, `[Os, A_0, A_1]` (see
+    /// the module's documentation).
+    #[inline(always)]
+    fn terms(&self, a: usize, s: f32) -> [f32; 3] {
+        let [o0, o1] = [self.origin[0][a], self.origin[1][a]];
+        [
+            o0 + s * (o1 - o0),
+            (1.0 - s) * power_of_two(self.exponent[0][a]),
+            s * power_of_two(self.exponent[1][a]),
+        ]
+    }
+
     /// Along axis `a` at shutter time `s` (in [0, 1], as `f32`), the eight children's lower
     /// and upper sides, evaluated as the module's documentation derives.
     #[inline(always)]
     pub(super) fn sides<M: Lanes>(&self, m: M, a: usize, s: f32) -> (M::V, M::V) {
-        let [o0, o1] = [self.origin[0][a], self.origin[1][a]];
-        let os = o0 + s * (o1 - o0);
-        let a0 = (1.0 - s) * power_of_two(self.exponent[0][a]);
-        let a1 = s * power_of_two(self.exponent[1][a]);
-        let (os, a0, a1) = (m.splat(os), m.splat(a0), m.splat(a1));
+        let [os, a0, a1] = self.terms(a, s).map(|x| m.splat(x));
         let side = |i: usize| {
             let q0 = m.load_u8(&self.q[0][i]);
             let q1 = m.load_u8(&self.q[1][i]);
@@ -210,11 +220,7 @@ impl CompactNode {
     /// (whose test is in `f64` against the box the lanes evaluate): per child, the side `side`
     /// (as `ChildBoxes::planes` numbers them) at `s`, the same bits.
     pub(super) fn side_values(&self, side: usize, s: f32) -> [f32; LANES] {
-        let a = side % 3;
-        let [o0, o1] = [self.origin[0][a], self.origin[1][a]];
-        let os = o0 + s * (o1 - o0);
-        let a0 = (1.0 - s) * power_of_two(self.exponent[0][a]);
-        let a1 = s * power_of_two(self.exponent[1][a]);
+        let [os, a0, a1] = self.terms(side % 3, s);
         std::array::from_fn(|k| {
             let [q0, q1] = [self.q[0][side][k], self.q[1][side][k]].map(f32::from);
             (os + q0 * a0) + q1 * a1

@@ -25,19 +25,31 @@ pub(super) trait NodeBoxes: Copy + Send + Sync {
     fn new(children: &[Option<(Aabb, Aabb)>; LANES], links: &Links) -> Self;
 }
 
+/// A node of a layout that stores each slot on its own: empty, then `set(node, k, open,
+/// close)` for every child.
+#[inline]
+fn slot_by_slot<T: NodeBoxes>(
+    children: &[Option<(Aabb, Aabb)>; LANES],
+    set: impl Fn(&mut T, usize, &Aabb, &Aabb),
+) -> T {
+    let mut node = T::EMPTY;
+    for (k, c) in children.iter().enumerate() {
+        if let Some((open, close)) = c {
+            set(&mut node, k, open, close);
+        }
+    }
+    node
+}
+
 impl NodeBoxes for ChildBoxes {
     const EMPTY: Self = ChildBoxes::EMPTY;
 
     /// A still node holds the union (for a still primitive, `open` and `close` are one box).
     #[inline]
     fn new(children: &[Option<(Aabb, Aabb)>; LANES], _: &Links) -> Self {
-        let mut node = Self::EMPTY;
-        for (k, c) in children.iter().enumerate() {
-            if let Some((open, close)) = c {
-                node.set(k, &open.union(close));
-            }
-        }
-        node
+        slot_by_slot(children, |node: &mut Self, k, open, close| {
+            node.set(k, &open.union(close))
+        })
     }
 }
 
@@ -46,13 +58,7 @@ impl NodeBoxes for [ChildBoxes; 2] {
 
     #[inline]
     fn new(children: &[Option<(Aabb, Aabb)>; LANES], _: &Links) -> Self {
-        let mut node = Self::EMPTY;
-        for (k, c) in children.iter().enumerate() {
-            if let Some((open, close)) = c {
-                set_moving(&mut node, k, open, close);
-            }
-        }
-        node
+        slot_by_slot(children, set_moving)
     }
 }
 
