@@ -109,10 +109,12 @@ impl Bits {
 
 /// What a processor without x86-64-v3 is told: this, the features it lacks, then
 /// [`WAY_OUT`].
+#[cfg(target_arch = "x86_64")]
 const MESSAGE: &str = "error: this raytrace was built for x86-64-v3 processors (AVX2, FMA, \
     BMI1 and BMI2, LZCNT, MOVBE; .cargo/config.toml), and this one lacks";
 
 /// How to build for an older processor.
+#[cfg(target_arch = "x86_64")]
 const WAY_OUT: &str = "; build one for any x86-64 with an empty RUSTFLAGS, which replaces \
     that setting: `RUSTFLAGS= cargo install --path .`\n";
 
@@ -140,7 +142,8 @@ pub(crate) fn require() {
     }
 }
 
-#[cfg(test)]
+// Every test reads x86-64 feature bits.
+#[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
 
@@ -152,7 +155,6 @@ mod tests {
     /// The bits of two processors: a Nehalem (2008: SSE4.2 and POPCNT, no AVX) lacks what an
     /// x86-64-v3 build needs, a Haswell (2013) has it all; AVX without the system's OSXSAVE
     /// counts as missing; a baseline build needs nothing of either.
-    #[cfg(target_arch = "x86_64")]
     #[test]
     fn feature_bits_read_as_the_manual_numbers_them() {
         let v3 = FEATURES.map(|f| Feature {
@@ -187,7 +189,6 @@ mod tests {
 
     /// The processor running the tests has what this build was compiled for (were a bit
     /// misnumbered, every run would stop here).
-    #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_processor_running_the_tests_has_what_the_build_needs() {
         assert!(!Bits::read().lacks(&FEATURES));
