@@ -193,6 +193,13 @@ impl TileRect {
         (self.x0 + i as u32 % w, self.y0 + i as u32 / w)
     }
 
+    /// The tile's index of pixel (`x`, `y`), which lies in it: the inverse of
+    /// [`position`](Self::position).
+    pub fn index(&self, x: u32, y: u32) -> usize {
+        debug_assert!((self.x0..self.x1).contains(&x) && (self.y0..self.y1).contains(&y));
+        ((y - self.y0) * self.width() + (x - self.x0)) as usize
+    }
+
     /// For each of the tile's pixels (row-major), the mean of `values` over its 3x3
     /// neighbourhood inside the tile: fewer neighbours at the tile's edges, never another
     /// tile's, so tiles can be read in parallel and alike on any thread count. Summed row by

@@ -282,21 +282,21 @@ impl TracedPoints {
         })
     }
 
-    /// [`TracedPoints::closest`] for up to [`PACKET`] rays that need not be coherent (the
-    /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
-    /// hits, each ray walking the hierarchy alone, the rays in turns
+    /// [`TracedPoints::closest`] for up to `N` rays (at most 64) that need not be coherent
+    /// (the bounces of several pixels' samples), ray `r` skipping the sphere numbered
+    /// `skip[r]`: the same hits, each ray walking the hierarchy alone, the rays in turns
     /// ([`BvhView::closest_hits_in_turns`]), so one ray's misses in a frame's millions of
     /// records overlap the others' work.
     #[inline]
-    pub(crate) fn closest_in_turns(
+    pub(crate) fn closest_in_turns<const N: usize>(
         &self,
         rays: &[Ray],
         lanes: &[PacketRay],
-        dt: &[f64; PACKET],
-        skip: &[u32; PACKET],
-        t_max: [f64; PACKET],
+        dt: &[f64; N],
+        skip: &[u32; N],
+        t_max: [f64; N],
         stack: &mut TraversalStack,
-    ) -> [Option<PointHit>; PACKET] {
+    ) -> [Option<PointHit>; N] {
         self.closest_each(rays, dt, skip, t_max, |view, t_max, test| {
             view.closest_hits_in_turns(lanes, t_max, stack, test)
         })
@@ -307,19 +307,15 @@ impl TracedPoints {
     /// packet's traversal, or walks in turns) with the group's test, each ray's search
     /// bounded by its nearest hit in the groups before.
     #[inline(always)]
-    fn closest_each(
+    fn closest_each<const N: usize>(
         &self,
         rays: &[Ray],
-        dt: &[f64; PACKET],
-        skip: &[u32; PACKET],
-        mut t_max: [f64; PACKET],
-        mut search: impl FnMut(
-            BvhView<'_>,
-            [f64; PACKET],
-            PacketTest<'_>,
-        ) -> [Option<(f64, u32)>; PACKET],
-    ) -> [Option<PointHit>; PACKET] {
-        let mut best = [None; PACKET];
+        dt: &[f64; N],
+        skip: &[u32; N],
+        mut t_max: [f64; N],
+        mut search: impl FnMut(BvhView<'_>, [f64; N], PacketTest<'_>) -> [Option<(f64, u32)>; N],
+    ) -> [Option<PointHit>; N] {
+        let mut best = [None; N];
         for g in &self.groups {
             let test = PacketTest {
                 group: g,
@@ -370,8 +366,8 @@ impl Leaves for RayTest<'_> {
 struct PacketTest<'a> {
     group: &'a Group,
     rays: &'a [Ray],
-    dt: &'a [f64; PACKET],
-    skip: &'a [u32; PACKET],
+    dt: &'a [f64],
+    skip: &'a [u32],
 }
 
 impl PacketLeaves for PacketTest<'_> {

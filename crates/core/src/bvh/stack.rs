@@ -10,6 +10,12 @@ use super::walks::WalkStack;
 /// The most rays in a packet.
 pub(crate) const PACKET: usize = 8;
 
+/// The most walks under way at once in turns ([`BvhView::closest_hits_in_turns`]): eight, as
+/// sixteen measured no faster on a frame of ten million points (docs/performance.md).
+///
+/// [`BvhView::closest_hits_in_turns`]: super::BvhView::closest_hits_in_turns
+pub(crate) const TURNS: usize = 8;
+
 /// Traversal stack size: an 8-wide node pushes at most 7 entries beyond the one it replaces,
 /// and the 8-wide tree is no deeper than the binary one.
 pub(super) const STACK: usize = (LANES - 1) * (MAX_SAH_DEPTH + 40) + LANES;
@@ -34,10 +40,10 @@ pub struct TraversalStack {
 }
 
 impl TraversalStack {
-    /// The stacks of [`PACKET`] walks taken in turns.
+    /// The stacks of [`TURNS`] walks taken in turns.
     pub(super) fn walks(&mut self) -> &mut [WalkStack] {
         if self.walks.is_empty() {
-            self.walks = vec![WalkStack::default(); PACKET];
+            self.walks = vec![WalkStack::default(); TURNS];
         }
         &mut self.walks
     }

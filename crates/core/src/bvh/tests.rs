@@ -570,3 +570,90 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
     }
     assert!(hits > 2000, "{hits}");
 }
+
+/// A stream of more rays than walks under way at once (up to 64 walking in turns of
+/// [`TURNS`](super::stack::TURNS)) finds, ray for ray, the hit each finds alone: each walk
+/// that ends hands its slot to the next ray, whatever their number, order or bounds; rays
+/// the `f32` test cannot take and non-finite rays among them; moving and compact
+/// hierarchies; every kernel.
+#[test]
+fn a_stream_of_walks_finds_what_each_ray_finds_alone() {
+    use super::lanes::{Lanes, Plain};
+    use super::packet::PacketRay;
+    const N: usize = 64;
+    fn check<M: Lanes + Copy>(
+        m: M,
+        view: BvhView,
+        spheres: &[(DVec3, DVec3, f64)],
+        rays: &[crate::ray::Ray],
+        t_max: [f64; N],
+        stack: &mut TraversalStack,
+    ) -> usize {
+        let order = view.topology.order();
+        let test = |ray: &crate::ray::Ray, p: u32, t: f64| {
+            let (c, v, rad) = spheres[order[p as usize] as usize];
+            crate::sphere::intersect(c + v * ray.time, rad, ray, t)
+        };
+        let lanes: Vec<PacketRay> = rays
+            .iter()
+            .map(|ray| PacketRay {
+                origin: ray.origin,
+                dir: ray.dir,
+                s: ray.time,
+            })
+            .collect();
+        let got = view.closest_hits_in_turns_on(m, &lanes, t_max, stack, |r: usize, p, t| {
+            test(&rays[r], p, t)
+        });
+        let mut hits = 0;
+        for (r, ray) in rays.iter().enumerate() {
+            let alone = view.closest_hit_on(
+                m,
+                ray.origin,
+                ray.dir,
+                ray.time,
+                t_max[r],
+                stack,
+                &mut |p: u32, t: f64| test(ray, p, t),
+            );
+            assert_eq!(got[r], alone, "ray {r} of {}: {ray:?}", rays.len());
+            hits += usize::from(alone.is_some());
+        }
+        assert!(got[rays.len()..].iter().all(Option::is_none));
+        hits
+    }
+    let mut r = Pcg32::new(17, 7);
+    let mut stack = TraversalStack::default();
+    let mut hits = 0;
+    let (spheres, open, close) = moving_spheres(&mut r, 3000);
+    let moving = Bvh::build_moving(&open, &close);
+    let compact = compact_boxes(&moving, &open, &close);
+    for round in 0..60 {
+        let len = 1 + (round * 13) % N;
+        let mut rays = random_rays(&mut r, len);
+        if round % 5 == 2 {
+            rays[len / 2].dir = DVec3::new(1e-31, 1.0, 0.0).normalize();
+        }
+        if round % 7 == 3 {
+            rays[len - 1].origin.y = f64::INFINITY;
+        }
+        let mut t_max = [f64::INFINITY; N];
+        if round % 2 == 1 {
+            for t in t_max.iter_mut().take(len) {
+                *t = r.next_f64() * 30.0;
+            }
+        }
+        for view in [moving.view(), BvhView::new(moving.topology(), &compact)] {
+            hits += check(Plain, view, &spheres, &rays, t_max, &mut stack);
+            #[cfg(target_arch = "x86_64")]
+            {
+                use super::lanes::{Avx, Sse, avx_where_available};
+                check(Sse, view, &spheres, &rays, t_max, &mut stack);
+                if let Some(v3) = avx_where_available() {
+                    v3.vectorize(|| check(Avx(v3), view, &spheres, &rays, t_max, &mut stack));
+                }
+            }
+        }
+    }
+    assert!(hits > 500, "{hits}");
+}

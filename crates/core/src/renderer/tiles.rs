@@ -11,7 +11,7 @@ use super::tracers::{FrameTracer, RoundCounts};
 use crate::bvh::PACKET;
 use crate::camera::View;
 use crate::error::Error;
-use crate::film::{Film, FilmTile};
+use crate::film::{Film, FilmTile, Pixel, TileRect};
 use crate::hit::Hit;
 use crate::passes::PassContext;
 use crate::prepared::PreparedFrame;
@@ -19,9 +19,10 @@ use crate::ray::Ray;
 use crate::sampler::{IndependentSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::Scene;
 use crate::tracer::{
-    TraceStats, camera_radiance_in_turns, camera_radiance_packet, radiance, radiance_in_turns,
-    radiance_packet,
+    STREAM, SampleRay, TraceStats, camera_radiance_in_turns, camera_radiance_packet, radiance,
+    radiance_in_turns, radiance_packet,
 };
+use crate::world::World;
 
 /// The settings of one frame, copied from the scene's (`[output]` size, `[render]` samples
 /// and depth) so the per-sample loop reads them from one small struct; the sampler's are the
@@ -92,16 +93,20 @@ impl CpuFrame<'_> {
         let mut stats = TraceStats::default();
         let mut counts = RoundCounts::default();
         let mut sums = tile.pass_sums.chunks_mut(stride.max(1));
-        for (i, (acc, &target)) in tile.pixels.iter_mut().zip(&targets).enumerate() {
+        // Where the world takes turns, the camera rays of up to `STREAM` samples (whole
+        // packets, of one or more pixels) are traced together (`Batch`).
+        let mut batch = Batch::new();
+        for (i, &target) in targets.iter().enumerate() {
             let (x, y) = tile.rect.position(i);
-            counts.samples += target.saturating_sub(acc.taken()) as u64;
+            let taken = tile.pixels[i].taken();
+            counts.samples += target.saturating_sub(taken) as u64;
             let sums = if stride > 0 { sums.next() } else { None };
             let sums = sums.unwrap_or_default();
-            let mut s = acc.taken();
+            let mut s = taken;
             while s < target {
                 // A pixel's camera rays go in packets of up to `PACKET` samples: coherent
                 // rays, one traversal (`radiance_packet`, the same values as one by one). In
-                // a frame with points, whose hierarchy dwarfs the cache, the packet's paths
+                // a frame with points, whose hierarchy dwarfs the cache, the packets' paths
                 // go on together, bounce by bounce (`radiance_in_turns`).
                 let n = (target - s).min(PACKET as u32);
                 let mut rays = [Ray {
@@ -133,29 +138,43 @@ impl CpuFrame<'_> {
                 let rays = &rays[..n as usize];
                 let (world, depth, at) = (&prepared.world, req.max_depth, (x, y, s));
                 let v = match tracing {
+                    Tracing::InTurns => {
+                        if !batch.fits(rays.len()) {
+                            let pixels = (&tile.rect, &mut *tile.pixels);
+                            batch.trace(world, depth, sampler, &mut stats, pixels, &mut counts);
+                        }
+                        batch.push(rays, at);
+                        s += n;
+                        continue;
+                    }
                     Tracing::Observed => {
                         self.observed_packet(rays, &views, at, sampler, &mut stats, sums)
                     }
-                    _ if n == 1 => {
+                    Tracing::Packets if n == 1 => {
                         let mut v = [DVec3::ZERO; PACKET];
                         v[0] = radiance(world, rays[0], depth, sampler, &mut stats);
                         v
-                    }
-                    Tracing::InTurns => {
-                        radiance_in_turns(world, rays, at, depth, sampler, &mut stats)
                     }
                     Tracing::Packets => {
                         radiance_packet(world, rays, at, depth, sampler, &mut stats)
                     }
                 };
                 for v in &v[..n as usize] {
-                    if !acc.add(*v) {
+                    if !tile.pixels[i].add(*v) {
                         counts.non_finite += 1;
                     }
                 }
                 s += n;
             }
         }
+        batch.trace(
+            &prepared.world,
+            req.max_depth,
+            sampler,
+            &mut stats,
+            (&tile.rect, tile.pixels),
+            &mut counts,
+        );
         counts.rays = stats.rays;
         counts
     }
@@ -181,7 +200,14 @@ impl CpuFrame<'_> {
             }
         };
         if world.takes_turns() {
-            camera_radiance_in_turns(world, rays, at, depth, sampler, stats, transparent, first)
+            let (x, y, index) = at;
+            let samples: [_; PACKET] = std::array::from_fn(|k| SampleRay {
+                ray: rays.get(k).copied().unwrap_or(rays[0]),
+                pixel: (x, y),
+                index: index + k as u32,
+            });
+            let samples = &samples[..rays.len()];
+            camera_radiance_in_turns(world, samples, depth, sampler, stats, transparent, first)
         } else {
             camera_radiance_packet(world, rays, at, depth, sampler, stats, transparent, first)
         }
@@ -238,4 +264,73 @@ enum Tracing {
     /// Camera rays in packets, then the paths bounce by bounce together, their rays walking
     /// the hierarchies in turns ([`radiance_in_turns`]).
     InTurns,
+}
+
+/// The camera rays of up to [`STREAM`] samples of a tile, whole packets of one or more
+/// pixels, waiting to be traced together ([`radiance_in_turns`]).
+struct Batch {
+    samples: [SampleRay; STREAM],
+    len: usize,
+}
+
+impl Batch {
+    fn new() -> Batch {
+        let ray = Ray {
+            origin: DVec3::ZERO,
+            dir: DVec3::ZERO,
+            time: 0.0,
+        };
+        Batch {
+            samples: [SampleRay {
+                ray,
+                pixel: (0, 0),
+                index: 0,
+            }; STREAM],
+            len: 0,
+        }
+    }
+
+    /// Whether `n` more rays fit.
+    fn fits(&self, n: usize) -> bool {
+        self.len + n <= STREAM
+    }
+
+    /// Adds the camera rays of samples `first..` of pixel (`x`, `y`).
+    fn push(&mut self, rays: &[Ray], (x, y, first): (u32, u32, u32)) {
+        for (k, &ray) in rays.iter().enumerate() {
+            self.samples[self.len + k] = SampleRay {
+                ray,
+                pixel: (x, y),
+                index: first + k as u32,
+            };
+        }
+        self.len += rays.len();
+    }
+
+    /// Traces the rays waiting and adds their radiance to their pixels of the tile (its
+    /// rectangle and pixels), each pixel's samples in order (a packet's samples are
+    /// consecutive, and packets were added in order); empties the batch.
+    fn trace<S: Sampler + Clone>(
+        &mut self,
+        world: &World,
+        depth: u32,
+        sampler: &S,
+        stats: &mut TraceStats,
+        (rect, pixels): (&TileRect, &mut [Pixel]),
+        counts: &mut RoundCounts,
+    ) {
+        let n = self.len;
+        if n == 0 {
+            return;
+        }
+        let v: [DVec3; STREAM] =
+            radiance_in_turns(world, &self.samples[..n], depth, sampler, stats);
+        for (v, sample) in v[..n].iter().zip(&self.samples[..n]) {
+            let (x, y) = sample.pixel;
+            if !pixels[rect.index(x, y)].add(*v) {
+                counts.non_finite += 1;
+            }
+        }
+        self.len = 0;
+    }
 }

@@ -65,26 +65,26 @@ impl World<'_> {
         !self.points.is_empty()
     }
 
-    /// [`World::hit`] of up to [`PACKET`] rays at once that need not be coherent (the
-    /// bounces of a pixel's samples), ray `r` skipping the sphere numbered `skip[r]`: the same
-    /// hits. The spheres are searched ray by ray; the points, whose hierarchy is far larger
-    /// than the cache, by walks in turns
+    /// [`World::hit`] of up to `N` rays (at most 64) at once that need not be coherent (the
+    /// bounces of several pixels' samples), ray `r` skipping the sphere numbered `skip[r]`:
+    /// the same hits. The spheres are searched ray by ray; the points, whose hierarchy is far
+    /// larger than the cache, by walks in turns
     /// ([`closest_in_turns`](crate::traced_points::TracedPoints::closest_in_turns)).
-    pub(crate) fn hit_in_turns(
+    pub(crate) fn hit_in_turns<const N: usize>(
         &self,
         rays: &[Ray],
-        skip: &[u32; PACKET],
+        skip: &[u32; N],
         stack: &mut TraversalStack,
-    ) -> [Option<Hit>; PACKET] {
-        let mut still = [None; PACKET];
-        let mut found = [None; PACKET];
-        let mut t_max = [f64::INFINITY; PACKET];
-        let mut dt = [0.0; PACKET];
+    ) -> [Option<Hit>; N] {
+        let mut still = [None; N];
+        let mut found = [None; N];
+        let mut t_max = [f64::INFINITY; N];
+        let mut dt = [0.0; N];
         let mut lanes = [PacketRay {
             origin: DVec3::ZERO,
             dir: DVec3::ZERO,
             s: 0.0,
-        }; PACKET];
+        }; N];
         for (r, ray) in rays.iter().enumerate() {
             still[r] = self.statics.closest(ray, skip[r], stack);
             t_max[r] = still[r].map_or(f64::INFINITY, |b: (f64, u32)| b.0);
@@ -120,7 +120,7 @@ impl World<'_> {
             }
         }
         let points = if self.points.is_empty() {
-            [None; PACKET]
+            [None; N]
         } else {
             self.points
                 .closest_in_turns(rays, &lanes[..rays.len()], &dt, skip, t_max, stack)
