@@ -62,11 +62,13 @@ pub(crate) fn radiance_packet<S: Sampler>(
 }
 
 /// The most samples whose paths a frame that takes turns ([`World::takes_turns`]) traces
-/// together, bounce by bounce ([`radiance_in_turns`]): eight packets. A bounce's rays then
-/// keep [`PACKET`] walks under way until the last few are left, where one packet's rays
-/// alone left most steps to one or two walks (on a frame of ten million points, 51% of the
-/// steps were taken with at most two walks under way, 29% by a walk alone).
-pub(crate) const STREAM: usize = 8 * PACKET;
+/// together, bounce by bounce ([`radiance_in_turns`]): sixteen packets. A bounce's rays then
+/// keep eight walks under way until the last few are left, where one packet's rays alone
+/// left most steps to one or two walks (on a frame of ten million points at 16 samples, 51%
+/// of the steps were taken with at most two walks under way and 29% by a walk alone; with
+/// batches of 64 samples, 5% alone). Batches of 128 rendered that frame in 0.94 of the time
+/// of 64 (docs/performance.md); a batch's paths hold about 70 KB, on the stack.
+pub(crate) const STREAM: usize = 16 * PACKET;
 
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug)]
@@ -77,7 +79,7 @@ pub(crate) struct SampleRay {
 }
 
 /// [`radiance_packet`] with the paths' bounces traced together too, for the camera rays of up
-/// to `N` samples (at most 64): the camera rays' first intersections are found a packet at a
+/// to `N` samples (at most 128): the camera rays' first intersections are found a packet at a
 /// time (runs of up to [`PACKET`] consecutive samples of one pixel), then every bounce's
 /// rays of the paths still going at once ([`World::hit_in_turns`]: each ray walks alone, the rays in turns, so one
 /// ray's cache misses overlap the others' work). Each path takes its own sample's numbers,
@@ -112,7 +114,7 @@ pub(crate) fn camera_radiance_in_turns<
     transparent: bool,
     mut first: F,
 ) -> [DVec3; N] {
-    const { assert!(N <= 64, "a path a bit of the mask of those going") };
+    const { assert!(N <= 128, "a path a bit of the mask of those going") };
     assert!(
         samples.len() <= N,
         "more samples than the paths have room for"
@@ -146,7 +148,7 @@ pub(crate) fn camera_radiance_in_turns<
     let mut skip = [u32::MAX; N];
     let mut samplers: [S; N] = std::array::from_fn(|_| sampler.clone());
     // The paths still going, a bit each.
-    let mut going = 0u64;
+    let mut going = 0u128;
     for (k, sample) in samples.iter().enumerate() {
         let ((x, y), r) = (sample.pixel, sample.ray);
         if k > 0 && samples[k - 1].pixel == (x, y) {

@@ -40,9 +40,9 @@
 //!   walks in turns;
 //! - `leaves`: [`Leaves`], what a traversal tests in its leaves, and a hint to load a leaf
 //!   early;
-//! - `walks`: one ray's walk to its nearest hit, a node or a leaf a step; up to a packet's
-//!   rays walked in turns, so that one ray's loads overlap the others' work (for hierarchies
-//!   far larger than the cache);
+//! - `walks`: one ray's walk to its nearest hit, a node or a leaf a step; many rays walked
+//!   eight at a time in turns, the next ray taking the place of each walk that ends, so that
+//!   one ray's loads overlap the others' work (for hierarchies far larger than the cache);
 //! - `traverse`: [`BvhView`], the nearest hit of one ray (its walk, step after step);
 //! - `packet`: the nearest hits of a packet of rays in one traversal ([`PacketRay`]);
 //! - `hierarchy`: [`Bvh`], a built topology with its boxes;

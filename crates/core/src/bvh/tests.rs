@@ -571,7 +571,7 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
     assert!(hits > 2000, "{hits}");
 }
 
-/// A stream of more rays than walks under way at once (up to 64 walking in turns of
+/// A stream of more rays than walks under way at once (up to 128 walking in turns of
 /// [`TURNS`](super::stack::TURNS)) finds, ray for ray, the hit each finds alone: each walk
 /// that ends hands its slot to the next ray, whatever their number, order or bounds; rays
 /// the `f32` test cannot take and non-finite rays among them; moving and compact
@@ -580,7 +580,7 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
 fn a_stream_of_walks_finds_what_each_ray_finds_alone() {
     use super::lanes::{Lanes, Plain};
     use super::packet::PacketRay;
-    const N: usize = 64;
+    const N: usize = 128;
     fn check<M: Lanes + Copy>(
         m: M,
         view: BvhView,

@@ -178,7 +178,7 @@ impl<R: SlabTest> Walk<R> {
 }
 
 impl BvhView<'_> {
-    /// [`BvhView::closest_hit`] for up to `N` rays (at most 64), walked in turns (see the
+    /// [`BvhView::closest_hit`] for up to `N` rays (at most 128), walked in turns (see the
     /// module's documentation): per ray `r` of `rays`, the closest primitive it hits at `t`
     /// in `(0, t_max[r])`, with `leaves` the primitive test of ray `r`. Up to [`TURNS`]
     /// walks are under way at once; when one ends, the next ray waiting starts in its place,
@@ -228,10 +228,10 @@ impl BvhView<'_> {
         stack: &mut TraversalStack,
         mut leaves: impl PacketLeaves,
     ) -> [Option<(f64, u32)>; N] {
-        const { assert!(N <= 64, "a ray a bit of the waiting mask") };
+        const { assert!(N <= 128, "a ray a bit of the waiting mask") };
         let mut best = [None; N];
         // The rays waiting to walk in turns, a bit each.
-        let mut waiting = 0u64;
+        let mut waiting = 0u128;
         for (r, ray) in rays.iter().enumerate() {
             // Non-finite rays find nothing, as alone.
             if !(ray.origin.is_finite() && ray.dir.is_finite() && !ray.s.is_nan()) {
@@ -256,7 +256,7 @@ impl BvhView<'_> {
             }
         }
         // The next waiting ray, taken from `waiting`, as a walk.
-        let next_walk = |waiting: &mut u64| {
+        let next_walk = |waiting: &mut u128| {
             let r = waiting.trailing_zeros() as usize;
             *waiting &= *waiting - 1;
             let ray = &rays[r];
