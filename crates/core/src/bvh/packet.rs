@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use super::lanes::{LANES, Lanes};
-use super::leaves::{OneOf, PacketLeaves};
+use super::leaves::PacketLeaves;
 use super::links::{COUNT_SHIFT, POSITION_MASK};
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{PACKET, TraversalStack};
@@ -98,20 +98,7 @@ impl BvhView<'_> {
                     lanes[r] = lane;
                     active |= 1 << r;
                 }
-                None => {
-                    best[r] = self.closest_hit_on(
-                        m,
-                        ray.origin,
-                        ray.dir,
-                        ray.s,
-                        t_max[r],
-                        stack,
-                        &mut OneOf {
-                            packet: &mut leaves,
-                            r,
-                        },
-                    )
-                }
+                None => best[r] = self.closest_hit_alone(m, rays, r, t_max[r], stack, &mut leaves),
             }
         }
         if active == 0 {

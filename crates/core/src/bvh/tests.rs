@@ -452,7 +452,6 @@ fn bytes_per_primitive_bounds_a_moving_hierarchy() {
 #[test]
 fn packets_and_turns_find_what_each_ray_finds_alone() {
     use super::lanes::{Lanes, Plain};
-    use super::packet::PacketRay;
     use super::stack::PACKET;
     let mut r = Pcg32::new(16, 6);
     let mut stack = TraversalStack::default();
@@ -464,42 +463,12 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
         t_max: [f64; PACKET],
         stack: &mut TraversalStack,
     ) -> usize {
-        let order = view.topology.order();
-        let test = |ray: &crate::ray::Ray, p: u32, t: f64| {
-            let (c, v, rad) = spheres[order[p as usize] as usize];
-            crate::sphere::intersect(c + v * ray.time, rad, ray, t)
-        };
-        let packet: Vec<PacketRay> = rays
-            .iter()
-            .map(|ray| PacketRay {
-                origin: ray.origin,
-                dir: ray.dir,
-                s: ray.time,
-            })
-            .collect();
-        let got = view.closest_hits_on(m, &packet, t_max, stack, |lane: usize, p: u32, t: f64| {
+        let (turns, hits) = turns_match_each_alone(m, view, spheres, rays, t_max, stack);
+        let test = sphere_test(&view, spheres);
+        let got = view.closest_hits_on(m, &lanes_of(rays), t_max, stack, |lane: usize, p, t| {
             test(&rays[lane], p, t)
         });
-        let turns =
-            view.closest_hits_in_turns_on(m, &packet, t_max, stack, |lane: usize, p: u32, t| {
-                test(&rays[lane], p, t)
-            });
-        assert_eq!(got, turns, "in turns");
-        let mut hits = 0;
-        for (lane, ray) in rays.iter().enumerate() {
-            let alone = view.closest_hit_on(
-                m,
-                ray.origin,
-                ray.dir,
-                ray.time,
-                t_max[lane],
-                stack,
-                &mut |p: u32, t: f64| test(ray, p, t),
-            );
-            assert_eq!(got[lane], alone, "lane {lane} of {}: {ray:?}", rays.len());
-            hits += usize::from(alone.is_some());
-        }
-        assert!(got[rays.len()..].iter().all(Option::is_none));
+        assert_eq!(got, turns, "a packet");
         hits
     }
     let mut hits = 0;
@@ -578,50 +547,8 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
 /// hierarchies; every kernel.
 #[test]
 fn a_stream_of_walks_finds_what_each_ray_finds_alone() {
-    use super::lanes::{Lanes, Plain};
-    use super::packet::PacketRay;
+    use super::lanes::Plain;
     const N: usize = 128;
-    fn check<M: Lanes + Copy>(
-        m: M,
-        view: BvhView,
-        spheres: &[(DVec3, DVec3, f64)],
-        rays: &[crate::ray::Ray],
-        t_max: [f64; N],
-        stack: &mut TraversalStack,
-    ) -> usize {
-        let order = view.topology.order();
-        let test = |ray: &crate::ray::Ray, p: u32, t: f64| {
-            let (c, v, rad) = spheres[order[p as usize] as usize];
-            crate::sphere::intersect(c + v * ray.time, rad, ray, t)
-        };
-        let lanes: Vec<PacketRay> = rays
-            .iter()
-            .map(|ray| PacketRay {
-                origin: ray.origin,
-                dir: ray.dir,
-                s: ray.time,
-            })
-            .collect();
-        let got = view.closest_hits_in_turns_on(m, &lanes, t_max, stack, |r: usize, p, t| {
-            test(&rays[r], p, t)
-        });
-        let mut hits = 0;
-        for (r, ray) in rays.iter().enumerate() {
-            let alone = view.closest_hit_on(
-                m,
-                ray.origin,
-                ray.dir,
-                ray.time,
-                t_max[r],
-                stack,
-                &mut |p: u32, t: f64| test(ray, p, t),
-            );
-            assert_eq!(got[r], alone, "ray {r} of {}: {ray:?}", rays.len());
-            hits += usize::from(alone.is_some());
-        }
-        assert!(got[rays.len()..].iter().all(Option::is_none));
-        hits
-    }
     let mut r = Pcg32::new(17, 7);
     let mut stack = TraversalStack::default();
     let mut hits = 0;
@@ -644,16 +571,75 @@ fn a_stream_of_walks_finds_what_each_ray_finds_alone() {
             }
         }
         for view in [moving.view(), BvhView::new(moving.topology(), &compact)] {
-            hits += check(Plain, view, &spheres, &rays, t_max, &mut stack);
+            hits += turns_match_each_alone(Plain, view, &spheres, &rays, t_max, &mut stack).1;
             #[cfg(target_arch = "x86_64")]
             {
                 use super::lanes::{Avx, Sse, avx_where_available};
-                check(Sse, view, &spheres, &rays, t_max, &mut stack);
+                turns_match_each_alone(Sse, view, &spheres, &rays, t_max, &mut stack);
                 if let Some(v3) = avx_where_available() {
-                    v3.vectorize(|| check(Avx(v3), view, &spheres, &rays, t_max, &mut stack));
+                    v3.vectorize(|| {
+                        turns_match_each_alone(Avx(v3), view, &spheres, &rays, t_max, &mut stack)
+                    });
                 }
             }
         }
     }
     assert!(hits > 500, "{hits}");
+}
+
+/// The primitive test of these tests' hierarchies: a ray against the sphere at leaf position
+/// `p` of `view` (`spheres[order[p]]`: its centre moved by its velocity to the ray's time).
+fn sphere_test<'a>(
+    view: &BvhView<'a>,
+    spheres: &'a [(DVec3, DVec3, f64)],
+) -> impl Fn(&crate::ray::Ray, u32, f64) -> Option<f64> + 'a {
+    let order = view.topology.order();
+    move |ray, p, t| {
+        let (c, v, rad) = spheres[order[p as usize] as usize];
+        crate::sphere::intersect(c + v * ray.time, rad, ray, t)
+    }
+}
+
+/// `rays` as a packet's lanes or walks in turns take them (a ray's time its shutter fraction).
+fn lanes_of(rays: &[crate::ray::Ray]) -> Vec<super::PacketRay> {
+    rays.iter()
+        .map(|ray| super::PacketRay {
+            origin: ray.origin,
+            dir: ray.dir,
+            s: ray.time,
+        })
+        .collect()
+}
+
+/// Walks `rays` in turns on the lanes of `m` and checks each ray's hit against its walk alone
+/// (and that rays past the last find nothing); returns the hits and how many rays hit.
+fn turns_match_each_alone<M: super::lanes::Lanes + Copy, const N: usize>(
+    m: M,
+    view: BvhView,
+    spheres: &[(DVec3, DVec3, f64)],
+    rays: &[crate::ray::Ray],
+    t_max: [f64; N],
+    stack: &mut TraversalStack,
+) -> ([Option<(f64, u32)>; N], usize) {
+    let test = sphere_test(&view, spheres);
+    let turns =
+        view.closest_hits_in_turns_on(m, &lanes_of(rays), t_max, stack, |r: usize, p, t| {
+            test(&rays[r], p, t)
+        });
+    let mut hits = 0;
+    for (r, ray) in rays.iter().enumerate() {
+        let alone = view.closest_hit_on(
+            m,
+            ray.origin,
+            ray.dir,
+            ray.time,
+            t_max[r],
+            stack,
+            &mut |p: u32, t: f64| test(ray, p, t),
+        );
+        assert_eq!(turns[r], alone, "ray {r} of {}: {ray:?}", rays.len());
+        hits += usize::from(alone.is_some());
+    }
+    assert!(turns[rays.len()..].iter().all(Option::is_none));
+    (turns, hits)
 }

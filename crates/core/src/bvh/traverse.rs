@@ -6,8 +6,9 @@ use glam::DVec3;
 
 use super::boxes::{Boxes, Nodes};
 use super::lanes::Lanes;
-use super::leaves::Leaves;
+use super::leaves::{Leaves, OneOf, PacketLeaves};
 use super::links::{COUNT_SHIFT, Links};
+use super::packet::PacketRay;
 use super::slab::{RayF64, RayLanes, SlabTest};
 use super::stack::TraversalStack;
 use super::topology::Topology;
@@ -153,6 +154,23 @@ impl<'a> BvhView<'a> {
                 self.traverse(m, stack, t_max, leaves, ray)
             }
         }
+    }
+
+    /// [`BvhView::closest_hit_on`] of ray `r` of `rays` (a packet's, or walks in turns'),
+    /// with that ray's test of `leaves`: the way of the rare ray the `f32` lanes cannot take.
+    #[inline(always)]
+    pub(super) fn closest_hit_alone<M: Lanes>(
+        &self,
+        m: M,
+        rays: &[PacketRay],
+        r: usize,
+        t_max: f64,
+        stack: &mut TraversalStack,
+        leaves: &mut impl PacketLeaves,
+    ) -> Option<(f64, u32)> {
+        let ray = &rays[r];
+        let mut one = OneOf { packet: leaves, r };
+        self.closest_hit_on(m, ray.origin, ray.dir, ray.s, t_max, stack, &mut one)
     }
 
     /// The traversal of [`BvhView::closest_hit`]: one ray's [`Walk`], its steps one after

@@ -241,18 +241,7 @@ impl BvhView<'_> {
                 waiting |= 1 << r;
             } else {
                 // The rare ray the `f32` test cannot take walks alone.
-                best[r] = self.closest_hit_on(
-                    m,
-                    ray.origin,
-                    ray.dir,
-                    ray.s,
-                    t_max[r],
-                    stack,
-                    &mut OneOf {
-                        packet: &mut leaves,
-                        r,
-                    },
-                )
+                best[r] = self.closest_hit_alone(m, rays, r, t_max[r], stack, &mut leaves);
             }
         }
         // The next waiting ray, taken from `waiting`, as a walk.
