@@ -79,12 +79,12 @@ pub(crate) struct SampleRay {
 }
 
 /// [`radiance_packet`] with the paths' bounces traced together too, for the camera rays of up
-/// to `N` samples (at most 128): the camera rays' first intersections are found a packet at a
-/// time (runs of up to [`PACKET`] consecutive samples of one pixel), then every bounce's
-/// rays of the paths still going at once ([`World::hit_in_turns`]: each ray walks alone, the rays in turns, so one
-/// ray's cache misses overlap the others' work). Each path takes its own sample's numbers,
-/// from its own copy of `sampler`. The same values, bit for bit, as [`radiance`] of each ray
-/// in turn.
+/// to `N` samples (at most 128): the camera rays' first intersections are found a packet at
+/// a time (runs of up to [`PACKET`] consecutive samples of one pixel), then every bounce's
+/// rays of the paths still going at once ([`World::hit_in_turns`]: each ray walks alone,
+/// the rays in turns, so one ray's cache misses overlap the others' work). Each path takes
+/// its own sample's numbers, from its own copy of `sampler`. The same values, bit for bit,
+/// as [`radiance`] of each ray in turn.
 #[inline]
 pub(crate) fn radiance_in_turns<S: Sampler + Clone, const N: usize>(
     world: &World,
@@ -500,11 +500,11 @@ mod tests {
             // packet into the next of the same batch.
             let mut pixel = 0u32;
             for batch in 0..60 {
-                let (mut rays, mut at) = (Vec::new(), Vec::new());
+                let mut samples = Vec::new();
                 loop {
                     let n = 1 + pixel as usize % PACKET;
                     let n = if batch % 3 == 0 { PACKET } else { n };
-                    if rays.len() + n > STREAM {
+                    if samples.len() + n > STREAM {
                         break;
                     }
                     // Two packets of one pixel now and then: samples 0.. and n...
@@ -513,7 +513,7 @@ mod tests {
                         // From inside the room, or from outside it (where camera rays may
                         // miss it).
                         let from = if pixel.is_multiple_of(2) { 4.0 } else { 25.0 };
-                        rays.push(Ray {
+                        let ray = Ray {
                             origin: if pixel % 17 == 3 && k == 0 {
                                 DVec3::NAN
                             } else {
@@ -521,34 +521,28 @@ mod tests {
                             },
                             dir: crate::material::unit_vector((r.next_f64(), r.next_f64())),
                             time: 0.02 * r.next_f64(),
+                        };
+                        samples.push(SampleRay {
+                            ray,
+                            pixel: (pixel, 1),
+                            index: k as u32,
                         });
-                        at.push((pixel, 1, k as u32));
                     }
                     pixel += 1;
-                    if rays.len() > STREAM - PACKET {
+                    if samples.len() > STREAM - PACKET {
                         break;
                     }
                 }
-                rays.truncate(STREAM);
-                at.truncate(STREAM);
-                let samples: Vec<SampleRay> = rays
-                    .iter()
-                    .zip(&at)
-                    .map(|(&ray, &(x, y, index))| SampleRay {
-                        ray,
-                        pixel: (x, y),
-                        index,
-                    })
-                    .collect();
+                samples.truncate(STREAM);
                 let before = stats.rays;
                 let got: [DVec3; STREAM] =
                     radiance_in_turns(&world, &samples, 12, &sampler, &mut stats);
                 together += stats.rays - before;
-                for (k, ray) in rays.iter().enumerate() {
-                    let (x, y, index) = at[k];
-                    sampler.start_sample(x, y, index);
+                for (k, sample) in samples.iter().enumerate() {
+                    let (x, y) = sample.pixel;
+                    sampler.start_sample(x, y, sample.index);
                     let before = stats.rays;
-                    let want = radiance(&world, *ray, 12, &mut sampler, &mut stats);
+                    let want = radiance(&world, sample.ray, 12, &mut sampler, &mut stats);
                     alone += stats.rays - before;
                     assert_eq!(
                         got[k].to_array().map(f64::to_bits),
@@ -570,16 +564,18 @@ mod tests {
                 );
                 let mut seen_packets = vec![];
                 let mut start = 0;
-                while start < rays.len() {
-                    let (x, y, first) = at[start];
+                while start < samples.len() {
+                    let SampleRay { pixel, index, .. } = samples[start];
                     let mut end = start + 1;
-                    while end < rays.len() && end - start < PACKET && at[end].0 == x {
+                    while end < samples.len() && end - start < PACKET && samples[end].pixel == pixel
+                    {
                         end += 1;
                     }
+                    let rays: Vec<Ray> = samples[start..end].iter().map(|s| s.ray).collect();
                     let packet = camera_radiance_packet(
                         &world,
-                        &rays[start..end],
-                        (x, y, first),
+                        &rays,
+                        (pixel.0, pixel.1, index),
                         12,
                         &mut sampler,
                         &mut stats,

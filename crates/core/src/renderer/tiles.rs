@@ -261,8 +261,9 @@ enum Tracing {
     /// ([`camera_radiance_packet`], or [`camera_radiance_in_turns`] where the world takes
     /// turns).
     Observed,
-    /// Camera rays in packets, then the paths bounce by bounce together, their rays walking
-    /// the hierarchies in turns ([`radiance_in_turns`]).
+    /// Camera rays in packets, gathered in batches of up to [`STREAM`] samples (`Batch`)
+    /// whose paths bounce by bounce together, their rays walking the hierarchies in turns
+    /// ([`radiance_in_turns`]).
     InTurns,
 }
 
