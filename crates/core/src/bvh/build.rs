@@ -43,6 +43,19 @@ const PARALLEL_BUILD: usize = 4096;
 /// number that does not depend on the threads, though the bins would not either (their
 /// unions and counts are exact in any order).
 const PARALLEL_BINS: usize = 1 << 15;
+/// Spans of more primitives than twice this are partitioned in parallel, in chunks of this
+/// many (a number that does not depend on the threads).
+const PARALLEL_PARTITION: usize = 1 << 16;
+/// Spans of more primitives than this bin a sample of them, every `n / SAMPLE`-th (16,384
+/// to 32,768 primitives, a thousand or more a bin), as the top of a large build is where
+/// every primitive is binned again and again for splits a sample decides as well: on a frame
+/// of 1e7 points the hierarchy in 0.88 of the time, the render the same (docs/performance.md).
+/// Such a span's halves are measured by their sample's boxes (their counts and centroids
+/// exactly, by the partition): their boxes only weigh splits and choose which child a node
+/// opens next, and a hierarchy's boxes come from its refit.
+const SAMPLED_BINS: usize = 1 << 16;
+/// Primitives a sampled span bins, at least.
+const SAMPLE: usize = 1 << 14;
 // A leaf's count fits the bits of a child slot above `COUNT_SHIFT`.
 const _: () = assert!(
     MAX_LEAF < 1 << (32 - COUNT_SHIFT),
@@ -138,7 +151,8 @@ fn expected_half_area(open: Box3, close: Box3) -> f32 {
 }
 
 /// A contiguous run of primitives being built: where it starts in the whole array, how many,
-/// the unions of their boxes at the opening and the closing, and of their centroids.
+/// the unions of their boxes at the opening and the closing (of a sample's, where it is a
+/// half of a span that binned a sample: [`SAMPLED_BINS`]), and of their centroids.
 #[derive(Clone, Copy, Debug)]
 struct Span {
     start: usize,
@@ -265,9 +279,9 @@ fn truncate(x: Vec3A) -> [usize; 3] {
 
 /// Adds `items` to `bins`, on one thread.
 #[inline(always)]
-fn bin_serial<P, const N: usize>(
+fn bin_serial<'a, P: 'a, const N: usize>(
     bins: &mut Bins<N>,
-    items: &[P],
+    items: impl IntoIterator<Item = &'a P>,
     map: &BinMap,
     bounds: &impl Fn(&P) -> BuildBox,
 ) {
@@ -286,6 +300,15 @@ fn fill_bins<P: Sync, const N: usize>(
     map: &BinMap,
     bounds: &(impl Fn(&P) -> BuildBox + Sync),
 ) {
+    if items.len() > SAMPLED_BINS {
+        bin_serial(
+            bins,
+            items.iter().step_by(items.len() / SAMPLE),
+            map,
+            bounds,
+        );
+        return;
+    }
     if items.len() <= PARALLEL_BINS {
         bin_serial(bins, items, map, bounds);
         return;
@@ -367,6 +390,95 @@ fn partition<P>(items: &mut [P], side: impl Fn(&P) -> (bool, Vec3A)) -> (usize, 
     (mid, lc, rc)
 }
 
+/// [`partition`] of many items in parallel: chunks of [`PARALLEL_PARTITION`] items, each
+/// partitioned on its own (its left items, then its right ones); then the right items that
+/// lie before the left items' total and the left items that lie after it, as many of each,
+/// swapped in pairs. A chunk's size does not depend on the threads, so neither does the
+/// order. Fewer items are partitioned as `partition` does.
+fn partition_parallel<P: Send>(
+    items: &mut [P],
+    side: impl Fn(&P) -> (bool, Vec3A) + Sync,
+) -> (usize, Box3, Box3) {
+    let n = items.len();
+    if n <= 2 * PARALLEL_PARTITION {
+        return partition(items, side);
+    }
+    let parts: Vec<(usize, Box3, Box3)> = items
+        .par_chunks_mut(PARALLEL_PARTITION)
+        .map(|chunk| partition(chunk, &side))
+        .collect();
+    let mid: usize = parts.iter().map(|p| p.0).sum();
+    let (lc, rc) = parts.iter().fold((Box3::EMPTY, Box3::EMPTY), |(l, r), p| {
+        (l.union(p.1), r.union(p.2))
+    });
+    // Chunk `i`'s left items lie at `i C..i C + m_i`, its right ones after them up to the
+    // chunk's end: the right ones before `mid` and the left ones from it on are misplaced.
+    let misplaced = |left: bool, within: std::ops::Range<usize>| {
+        let parts = &parts;
+        (0..parts.len()).filter_map(move |i| {
+            let start = i * PARALLEL_PARTITION;
+            let cut = start + parts[i].0;
+            let end = (start + PARALLEL_PARTITION).min(n);
+            let run = if left { start..cut } else { cut..end };
+            let (a, b) = (run.start.max(within.start), run.end.min(within.end));
+            (a < b).then(|| a - within.start..b - within.start)
+        })
+    };
+    let (front, back) = items.split_at_mut(mid);
+    let rights = pieces(front, misplaced(false, 0..mid));
+    let lefts = pieces(back, misplaced(true, mid..n));
+    pairs(rights, lefts)
+        .into_par_iter()
+        .for_each(|(a, b)| a.swap_with_slice(b));
+    (mid, lc, rc)
+}
+
+/// The pieces of `items` at `ranges` (increasing, apart).
+fn pieces<P>(
+    mut items: &mut [P],
+    ranges: impl Iterator<Item = std::ops::Range<usize>>,
+) -> Vec<&mut [P]> {
+    let mut at = 0;
+    let mut out = Vec::new();
+    for r in ranges {
+        let (_, rest) = std::mem::take(&mut items).split_at_mut(r.start - at);
+        let (piece, rest) = rest.split_at_mut(r.len());
+        out.push(piece);
+        items = rest;
+        at = r.end;
+    }
+    out
+}
+
+/// The pieces of `a` and of `b` (as many items in all) cut into pairs of equal lengths, in
+/// order.
+fn pairs<'a, P>(a: Vec<&'a mut [P]>, b: Vec<&'a mut [P]>) -> Vec<(&'a mut [P], &'a mut [P])> {
+    let mut out = Vec::new();
+    let (mut a, mut b) = (a.into_iter(), b.into_iter());
+    let (mut x, mut y): (&mut [P], &mut [P]) = (&mut [], &mut []);
+    loop {
+        if x.is_empty() {
+            match a.next() {
+                Some(next) => x = next,
+                None => break,
+            }
+        }
+        if y.is_empty() {
+            match b.next() {
+                Some(next) => y = next,
+                None => break,
+            }
+        }
+        let k = x.len().min(y.len());
+        let (x0, x1) = std::mem::take(&mut x).split_at_mut(k);
+        let (y0, y1) = std::mem::take(&mut y).split_at_mut(k);
+        out.push((x0, y0));
+        (x, y) = (x1, y1);
+    }
+    debug_assert!(x.is_empty() && y.is_empty() && a.next().is_none() && b.next().is_none());
+    out
+}
+
 /// What a span becomes: a leaf, or a node whose two halves are the given spans. (At most
 /// eight live at once, on the stack, while a node is made: boxing the larger variant would
 /// allocate for every node to save a few hundred bytes of stack.)
@@ -441,14 +553,14 @@ fn decide<P: Send + Sync>(
     if n <= MAX_LEAF && split_cost >= n as f64 {
         return Kid::Leaf(span);
     }
-    let (mid, lc, rc) = partition(items, |p| {
+    let (mid, lc, rc) = partition_parallel(items, |p| {
         let (_, _, c) = bounds(p).parts();
         (map.bin(c, axis) < boundary, c)
     });
-    debug_assert_eq!(mid, left.count);
-    let part = |b: Bin, start: usize, centroids: Box3| Span {
+    debug_assert!(n > SAMPLED_BINS || mid == left.count);
+    let part = |b: Bin, start: usize, len: usize, centroids: Box3| Span {
         start,
-        len: b.count,
+        len,
         open: b.open,
         close: b.close,
         centroids,
@@ -456,8 +568,8 @@ fn decide<P: Send + Sync>(
     };
     Kid::Inner(
         span,
-        part(left, span.start, lc),
-        part(right, span.start + mid, rc),
+        part(left, span.start, mid, lc),
+        part(right, span.start + mid, n - mid, rc),
     )
 }
 
@@ -705,11 +817,12 @@ mod tests {
     }
 
     /// The same boxes give the same hierarchy whatever the number of threads building it,
-    /// still and moving, over enough boxes for the parallel binning and subtrees.
+    /// still and moving, over enough boxes for the sampled and the parallel binning, the
+    /// parallel partition and subtrees.
     #[test]
     fn build_is_deterministic_across_thread_counts() {
         let mut r = Pcg32::new(4, 4);
-        let (open, close): (Vec<Aabb>, Vec<Aabb>) = (0..100_000)
+        let (open, close): (Vec<Aabb>, Vec<Aabb>) = (0..200_000)
             .map(|_| {
                 let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 100.0;
                 let v = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 8.0 - 4.0;
@@ -729,6 +842,46 @@ mod tests {
         assert_eq!(a.0.boxes(), b.0.boxes());
         assert_eq!(a.1.topology(), b.1.topology());
         assert_eq!(a.1.boxes(), b.1.boxes());
+    }
+
+    /// A partition in parallel puts every item on its side, keeps every item, and gives the
+    /// serial partition's count and centroid bounds; the same order on any number of threads.
+    #[test]
+    fn a_parallel_partition_is_a_partition() {
+        let mut r = Pcg32::new(8, 3);
+        for n in [2 * PARALLEL_PARTITION + 1, 5 * PARALLEL_PARTITION + 12_345] {
+            let items: Vec<(u32, Vec3A)> = (0..n as u32)
+                .map(|i| {
+                    let p = [r.next_f64(), r.next_f64(), r.next_f64()].map(|x| x as f32);
+                    (i, Vec3A::from(p))
+                })
+                .collect();
+            // Unevenly: about a third left.
+            let side = |p: &(u32, Vec3A)| (p.1.x < 0.33, p.1);
+            let mut serial = items.clone();
+            let want = partition(&mut serial, side);
+            let split = |threads| {
+                let mut items = items.clone();
+                let got = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| partition_parallel(&mut items, side));
+                (items, got)
+            };
+            let (parallel, (mid, lc, rc)) = split(3);
+            assert_eq!(mid, want.0);
+            assert!(parallel[..mid].iter().all(|p| side(p).0));
+            assert!(parallel[mid..].iter().all(|p| !side(p).0));
+            let mut ids: Vec<u32> = parallel.iter().map(|p| p.0).collect();
+            ids.sort_unstable();
+            assert!(ids.iter().copied().eq(0..n as u32));
+            for (a, b) in [(lc, want.1), (rc, want.2)] {
+                assert_eq!((a.lo, a.hi), (b.lo, b.hi));
+            }
+            let (alone, _) = split(1);
+            assert!(alone.iter().map(|p| p.0).eq(parallel.iter().map(|p| p.0)));
+        }
     }
 
     /// The mean area of the interpolated box, against sampling it over the shutter.

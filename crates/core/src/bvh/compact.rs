@@ -152,7 +152,9 @@ impl CompactNode {
                 let x = exponent_above(span);
                 let step = f64::from(power_of_two(x));
                 // A power of two, so dividing by the step is multiplying by this, exactly.
-                let per_step = 1.0 / step;
+                // `1 / step` exactly (a power of two), without a division.
+                let per_step = f64::from_bits(((1023 - i64::from(x)) as u64) << 52);
+                debug_assert_eq!(per_step, 1.0 / step);
                 node.origin[e][a] = origin;
                 node.exponent[e][a] = x;
                 for (k, child) in children.iter().enumerate() {

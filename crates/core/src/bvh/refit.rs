@@ -98,8 +98,10 @@ fn subtree<T: NodeBoxes>(
 ) -> (Aabb, Aabb) {
     let node = links[first];
     let mut child = [(Aabb::EMPTY, Aabb::EMPTY); LANES];
-    // The inner children, by node number: each one's subtree runs up to the next one's.
-    let mut inner: Vec<(u32, usize)> = Vec::with_capacity(LANES);
+    // The inner children, by node number: each one's subtree runs up to the next one's. On
+    // the stack: most nodes have none (a frame of points makes a million nodes).
+    let mut inner = [(0u32, 0usize); LANES];
+    let mut inners = 0;
     for (k, c) in child.iter_mut().enumerate() {
         let (at, count) = node.slot(k);
         if count > 0 {
@@ -108,13 +110,15 @@ fn subtree<T: NodeBoxes>(
                 (o.union(&po), c.union(&pc))
             });
         } else if at > 0 {
-            inner.push((at, k));
+            inner[inners] = (at, k);
+            inners += 1;
         }
     }
+    let inner = &mut inner[..inners];
     inner.sort_unstable();
     let (head, mut rest) = nodes.split_first_mut().expect("a node's boxes");
     let end = first + 1 + rest.len();
-    let mut jobs = Vec::with_capacity(inner.len());
+    let mut jobs: [(usize, usize, &mut [T]); LANES] = Default::default();
     for (j, &(at, k)) in inner.iter().enumerate() {
         let next = inner.get(j + 1).map_or(end, |n| n.0 as usize);
         let at = at as usize;
@@ -126,19 +130,21 @@ fn subtree<T: NodeBoxes>(
         );
         let (part, tail) = std::mem::take(&mut rest).split_at_mut(next - at);
         rest = tail;
-        jobs.push((k, at, part));
+        jobs[j] = (k, at, part);
     }
-    let done: Vec<(usize, (Aabb, Aabb))> = if nodes_len(&jobs) > PARALLEL_REFIT {
-        jobs.into_par_iter()
-            .map(|(k, at, part)| (k, subtree(links, at, part, prim)))
-            .collect()
+    let jobs = &mut jobs[..inners];
+    if jobs.iter().map(|j| j.2.len()).sum::<usize>() > PARALLEL_REFIT {
+        let done: Vec<(usize, (Aabb, Aabb))> = jobs
+            .par_iter_mut()
+            .map(|(k, at, part)| (*k, subtree(links, *at, std::mem::take(part), prim)))
+            .collect();
+        for (k, b) in done {
+            child[k] = b;
+        }
     } else {
-        jobs.into_iter()
-            .map(|(k, at, part)| (k, subtree(links, at, part, prim)))
-            .collect()
-    };
-    for (k, b) in done {
-        child[k] = b;
+        for (k, at, part) in jobs.iter_mut() {
+            child[*k] = subtree(links, *at, std::mem::take(part), prim);
+        }
     }
     let mut all = (Aabb::EMPTY, Aabb::EMPTY);
     let mut slots = [None; LANES];
@@ -153,9 +159,4 @@ fn subtree<T: NodeBoxes>(
     }
     *head = T::new(&slots, &node);
     all
-}
-
-/// The nodes below a node's inner children.
-fn nodes_len<T>(jobs: &[(usize, usize, &mut [T])]) -> usize {
-    jobs.iter().map(|j| j.2.len()).sum()
 }

@@ -46,7 +46,8 @@ fn random_rays(r: &mut Pcg32, n: usize) -> Vec<crate::ray::Ray> {
 fn agrees_with_brute_force() {
     let mut r = Pcg32::new(11, 1);
     let mut stack = TraversalStack::default();
-    for &n in &[0usize, 1, 2, 5, 17, 300, 2000, 9000] {
+    // 200,000: spans that bin a sample and are partitioned in parallel (`build.rs`).
+    for &n in &[0usize, 1, 2, 5, 17, 300, 2000, 9000, 200_000] {
         let centers: Vec<(DVec3, f64)> = (0..n)
             .map(|_| {
                 let c = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 20.0 - 10.0;
@@ -59,7 +60,7 @@ fn agrees_with_brute_force() {
             .collect();
         let bvh = Bvh::build(&boxes);
         assert_eq!(bvh.len(), n);
-        for ray in random_rays(&mut r, 500) {
+        for ray in random_rays(&mut r, if n > 10_000 { 100 } else { 500 }) {
             let got = bvh.closest_hit(
                 ray.origin,
                 ray.dir,
