@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 
 pub mod aabb;
+mod bits;
 pub mod bvh;
 pub mod camera;
 pub mod colormap;

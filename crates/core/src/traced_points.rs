@@ -282,7 +282,7 @@ impl TracedPoints {
         })
     }
 
-    /// [`TracedPoints::closest`] for up to `N` rays (at most 128) that need not be coherent
+    /// [`TracedPoints::closest`] for up to `N` rays (at most 256) that need not be coherent
     /// (the bounces of several pixels' samples), ray `r` skipping the sphere numbered
     /// `skip[r]`: the same hits, each ray walking the hierarchy alone, the rays in turns
     /// ([`BvhView::closest_hits_in_turns`]), so one ray's misses in a frame's millions of

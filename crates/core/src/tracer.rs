@@ -7,6 +7,7 @@
 
 use glam::DVec3;
 
+use crate::bits::Bits;
 use crate::bvh::{PACKET, TraversalStack};
 use crate::hit::Hit;
 use crate::material::Scatter;
@@ -62,13 +63,15 @@ pub(crate) fn radiance_packet<S: Sampler>(
 }
 
 /// The most samples whose paths a frame that takes turns ([`World::takes_turns`]) traces
-/// together, bounce by bounce ([`radiance_in_turns`]): sixteen packets. A bounce's rays then
-/// keep eight walks under way until the last few are left, where one packet's rays alone
+/// together, bounce by bounce ([`radiance_in_turns`]): thirty-two packets. A bounce's rays
+/// then keep eight walks under way until the last few are left, where one packet's rays alone
 /// left most steps to one or two walks (on a frame of ten million points at 16 samples, 51%
 /// of the steps were taken with at most two walks under way and 29% by a walk alone; with
-/// batches of 64 samples, 5% alone). Batches of 128 rendered that frame in 0.94 of the time
-/// of 64 (docs/performance.md); a batch's paths hold about 70 KB, on the stack.
-pub(crate) const STREAM: usize = 16 * PACKET;
+/// batches of 64 samples, 5% alone; of 128, 84% of the steps with all eight under way).
+/// Batches of 128 rendered that frame in 0.94 of the time of 64, of 256 in 0.94 to 0.96 of
+/// the time of 128, of 512 in that of 256 (docs/performance.md); a batch's paths hold about
+/// 0.2 MB, on the stack (a rayon thread's is 2 MiB).
+pub(crate) const STREAM: usize = 32 * PACKET;
 
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug)]
@@ -79,7 +82,7 @@ pub(crate) struct SampleRay {
 }
 
 /// [`radiance_packet`] with the paths' bounces traced together too, for the camera rays of up
-/// to `N` samples (at most 128): the camera rays' first intersections are found a packet at
+/// to `N` samples (at most [`Bits::CAPACITY`], 256): the camera rays' first intersections are found a packet at
 /// a time (runs of up to [`PACKET`] consecutive samples of one pixel), then every bounce's
 /// rays of the paths still going at once ([`World::hit_in_turns`]: each ray walks alone,
 /// the rays in turns, so one ray's cache misses overlap the others' work). Each path takes
@@ -114,7 +117,12 @@ pub(crate) fn camera_radiance_in_turns<
     transparent: bool,
     mut first: F,
 ) -> [DVec3; N] {
-    const { assert!(N <= 128, "a path a bit of the mask of those going") };
+    const {
+        assert!(
+            N <= Bits::CAPACITY,
+            "a path a bit of the set of those going"
+        )
+    };
     assert!(
         samples.len() <= N,
         "more samples than the paths have room for"
@@ -148,7 +156,7 @@ pub(crate) fn camera_radiance_in_turns<
     let mut skip = [u32::MAX; N];
     let mut samplers: [S; N] = std::array::from_fn(|_| sampler.clone());
     // The paths still going, a bit each.
-    let mut going = 0u128;
+    let mut going = Bits::default();
     for (k, sample) in samples.iter().enumerate() {
         let ((x, y), r) = (sample.pixel, sample.ray);
         if k > 0 && samples[k - 1].pixel == (x, y) {
@@ -158,23 +166,20 @@ pub(crate) fn camera_radiance_in_turns<
         samplers[k].start_sample(x, y, sample.index);
         ray[k] = r;
         if r.origin.is_finite() && r.dir.is_finite() && r.time.is_finite() {
-            going |= 1 << k;
+            going.insert(k);
             first(k, found[k].as_ref());
         } else {
             out[k] = DVec3::NAN;
         }
     }
     for depth in 0..max_depth {
-        let mut bits = going;
-        while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
+        for k in going.iter() {
             stats.rays += 1;
             let Some(hit) = found[k].take() else {
                 if !(transparent && depth == 0) {
                     out[k] = throughput[k] * world.background.radiance(ray[k].dir);
                 }
-                going &= !(1 << k);
+                going.remove(k);
                 continue;
             };
             match bounce(
@@ -185,10 +190,10 @@ pub(crate) fn camera_radiance_in_turns<
                 &mut skip[k],
             ) {
                 Some(next) => ray[k] = next,
-                None => going &= !(1 << k),
+                None => going.remove(k),
             }
         }
-        if going == 0 || depth + 1 == max_depth {
+        if going.is_empty() || depth + 1 == max_depth {
             break;
         }
         // The next bounce's rays of the paths still going, side by side.
@@ -196,10 +201,7 @@ pub(crate) fn camera_radiance_in_turns<
         let mut next = [ray[0]; N];
         let mut next_skip = [u32::MAX; N];
         let mut n = 0;
-        let mut bits = going;
-        while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
+        for k in going.iter() {
             (path[n], next[n], next_skip[n]) = (k, ray[k], skip[k]);
             n += 1;
         }

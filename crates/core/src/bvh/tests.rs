@@ -541,7 +541,7 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
     assert!(hits > 2000, "{hits}");
 }
 
-/// A stream of more rays than walks under way at once (up to 128 walking in turns of
+/// A stream of more rays than walks under way at once (up to 256 walking in turns of
 /// [`TURNS`](super::stack::TURNS)) finds, ray for ray, the hit each finds alone: each walk
 /// that ends hands its slot to the next ray, whatever their number, order or bounds; rays
 /// the `f32` test cannot take and non-finite rays among them; moving and compact
@@ -549,7 +549,7 @@ fn packets_and_turns_find_what_each_ray_finds_alone() {
 #[test]
 fn a_stream_of_walks_finds_what_each_ray_finds_alone() {
     use super::lanes::Plain;
-    const N: usize = 128;
+    const N: usize = crate::bits::Bits::CAPACITY;
     let mut r = Pcg32::new(17, 7);
     let mut stack = TraversalStack::default();
     let mut hits = 0;

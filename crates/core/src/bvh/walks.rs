@@ -33,6 +33,7 @@ use super::packet::PacketRay;
 use super::slab::{RayLanes, SlabTest, widened_limit};
 use super::stack::{STACK, TURNS, TraversalStack};
 use super::traverse::BvhView;
+use crate::bits::Bits;
 
 /// The stack of one ray's walk: per entry, the child slot (a node index, or a leaf's first
 /// position and count) and the ray's entry distance into it. A node's children are read
@@ -178,7 +179,7 @@ impl<R: SlabTest> Walk<R> {
 }
 
 impl BvhView<'_> {
-    /// [`BvhView::closest_hit`] for up to `N` rays (at most 128), walked in turns (see the
+    /// [`BvhView::closest_hit`] for up to `N` rays (at most [`Bits::CAPACITY`], 256), walked in turns (see the
     /// module's documentation): per ray `r` of `rays`, the closest primitive it hits at `t`
     /// in `(0, t_max[r])`, with `leaves` the primitive test of ray `r`. Up to [`TURNS`]
     /// walks are under way at once; when one ends, the next ray waiting starts in its place,
@@ -228,17 +229,22 @@ impl BvhView<'_> {
         stack: &mut TraversalStack,
         mut leaves: impl PacketLeaves,
     ) -> [Option<(f64, u32)>; N] {
-        const { assert!(N <= 128, "a ray a bit of the waiting mask") };
+        const {
+            assert!(
+                N <= Bits::CAPACITY,
+                "a ray a bit of the set of those waiting"
+            )
+        };
         let mut best = [None; N];
         // The rays waiting to walk in turns, a bit each.
-        let mut waiting = 0u128;
+        let mut waiting = Bits::default();
         for (r, ray) in rays.iter().enumerate() {
             // Non-finite rays find nothing, as alone.
             if !(ray.origin.is_finite() && ray.dir.is_finite() && !ray.s.is_nan()) {
                 continue;
             }
             if RayLanes::new(m, ray.origin, ray.dir, ray.s).is_some() {
-                waiting |= 1 << r;
+                waiting.insert(r);
             } else {
                 // The rare ray the `f32` test cannot take walks alone.
                 best[r] = self.closest_hit_alone(m, rays, r, t_max[r], stack, &mut leaves);
@@ -247,9 +253,7 @@ impl BvhView<'_> {
         // The next waiting ray, taken from `waiting`, as a walk. Its lanes are made again here
         // rather than kept from the check above for every ray waiting (a few dozen
         // instructions a ray, against `N` rays' lanes held on the stack).
-        let next_walk = |waiting: &mut u128| {
-            let r = waiting.trailing_zeros() as usize;
-            *waiting &= *waiting - 1;
+        let next_walk = |r: usize| {
             let ray = &rays[r];
             let lanes = RayLanes::new(m, ray.origin, ray.dir, ray.s).expect("checked above");
             (r, Walk::new(lanes, t_max[r]))
@@ -258,10 +262,8 @@ impl BvhView<'_> {
         let mut walks = [(); TURNS].map(|_| (0, Walk::new(placeholder, 0.0)));
         let mut active = 0u32;
         for (slot, walk) in walks.iter_mut().enumerate() {
-            if waiting == 0 {
-                break;
-            }
-            *walk = next_walk(&mut waiting);
+            let Some(r) = waiting.pop_first() else { break };
+            *walk = next_walk(r);
             active |= 1 << slot;
         }
         let stacks = stack.walks();
@@ -279,10 +281,9 @@ impl BvhView<'_> {
                 };
                 if !walk.step(m, self, &mut stacks[slot], &mut leaves) {
                     best[*r] = walk.best;
-                    if waiting != 0 {
-                        walks[slot] = next_walk(&mut waiting);
-                    } else {
-                        active &= !(1 << slot);
+                    match waiting.pop_first() {
+                        Some(r) => walks[slot] = next_walk(r),
+                        None => active &= !(1 << slot),
                     }
                 }
             }

@@ -66,7 +66,7 @@ impl World<'_> {
         !self.points.is_empty()
     }
 
-    /// [`World::hit`] of up to `N` rays (at most 128) at once that need not be coherent (the
+    /// [`World::hit`] of up to `N` rays (at most 256) at once that need not be coherent (the
     /// bounces of several pixels' samples), ray `r` skipping the sphere numbered `skip[r]`:
     /// the same hits. The spheres are searched ray by ray; the points, whose hierarchy is far
     /// larger than the cache, by walks in turns
