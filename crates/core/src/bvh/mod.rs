@@ -58,6 +58,7 @@ mod lanes;
 mod leaves;
 mod links;
 mod packet;
+mod partition;
 mod refit;
 mod rounding;
 mod slab;
