@@ -73,6 +73,14 @@ pub(crate) fn radiance_packet<S: Sampler>(
 /// 0.2 MB, on the stack (a rayon thread's is 2 MiB).
 pub(crate) const STREAM: usize = 32 * PACKET;
 
+/// The most stack a worker thread's batch of paths ([`STREAM`]) holds, in bytes: per path
+/// its camera hit and next hit (128 bytes each), its ray and next ray (56 each), its
+/// sampler (at most 288), its throughput and value (24 each), the walks' per-ray arrays
+/// below (about 200) and its camera ray in the tile's batch (72), under 1 KiB, taken as 1
+/// KiB. A frame with points touches this much of each thread's stack (`render`'s peak grows
+/// by it); the memory estimate counts it per thread.
+pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024) as u64;
+
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SampleRay {
@@ -82,12 +90,12 @@ pub(crate) struct SampleRay {
 }
 
 /// [`radiance_packet`] with the paths' bounces traced together too, for the camera rays of up
-/// to `N` samples (at most [`Bits::CAPACITY`], 256): the camera rays' first intersections are found a packet at
-/// a time (runs of up to [`PACKET`] consecutive samples of one pixel), then every bounce's
-/// rays of the paths still going at once ([`World::hit_in_turns`]: each ray walks alone,
-/// the rays in turns, so one ray's cache misses overlap the others' work). Each path takes
-/// its own sample's numbers, from its own copy of `sampler`. The same values, bit for bit,
-/// as [`radiance`] of each ray in turn.
+/// to `N` samples (at most [`Bits::CAPACITY`], 256): the camera rays' first intersections
+/// are found a packet at a time (runs of up to [`PACKET`] consecutive samples of one pixel),
+/// then every bounce's rays of the paths still going at once ([`World::hit_in_turns`]: each
+/// ray walks alone, the rays in turns, so one ray's cache misses overlap the others' work).
+/// Each path takes its own sample's numbers, from its own copy of `sampler`. The same
+/// values, bit for bit, as [`radiance`] of each ray in turn.
 #[inline]
 pub(crate) fn radiance_in_turns<S: Sampler + Clone, const N: usize>(
     world: &World,

@@ -27,6 +27,9 @@ const FLOOR_BYTES: u64 = 9 << 20;
 ///   its finishing reads);
 /// - its finishing ([`finish::bytes_for`]: denoising, history);
 /// - its encoding ([`raytrace_io::bytes_for`]);
+/// - with points on the CPU, each worker thread's stack under its batch of paths in turns
+///   ([`raytrace_core::tracer::TURNS_STACK_BYTES`], one thread a core: with fewer threads
+///   it errs high);
 /// - on the GPU, what its path adds ([`raytrace_gpu::frame_bytes`]: the driver, the scene's
 ///   words with the frame's points, the film on the device and its read-back buffers, counted
 ///   on the host, where a software device keeps them).
@@ -48,6 +51,17 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
         + finish::bytes_for(scene)
         + raytrace_io::bytes_for(scene.output.format, pixels, scene.output.passes)
         + gpu
+        + turns_stacks(scene)
+}
+
+/// The worker threads' stacks under their batches of paths in turns: a frame with points
+/// traced on the CPU, one worker a core (the default pool).
+fn turns_stacks(scene: &Scene) -> u64 {
+    if scene.points.is_empty() || scene.render.device == Device::Gpu {
+        return 0;
+    }
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
+    threads * raytrace_core::tracer::TURNS_STACK_BYTES
 }
 
 /// The memory a render of `scene` needs with `points` points in its largest frame

@@ -151,8 +151,8 @@ impl CompactNode {
                 let span = (whole.max[a] + delta - o) / 255.0 * (1.0 + 2f64.powi(-50));
                 let x = exponent_above(span);
                 let step = f64::from(power_of_two(x));
-                // A power of two, so dividing by the step is multiplying by this, exactly.
-                // `1 / step` exactly (a power of two), without a division.
+                // A power of two, so dividing by the step is multiplying by this, exactly:
+                // `1 / step`, made from its exponent without a division.
                 let per_step = f64::from_bits(((1023 - i64::from(x)) as u64) << 52);
                 debug_assert_eq!(per_step, 1.0 / step);
                 node.origin[e][a] = origin;

@@ -179,13 +179,13 @@ impl<R: SlabTest> Walk<R> {
 }
 
 impl BvhView<'_> {
-    /// [`BvhView::closest_hit`] for up to `N` rays (at most [`Bits::CAPACITY`], 256), walked in turns (see the
-    /// module's documentation): per ray `r` of `rays`, the closest primitive it hits at `t`
-    /// in `(0, t_max[r])`, with `leaves` the primitive test of ray `r`. Up to [`TURNS`]
-    /// walks are under way at once; when one ends, the next ray waiting starts in its place,
-    /// so the turns stay full while rays are left. The same hits, distance for distance, as
-    /// one call of `closest_hit` per ray; faster where the hierarchy is far larger than the
-    /// cache, slower where it fits.
+    /// [`BvhView::closest_hit`] for up to `N` rays (at most [`Bits::CAPACITY`], 256), walked
+    /// in turns (see the module's documentation): per ray `r` of `rays`, the closest
+    /// primitive it hits at `t` in `(0, t_max[r])`, with `leaves` the primitive test of ray
+    /// `r`. Up to [`TURNS`] walks are under way at once; when one ends, the next ray waiting
+    /// starts in its place, so the turns stay full while rays are left. The same hits,
+    /// distance for distance, as one call of `closest_hit` per ray; faster where the
+    /// hierarchy is far larger than the cache, slower where it fits.
     #[inline]
     pub(crate) fn closest_hits_in_turns<const N: usize>(
         &self,
