@@ -250,10 +250,10 @@ impl BvhView<'_> {
                 best[r] = self.closest_hit_alone(m, rays, r, t_max[r], stack, &mut leaves);
             }
         }
-        // The next waiting ray, taken from `waiting`, as a walk. Its lanes are made again here
-        // rather than kept from the check above for every ray waiting (a few dozen
+        // The walk of ray `r`, the next one taken from `waiting`. Its lanes are made again
+        // here rather than kept from the check above for every ray waiting (a few dozen
         // instructions a ray, against `N` rays' lanes held on the stack).
-        let next_walk = |r: usize| {
+        let walk_of = |r: usize| {
             let ray = &rays[r];
             let lanes = RayLanes::new(m, ray.origin, ray.dir, ray.s).expect("checked above");
             (r, Walk::new(lanes, t_max[r]))
@@ -263,7 +263,7 @@ impl BvhView<'_> {
         let mut active = 0u32;
         for (slot, walk) in walks.iter_mut().enumerate() {
             let Some(r) = waiting.pop_first() else { break };
-            *walk = next_walk(r);
+            *walk = walk_of(r);
             active |= 1 << slot;
         }
         let stacks = stack.walks();
@@ -282,7 +282,7 @@ impl BvhView<'_> {
                 if !walk.step(m, self, &mut stacks[slot], &mut leaves) {
                     best[*r] = walk.best;
                     match waiting.pop_first() {
-                        Some(r) => walks[slot] = next_walk(r),
+                        Some(r) => walks[slot] = walk_of(r),
                         None => active &= !(1 << slot),
                     }
                 }

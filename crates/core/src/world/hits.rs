@@ -60,8 +60,8 @@ impl World<'_> {
     /// their rays walking the points in turns ([`World::hit_in_turns`]): where the frame has
     /// points, whose hierarchy is far larger than the cache (on a frame of ten million points
     /// the whole process took 0.82 of the time alone with one packet's paths together, and
-    /// 0.79 of that with batches of several pixels'). Spheres walk alone: on `generate --spheres 1000000
-    /// --moving 0.5` turns took 1.2 times the render's time.
+    /// 0.79 of that with batches of several pixels'). Spheres walk alone: on `generate
+    /// --spheres 1000000 --moving 0.5` turns took 1.2 times the render's time.
     pub(crate) fn takes_turns(&self) -> bool {
         !self.points.is_empty()
     }
