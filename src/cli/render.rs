@@ -58,9 +58,11 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
         chunk,
         SurveyDepth::Files,
     )?;
+    // The frames render in this pool, whose workers the memory estimate counts.
+    let pool = super::threads::thread_pool(args.scene_args.threads)?;
     let mut estimate = 0;
     for shot in &shots {
-        estimate = estimate.max(check_memory(&shot.scene, shot.points)?);
+        estimate = estimate.max(pool.install(|| check_memory(&shot.scene, shot.points))?);
         if let Some(c) = &shot.scene.output.clip
             && !args.no_clip
         {
@@ -77,7 +79,7 @@ pub(crate) fn render(args: &RenderArgs) -> Result<RunSummary, Error> {
     if args.stats && !args.scene_args.quiet {
         super::progress::print_line(&format!("memory: about {}", mib(estimate)));
     }
-    super::threads::thread_pool(args.scene_args.threads)?.install(|| render_shots(&shots, args))
+    pool.install(|| render_shots(&shots, args))
 }
 
 /// Renders every shot under one progress bar, with a summary line per shot (when there are

@@ -28,8 +28,9 @@ const FLOOR_BYTES: u64 = 9 << 20;
 /// - its finishing ([`finish::bytes_for`]: denoising, history);
 /// - its encoding ([`raytrace_io::bytes_for`]);
 /// - with points on the CPU, each worker thread's stack under its batch of paths in turns
-///   ([`raytrace_core::tracer::TURNS_STACK_BYTES`], one thread a core: with fewer threads
-///   it errs high);
+///   ([`raytrace_core::tracer::TURNS_STACK_BYTES`]), for the threads of the pool it is called
+///   in: call it where the frame renders (outside any pool, rayon's default: one thread a
+///   core, or `RAYON_NUM_THREADS`);
 /// - on the GPU, what its path adds ([`raytrace_gpu::frame_bytes`]: the driver, the scene's
 ///   words with the frame's points, the film on the device and its read-back buffers, counted
 ///   on the host, where a software device keeps them).
@@ -55,13 +56,12 @@ pub fn memory_estimate(scene: &Scene, load: PointLoad) -> u64 {
 }
 
 /// The worker threads' stacks under their batches of paths in turns: a frame with points
-/// traced on the CPU, one worker a core (the default pool).
+/// traced on the CPU, by the threads of the pool this is called in.
 fn turns_stacks(scene: &Scene) -> u64 {
     if scene.points.is_empty() || scene.render.device == Device::Gpu {
         return 0;
     }
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
-    threads * raytrace_core::tracer::TURNS_STACK_BYTES
+    rayon::current_num_threads() as u64 * raytrace_core::tracer::TURNS_STACK_BYTES
 }
 
 /// The memory a render of `scene` needs with `points` points in its largest frame
@@ -146,6 +146,28 @@ mod tests {
         // A pixel of a PNG frame: the film's sums (40), the image's colour (12) and its 8-bit
         // encoding (3).
         assert_eq!(pixels, 100 * 100 * (40 + 12 + 3));
+    }
+
+    /// With points on the CPU, each worker of the pool the estimate is made in adds its
+    /// stack under a batch of paths; without points, or on the GPU, the threads add nothing.
+    #[test]
+    fn the_workers_stacks_are_those_of_the_pool_the_frame_renders_in() {
+        let in_pool = |threads: usize, text: &str| {
+            let scene = Scene::parse(text, std::path::Path::new("m.toml")).unwrap();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| memory_estimate(&scene, 1000.into()))
+        };
+        let points = "[[points]]\nfile = \"p_#.ply\"\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
+        let stack = raytrace_core::tracer::TURNS_STACK_BYTES;
+        assert!(stack > 0);
+        assert_eq!(in_pool(3, points) - in_pool(1, points), 2 * stack);
+        assert_eq!(in_pool(5, points) - in_pool(1, points), 4 * stack);
+        let gpu = format!("{points}[render]\ndevice = \"gpu\"\n");
+        assert_eq!(in_pool(3, &gpu), in_pool(1, &gpu));
+        assert_eq!(in_pool(3, ""), in_pool(1, ""));
     }
 
     #[test]
