@@ -154,12 +154,23 @@ pub struct TracedPoint {
     pub id: u32,
 }
 
+/// The bytes of a frame's points (their records and their hierarchies' nodes) above which
+/// rays walk them in turns ([`TracedPoints::walk_in_turns`]): 16 MiB. Measured on the
+/// fountain `raytrace generate` writes, at 16 samples on 2 threads (docs/performance.md): with
+/// each path walking alone the render took 0.87 of the time in turns at 1e5 points (5 MB),
+/// 0.965 at 3e5 (15 MB) and 1.15 to 1.30 at 1e6 (49 MB), on a processor with a 32 MiB
+/// last-level cache: the turns hide the misses of points far larger than the cache, and
+/// where the points fit in it they only cost. The same bytes either way.
+const TURNS_FROM_BYTES: usize = 16 << 20;
+
 /// One frame's points, prepared for its interval, with their hierarchies.
 #[derive(Debug, Default)]
 pub(crate) struct TracedPoints {
     groups: Vec<Group>,
     /// Points that move during the interval.
     pub moving: usize,
+    /// Whether rays walk them in turns ([`TURNS_FROM_BYTES`]).
+    turns: bool,
 }
 
 impl TracedPoints {
@@ -203,7 +214,29 @@ impl TracedPoints {
             out.moving += moving;
             out.groups.push(group);
         }
+        let bytes: usize = (out.groups.iter())
+            .map(|g| {
+                g.records.len() * RECORD_BYTES
+                    + g.topology.node_count() * crate::bvh::COMPACT_NODE_BYTES
+            })
+            .sum();
+        out.turns = bytes > TURNS_FROM_BYTES;
         out
+    }
+
+    /// Whether rays walk these points in turns (`BvhView::closest_hits_in_turns`), the
+    /// paths of several pixels' samples traced bounce by bounce together: where the points'
+    /// records and hierarchies are larger than [`TURNS_FROM_BYTES`]; where they are fewer,
+    /// each path goes alone. The same hits either way.
+    pub(crate) fn walk_in_turns(&self) -> bool {
+        self.turns
+    }
+
+    /// Makes rays walk these points in turns, or alone, whatever their size: for tests that
+    /// trace both ways.
+    #[cfg(test)]
+    pub(crate) fn set_walk_in_turns(&mut self, turns: bool) {
+        self.turns = turns;
     }
 
     /// Each group's points (the sets that share a time), in its hierarchy's leaf order (its

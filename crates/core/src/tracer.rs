@@ -490,6 +490,82 @@ mod tests {
         (scene, points)
     }
 
+    /// A whole frame through the tiles is the same whether its paths walk the points in turns
+    /// or alone (which the points' size chooses, `World::takes_turns`; forced each way here):
+    /// the same means, counts and pass sums, bit for bit, without passes (the tiles' batches)
+    /// and with them (a pixel's packet at a time).
+    #[test]
+    fn a_frame_is_the_same_whether_its_paths_take_turns_or_not() {
+        use crate::error::Error;
+        use crate::pass::{Pass, PassSet};
+        use crate::passes::SumLayout;
+        use crate::points::FramePoints;
+        use crate::prepared::PreparedFrame;
+        use crate::renderer::{CpuShot, FrameJob, FrameTracer, ShotTracer};
+
+        /// The CPU's tracer with the frame's choice of turns made by the test.
+        struct Forced {
+            cpu: CpuShot,
+            turns: bool,
+        }
+        impl ShotTracer for Forced {
+            fn statics(&self) -> &StaticGeometry {
+                self.cpu.statics()
+            }
+            fn frame<'a>(
+                &'a self,
+                mut prepared: PreparedFrame<'a>,
+                points: &'a FramePoints,
+                layout: &SumLayout,
+            ) -> Result<Box<dyn FrameTracer + 'a>, Error> {
+                prepared.world.set_turns(self.turns);
+                self.cpu.frame(prepared, points, layout)
+            }
+        }
+        let (mut scene, points) = room_with_points(3000);
+        // The room opened (its wall taken away), so that the sky lights the cloud.
+        scene.spheres.remove(0);
+        scene.camera.look_from = crate::motion::Motion::Still(DVec3::new(0.0, 1.0, 8.0));
+        scene.camera.look_at = crate::motion::Motion::Still(DVec3::ZERO);
+        (
+            scene.output.width,
+            scene.output.height,
+            scene.render.samples,
+        ) = (24, 16, 12);
+        let depth_normal = PassSet::EMPTY.with(Pass::Depth).with(Pass::Normal);
+        for passes in [PassSet::EMPTY, depth_normal] {
+            let mut scene = scene.clone();
+            scene.output.passes = passes;
+            let frame = scene.shot.first_frame;
+            let render = |turns: bool| {
+                let shot = Forced {
+                    cpu: CpuShot::new(&scene),
+                    turns,
+                };
+                FrameJob::new(&scene, frame)
+                    .points(&points)
+                    .sample(&shot)
+                    .unwrap()
+            };
+            let (together, alone) = (render(true), render(false));
+            let bits = |r: &crate::renderer::FrameResult| {
+                r.film
+                    .means()
+                    .iter()
+                    .map(|p| p.to_array().map(f64::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&together), bits(&alone), "{passes:?}");
+            assert_eq!(together.stats.rays, alone.stats.rays, "{passes:?}");
+            assert!(together.stats.rays > 24 * 16 * 12, "the paths bounce");
+            assert_eq!(
+                together.film.tiles_with_pass_sums(),
+                alone.film.tiles_with_pass_sums(),
+                "{passes:?}"
+            );
+        }
+    }
+
     /// Paths traced together, their bounces walking the points in turns, give what each path
     /// gives alone, bit for bit, with each sampler: batches of up to [`STREAM`] rays, the
     /// packets of several pixels, from inside the room through a cloud of moving points or
@@ -501,7 +577,6 @@ mod tests {
             let (scene, points) = room_with_points(4000);
             let statics = StaticGeometry::new(&scene);
             let world = World::prepare_with(&scene, &statics, &points, scene.shot.interval(1));
-            assert!(world.takes_turns());
             let mut r = Pcg32::new(7, 1);
             let mut stats = TraceStats::default();
             let (mut together, mut alone, mut misses) = (0, 0, 0);

@@ -57,13 +57,23 @@ impl World<'_> {
     }
 
     /// Whether the paths of several pixels' samples are traced bounce by bounce together,
-    /// their rays walking the points in turns ([`World::hit_in_turns`]): where the frame has
-    /// points, whose hierarchy is far larger than the cache (on a frame of ten million points
-    /// the whole process took 0.82 of the time alone with one packet's paths together, and
-    /// 0.79 of that with batches of several pixels'). Spheres walk alone: on `generate
-    /// --spheres 1000000 --moving 0.5` turns took 1.2 times the render's time.
+    /// their rays walking the points in turns ([`World::hit_in_turns`]): where the frame's
+    /// points are larger than the cache, as their own room decides
+    /// ([`TracedPoints::walk_in_turns`]; on a frame of ten million points the whole process
+    /// took 0.82 of the time alone with one packet's paths together, and 0.79 of that with
+    /// batches of several pixels'). Spheres walk alone: on `generate --spheres 1000000
+    /// --moving 0.5` turns took 1.2 times the render's time.
+    ///
+    /// [`TracedPoints::walk_in_turns`]: crate::traced_points::TracedPoints::walk_in_turns
     pub(crate) fn takes_turns(&self) -> bool {
-        !self.points.is_empty()
+        self.points.walk_in_turns()
+    }
+
+    /// Makes this frame's paths take turns, or go alone, whatever its points' size: for
+    /// tests that trace a frame both ways.
+    #[cfg(test)]
+    pub(crate) fn set_turns(&mut self, turns: bool) {
+        self.points.set_walk_in_turns(turns);
     }
 
     /// [`World::hit`] of up to `N` rays (at most 256) at once that need not be coherent (the
