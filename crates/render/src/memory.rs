@@ -30,7 +30,8 @@ const FLOOR_BYTES: u64 = 9 << 20;
 /// - with points on the CPU, each worker thread's stack under its batch of paths in turns
 ///   ([`raytrace_core::tracer::TURNS_STACK_BYTES`]), for the threads of the pool it is called
 ///   in: call it where the frame renders (outside any pool, rayon's default: one thread a
-///   core, or `RAYON_NUM_THREADS`);
+///   core, or `RAYON_NUM_THREADS`); counted for any points, though points of less than 16
+///   MiB walk alone (`TracedPoints::walk_in_turns`), where it errs high by that stack;
 /// - on the GPU, what its path adds ([`raytrace_gpu::frame_bytes`]: the driver, the scene's
 ///   words with the frame's points, the film on the device and its read-back buffers, counted
 ///   on the host, where a software device keeps them).

@@ -22,7 +22,8 @@
 //! A walk in turns takes the same steps, in the same order, as the ray's walk alone: the same
 //! hit, distance for distance (tests check, for more rays than walks too). Where the
 //! hierarchy fits in the cache there is nothing to wait for and the turns only cost, so the
-//! caller chooses ([`crate::world::World`] takes turns for point caches larger than the cache).
+//! caller chooses ([`crate::world::World`] takes turns for point caches larger than the
+//! cache).
 
 use glam::DVec3;
 
