@@ -214,7 +214,9 @@ impl TracedPoints {
             out.moving += moving;
             out.groups.push(group);
         }
-        let bytes: usize = (out.groups.iter())
+        let bytes: usize = out
+            .groups
+            .iter()
             .map(|g| {
                 g.records.len() * RECORD_BYTES
                     + g.topology.node_count() * crate::bvh::COMPACT_NODE_BYTES
