@@ -77,8 +77,8 @@ pub(crate) const STREAM: usize = 32 * PACKET;
 /// its camera hit and next hit (128 bytes each), its ray and next ray (56 each), its
 /// sampler (at most 288), its throughput and value (24 each), the walks' per-ray arrays
 /// below (about 200) and its camera ray in the tile's batch (72), under 1 KiB, taken as 1
-/// KiB. A frame with points touches this much of each thread's stack (`render`'s peak grows
-/// by it); the memory estimate counts it per thread.
+/// KiB. A frame whose points are walked in turns touches this much of each thread's stack
+/// (`render`'s peak grows by it); the memory estimate counts it per thread.
 pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024) as u64;
 
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
