@@ -64,22 +64,24 @@ pub(crate) fn radiance_packet<S: Sampler>(
 
 /// The most samples whose paths a frame that takes turns ([`World::takes_turns`]) traces
 /// together, bounce by bounce ([`radiance_in_turns`]): thirty-two packets. A bounce's rays
-/// then keep eight walks under way until the last few are left, where one packet's rays alone
-/// left most steps to one or two walks (on a frame of ten million points at 16 samples, 51%
-/// of the steps were taken with at most two walks under way and 29% by a walk alone; with
-/// batches of 64 samples, 5% alone; of 128, 84% of the steps with all eight under way).
-/// Batches of 128 rendered that frame in 0.94 of the time of 64, of 256 in 0.94 to 0.96 of
-/// the time of 128, of 512 in that of 256 (docs/performance.md); a batch's paths hold about
-/// 0.2 MB, on the stack (a rayon thread's is 2 MiB).
+/// then keep the walks under way until the last few are left, where one packet's rays alone
+/// left most steps to one or two walks (counted with eight walks in turns, on a frame of ten
+/// million points at 16 samples: 51% of the steps were taken with at most two walks under
+/// way and 29% by a walk alone; with batches of 64 samples, 5% alone; of 128, 84% of the
+/// steps with all eight under way). Batches of 128 rendered that frame in 0.94 of the time
+/// of 64, of 256 in 0.94 to 0.96 of the time of 128, of 512 in that of 256, with eight walks
+/// (docs/performance.md); a batch's paths hold about 0.2 MB, on the stack (a rayon thread's
+/// is 2 MiB).
 pub(crate) const STREAM: usize = 32 * PACKET;
 
-/// The most stack a worker thread's batch of paths ([`STREAM`]) holds, in bytes: per path
-/// its camera hit and next hit (128 bytes each), its ray and next ray (56 each), its
-/// sampler (at most 288), its throughput and value (24 each), the walks' per-ray arrays
-/// below (about 200) and its camera ray in the tile's batch (72), under 1 KiB, taken as 1
-/// KiB. A frame whose points are walked in turns touches this much of each thread's stack
-/// (`render`'s peak grows by it); the memory estimate counts it per thread.
-pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024) as u64;
+/// The most memory a worker thread's batch of paths ([`STREAM`]) holds, in bytes: on its
+/// stack, per path its camera hit and next hit (128 bytes each), its ray and next ray (56
+/// each), its sampler (at most 288), its throughput and value (24 each), the walks' per-ray
+/// arrays below (about 250) and its camera ray in the tile's batch (72), under 1 KiB, taken
+/// as 1 KiB; and the stacks of its walks in turns, on the heap (about 190 KiB). A frame whose
+/// points are walked in turns touches this much of each thread's memory (`render`'s peak
+/// grows by it); the memory estimate counts it per thread.
+pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024 + crate::bvh::TURNS_STACKS_BYTES) as u64;
 
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug)]

@@ -41,6 +41,13 @@ pub(super) trait Lanes: Copy {
     fn min_keep(self, x: Self::V, acc: Self::V) -> Self::V;
     /// Bit `k` set where lane `k` of `a` is at most that of `b` (false for NaN).
     fn le_mask(self, a: Self::V, b: Self::V) -> u32;
+    /// Per lane, `a` where `mask` is [`Lanes::all_ones`], `b` where it is zero.
+    fn select(self, mask: Self::V, a: Self::V, b: Self::V) -> Self::V;
+    /// Every lane's bits set (a mask for [`Lanes::select`]), or every lane zero.
+    #[inline(always)]
+    fn all_ones(self, set: bool) -> Self::V {
+        self.splat(f32::from_bits(if set { u32::MAX } else { 0 }))
+    }
     fn to_array(self, a: Self::V) -> [f32; LANES];
     /// Asks for the cache line holding `r` to be loaded, without waiting for it (nothing
     /// where there is no such instruction).
@@ -117,6 +124,12 @@ mod x86 {
             low | high << 4
         }
         #[inline(always)]
+        fn select(self, mask: [m128; 2], a: [m128; 2], b: [m128; 2]) -> [m128; 2] {
+            let one =
+                |k: usize| bitor_m128(bitand_m128(mask[k], a[k]), bitandnot_m128(mask[k], b[k]));
+            [one(0), one(1)]
+        }
+        #[inline(always)]
         fn to_array(self, a: [m128; 2]) -> [f32; LANES] {
             let (p, q) = (a[0].to_array(), a[1].to_array());
             [p[0], p[1], p[2], p[3], q[0], q[1], q[2], q[3]]
@@ -174,6 +187,11 @@ mod x86 {
             self.0.avx._mm256_movemask_ps(m) as u32
         }
         #[inline(always)]
+        fn select(self, mask: __m256, a: __m256, b: __m256) -> __m256 {
+            // `blendv` takes its second operand where the mask's sign bit is set.
+            self.0.avx._mm256_blendv_ps(b, a, mask)
+        }
+        #[inline(always)]
         fn to_array(self, a: __m256) -> [f32; LANES] {
             pulp::cast(a)
         }
@@ -224,6 +242,10 @@ impl Lanes for Plain {
         (0..LANES).fold(0, |m, k| m | (u32::from(a[k] <= b[k]) << k))
     }
     #[inline(always)]
+    fn select(self, mask: [f32; LANES], a: [f32; LANES], b: [f32; LANES]) -> [f32; LANES] {
+        std::array::from_fn(|k| if mask[k].to_bits() != 0 { a[k] } else { b[k] })
+    }
+    #[inline(always)]
     fn to_array(self, a: [f32; LANES]) -> [f32; LANES] {
         a
     }
@@ -272,6 +294,12 @@ mod tests {
             assert!(same(m.max_keep(p, q), Plain.max_keep(pa, pb)));
             assert!(same(m.min_keep(p, q), Plain.min_keep(pa, pb)));
             assert_eq!(m.le_mask(p, q), Plain.le_mask(pa, pb));
+            for set in [false, true] {
+                let (mask, plain_mask) = (m.all_ones(set), Plain.all_ones(set));
+                assert!(same(m.select(mask, p, q), Plain.select(plain_mask, pa, pb)));
+                let chosen = Plain.select(plain_mask, pa, pb);
+                assert_eq!(bits(chosen), bits(if set { a } else { b }));
+            }
             assert_eq!(bits(m.to_array(m.splat(a[3]))), bits([a[3]; LANES]));
         }
     }

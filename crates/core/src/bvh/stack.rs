@@ -10,11 +10,19 @@ use super::walks::WalkStack;
 /// The most rays in a packet.
 pub(crate) const PACKET: usize = 8;
 
-/// The most walks under way at once in turns ([`BvhView::closest_hits_in_turns`]): eight, as
-/// sixteen measured no faster on a frame of ten million points (docs/performance.md).
+/// The most walks under way at once in turns ([`BvhView::closest_hits_in_turns`]): 32. On a
+/// frame of ten million points at 4 samples (2 threads, medians of 3 alternated runs) the
+/// render took 2.19 s with 32, 2.26 s with 24, 2.29 s with 16 and 2.33 s with 8 (48 and 64 no
+/// faster than 32); on a frame of a million points, whose misses matter less, the same with
+/// 8, 16 or 32 (docs/performance.md). A walk's stack is 6 KiB (on the heap, made once a
+/// thread), its state on the stack about 400 bytes.
 ///
 /// [`BvhView::closest_hits_in_turns`]: super::BvhView::closest_hits_in_turns
-pub(crate) const TURNS: usize = 8;
+pub(crate) const TURNS: usize = 32;
+
+/// The bytes of the stacks of the walks in turns a thread holds (on the heap, made at its
+/// first walk in turns): [`TURNS`] walks' stacks.
+pub(crate) const TURNS_STACKS_BYTES: usize = TURNS * std::mem::size_of::<WalkStack>();
 
 /// Traversal stack size: an 8-wide node pushes at most 7 entries beyond the one it replaces,
 /// and the 8-wide tree is no deeper than the binary one.
