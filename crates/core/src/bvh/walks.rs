@@ -121,15 +121,14 @@ impl<R: SlabTest> Walk<R> {
     }
 
     /// The test of the node this walk visits next (the children the ray enters and their
-    /// entry distances), as [`Walk::step`] makes it; where the next entry is a leaf, the
-    /// root's, which the step does not read. No branch on the walk's state: walks in turns
-    /// test their nodes one after another with nothing between them to mispredict.
+    /// entry distances), as [`Walk::step`] makes it, for a walk whose next entry is a node
+    /// ([`Walk::at_leaf`]). No branch on the walk's state: walks in turns test their nodes
+    /// one after another with nothing between them to mispredict.
     #[inline(always)]
     fn look(&self, view: &BvhView<'_>) -> (u32, [f32; LANES]) {
-        // The node, or 0 for a leaf, without a branch.
-        let node = self.next & u32::from(!self.at_leaf()).wrapping_neg();
+        debug_assert!(!self.at_leaf());
         self.ray
-            .test_in_turns(view.boxes, node as usize, self.limit, self.t_max)
+            .test_in_turns(view.boxes, self.next as usize, self.limit, self.t_max)
     }
 
     /// [`Walk::step`], with the test of the node it visits already made ([`Walk::look`]),
@@ -321,15 +320,20 @@ impl BvhView<'_> {
         // (and its stack) to the next ray waiting.
         let mut looks = [(0u32, [0f32; LANES]); TURNS];
         while active != 0 {
-            // First every walk's node test, one after another with no branch between them
-            // (see the module's documentation), and which walks are at a leaf.
+            // Which walks are at a leaf; then every other walk's node test, one after another
+            // with no branch between them (see the module's documentation).
             let mut at_leaf = 0u32;
             let mut bits = active;
             while bits != 0 {
                 let slot = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                looks[slot] = walks[slot].1.look(self);
                 at_leaf |= u32::from(walks[slot].1.at_leaf()) << slot;
+            }
+            let mut bits = active & !at_leaf;
+            while bits != 0 {
+                let slot = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                looks[slot] = walks[slot].1.look(self);
             }
             // Then each walk's step with its test: the walks at a leaf first, then those at
             // a node, so that the branch between the two goes the same way through a run.
