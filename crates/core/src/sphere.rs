@@ -45,14 +45,14 @@ pub fn intersect(center: DVec3, radius: f64, ray: &Ray, t_max: f64) -> Option<f6
     let checked = rr >= f64::MIN_POSITIVE;
     // The ray starts outside (|f| >= r, so c >= 0) and points away (b > 0): both roots are
     // <= 0 (q < 0, t0 = c/q <= 0).
-    let away = (b > 0.0) & (f.length_squared() > rr_up);
+    if checked && b > 0.0 && f.length_squared() > rr_up {
+        return None;
+    }
     // Closest approach of the ray's line to the centre: l = f - (f.d) d.
     let l = f - b * ray.dir;
     let l2 = l.length_squared();
-    // The line passes farther than r from the centre: disc <= 0 below. Both early outs are
-    // taken by one branch (`&` and `|`, not `&&` and `||`): which of them misses is a coin
-    // toss per point, where that some does is nearly certain.
-    if checked & (away | (l2 > rr_up)) {
+    // The line passes farther than r from the centre: disc <= 0 below.
+    if checked && l2 > rr_up {
         return None;
     }
     // `l.length()` exactly (glam computes it as the square root of this dot product).
