@@ -23,15 +23,16 @@
 //! work, and there a step's branches, not its instructions, set the pace: whether the entry
 //! is a leaf, how many children the ray entered, their order, what the stack holds are a
 //! coin toss from walk to walk, and a mispredicted branch throws away the work of the walks
-//! after it that the processor had started. So a turn first tests every walk's node against
-//! its ray ([`Walk::look`]: no branch on the walk's state, the sides a ray enters and leaves
-//! through chosen once per ray, `slab::RayLanes`), one walk after another, which the
-//! processor overlaps; then takes each walk's step with its test, the walks at a leaf first
-//! and then those at a node, so that the branch between the two goes the same way through
-//! a run. On a frame of a million points (in turns, one thread) the render took 0.90 of the
-//! time of one pass a turn, and with the steps' faster the misses mattered again: 32 walks
-//! under way rendered the frame of ten million points in 0.90 of the time of eight
-//! (docs/performance.md).
+//! after it that the processor had started. So a turn first tests every walk at a node
+//! against its ray ([`Walk::look`]: no branch on the walk's state, the sides a ray enters
+//! through chosen by a select on its direction's signs, `SlabTest::test_in_turns`), one walk
+//! after another, which the processor overlaps; then takes each walk's step with its test,
+//! the walks at a leaf first and then those at a node, so that the branch between the two
+//! goes the same way through a run. On the fountain's frame of a million points (in turns,
+//! 4 samples, one thread) the render took 0.90 of the time of one pass a turn; with the steps
+//! faster the misses mattered again, and 32 walks under way rendered the frame of ten million
+//! points in 0.94 of the time of eight (2.19 s against 2.33 s at 4 samples on two threads;
+//! docs/performance.md).
 //!
 //! A walk in turns takes the same steps, in the same order, as the ray's walk alone: the same
 //! hit, distance for distance (tests check, for more rays than walks too). Where the
