@@ -19,20 +19,21 @@
 //! ([`crate::tracer::STREAM`]), a walk that ends hands its place to the next ray waiting (at
 //! most 5% of the steps alone), as a stream of probes keeps its slots full.
 //!
-//! **Each turn in two passes.** Where the misses are hidden, what is left is each step's own
-//! work, and there a step's branches, not its instructions, set the pace: whether the entry
-//! is a leaf, how many children the ray entered, their order, what the stack holds are a
-//! coin toss from walk to walk, and a mispredicted branch throws away the work of the walks
-//! after it that the processor had started. So a turn first tests every walk at a node
-//! against its ray ([`Walk::look`]: no branch on the walk's state, the sides a ray enters
-//! through chosen by a select on its direction's signs, `SlabTest::test_in_turns`), one walk
-//! after another, which the processor overlaps; then takes each walk's step with its test,
-//! the walks at a leaf first and then those at a node, so that the branch between the two
-//! goes the same way through a run. On the fountain's frame of a million points (in turns,
-//! 4 samples, one thread) the render took 0.90 of the time of one pass a turn; with the steps
-//! faster the misses mattered again, and 32 walks under way rendered the frame of ten million
-//! points in 0.94 of the time of eight (2.19 s against 2.33 s at 4 samples on two threads;
-//! docs/performance.md).
+//! **Each turn in two passes.** Where the misses are hidden, what is left is each step's
+//! own work, and there a step's branches, not its instructions, set the pace: whether the
+//! entry is a leaf, how many children the ray entered, their order, what the stack holds
+//! are a coin toss from walk to walk, and a mispredicted branch throws away the work of the
+//! walks after it that the processor had started. So a turn first tests every walk at a
+//! node against its ray ([`Walk::look`]: no branch on the walk's state, the sides a ray
+//! enters through chosen by a select on its direction's signs, `SlabTest::test_in_turns`),
+//! one walk after another, which the processor overlaps; then takes each walk's step with
+//! its test, by kind (the walks at a leaf, then those whose ray entered no child of its
+//! node, one, and several), so that the branches between the kinds go the same way through
+//! a run (0.98 of the time of two kinds, leaf and node). On the fountain's frame of a
+//! million points (in turns, 4 samples, one thread) the render took 0.90 of the time of one
+//! pass a turn; with the steps faster the misses mattered again, and 32 walks under way
+//! rendered the frame of ten million points in 0.94 of the time of eight (2.19 s against
+//! 2.33 s at 4 samples on two threads; docs/performance.md).
 //!
 //! A walk in turns takes the same steps, in the same order, as the ray's walk alone: the same
 //! hit, distance for distance (tests check, for more rays than walks too). Where the
@@ -331,14 +332,25 @@ impl BvhView<'_> {
                 at_leaf |= u32::from(walks[slot].1.at_leaf()) << slot;
             }
             let mut bits = active & !at_leaf;
+            let (mut none, mut one) = (0u32, 0u32);
             while bits != 0 {
                 let slot = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 looks[slot] = walks[slot].1.look(self);
+                let mask = looks[slot].0;
+                none |= u32::from(mask == 0) << slot;
+                one |= u32::from(mask != 0 && mask & mask.wrapping_sub(1) == 0) << slot;
             }
-            // Then each walk's step with its test: the walks at a leaf first, then those at
-            // a node, so that the branch between the two goes the same way through a run.
-            for group in [active & at_leaf, active & !at_leaf] {
+            // Then each walk's step with its test, by kind: the walks at a leaf, then those at
+            // a node whose ray entered no child, one, and several, so that the branches
+            // between the kinds go the same way through a run.
+            let nodes = active & !at_leaf;
+            for group in [
+                active & at_leaf,
+                nodes & none,
+                nodes & one,
+                nodes & !none & !one,
+            ] {
                 let mut bits = group;
                 while bits != 0 {
                     let slot = bits.trailing_zeros() as usize;
