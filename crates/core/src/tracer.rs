@@ -77,11 +77,12 @@ pub(crate) const STREAM: usize = 32 * PACKET;
 /// The most memory a worker thread's batch of paths ([`STREAM`]) holds, in bytes: on its
 /// stack, per path its camera hit and next hit (128 bytes each), its ray and next ray (56
 /// each), its sampler (at most 288), its throughput and value (24 each), the walks' per-ray
-/// arrays below (about 250) and its camera ray in the tile's batch (72), under 1 KiB, taken
-/// as 1 KiB; and the stacks of its walks in turns, on the heap (about 190 KiB). A frame whose
-/// points are walked in turns touches this much of each thread's memory (`render`'s peak
-/// grows by it); the memory estimate counts it per thread.
-pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024 + crate::bvh::TURNS_STACKS_BYTES) as u64;
+/// arrays below (about 200) and its camera ray in the tile's batch (72), under 1 KiB, taken
+/// as 1 KiB; and its walks in turns (`bvh::TURNS_WALKS_BYTES`: their stacks on the heap, their
+/// state on the stack, about 200 KiB). A frame whose points are walked in turns touches this
+/// much of each thread's memory (`render`'s peak grows by it); the memory estimate counts it
+/// per thread.
+pub const TURNS_STACK_BYTES: u64 = (STREAM * 1024 + crate::bvh::TURNS_WALKS_BYTES) as u64;
 
 /// A camera ray and the sample it starts: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug)]

@@ -81,7 +81,7 @@ pub use leaves::Leaves;
 pub(crate) use leaves::PacketLeaves;
 pub(crate) use packet::PacketRay;
 pub(crate) use stack::PACKET;
-pub(crate) use stack::TURNS_STACKS_BYTES;
+pub(crate) use stack::TURNS_WALKS_BYTES;
 pub use stack::TraversalStack;
 pub use topology::Topology;
 pub use traverse::BvhView;

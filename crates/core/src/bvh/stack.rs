@@ -20,9 +20,13 @@ pub(crate) const PACKET: usize = 8;
 /// [`BvhView::closest_hits_in_turns`]: super::BvhView::closest_hits_in_turns
 pub(crate) const TURNS: usize = 32;
 
-/// The bytes of the stacks of the walks in turns a thread holds (on the heap, made at its
-/// first walk in turns): [`TURNS`] walks' stacks.
-pub(crate) const TURNS_STACKS_BYTES: usize = TURNS * std::mem::size_of::<WalkStack>();
+/// The most bytes a walk under way in turns takes on its thread's stack: its ray's lanes and
+/// its bookkeeping (about 400; a unit test checks).
+const WALK_BYTES: usize = 512;
+
+/// The bytes of the walks in turns a thread holds: [`TURNS`] walks' stacks (on the heap, made
+/// at its first walk in turns) and their state (on its stack).
+pub(crate) const TURNS_WALKS_BYTES: usize = TURNS * (std::mem::size_of::<WalkStack>() + WALK_BYTES);
 
 /// Traversal stack size: an 8-wide node pushes at most 7 entries beyond the one it replaces,
 /// and the 8-wide tree is no deeper than the binary one.
@@ -74,6 +78,34 @@ impl Default for PacketStack {
             links: [Links::default(); STACK],
             lanes: [0; STACK],
             near: [[0.0; PACKET]; STACK],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::lanes::{Lanes, Plain};
+    use crate::bvh::slab::RayLanes;
+    use crate::bvh::walks::Walk;
+
+    /// A walk under way, as the turns hold it (with its ray's number), on each machine's
+    /// lanes: within the bytes the memory estimate counts for it.
+    fn fits<M: Lanes>(_: M) {
+        let bytes = std::mem::size_of::<(usize, Walk<RayLanes<M>>)>();
+        assert!(bytes <= WALK_BYTES, "{bytes}");
+    }
+
+    #[test]
+    fn a_walk_under_way_fits_its_count() {
+        fits(Plain);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::bvh::lanes::{Avx, Sse};
+            fits(Sse);
+            if let Some(v3) = crate::bvh::lanes::avx_where_available() {
+                fits(Avx(v3));
+            }
         }
     }
 }

@@ -133,8 +133,8 @@ impl<R: SlabTest> Walk<R> {
             .test_in_turns(view.boxes, self.next as usize, self.limit, self.t_max)
     }
 
-    /// [`Walk::step`], with the test of the node it visits already made ([`Walk::look`]),
-    /// or, for `None`, made here (where the entry is a node).
+    /// [`Walk::step`], with the test of the node it visits already made ([`Walk::look`];
+    /// unread where the entry is a leaf), or, for `None`, made here (where it is a node).
     #[inline(always)]
     fn step_with<M: Lanes>(
         &mut self,
@@ -339,7 +339,7 @@ impl BvhView<'_> {
                 looks[slot] = walks[slot].1.look(self);
                 let mask = looks[slot].0;
                 none |= u32::from(mask == 0) << slot;
-                one |= u32::from(mask != 0 && mask & mask.wrapping_sub(1) == 0) << slot;
+                one |= u32::from(mask.is_power_of_two()) << slot;
             }
             // Then each walk's step with its test, by kind: the walks at a leaf, then those at
             // a node whose ray entered no child, one, and several, so that the branches
