@@ -254,10 +254,15 @@ impl BinMap {
         )
     }
 
-    /// The bin of centroid `c` along `axis`, as [`BinMap::bins`] gives it.
+    /// Whether centroid `c`'s bin along `axis`, as [`BinMap::bins`] gives it, is below
+    /// `boundary` (in `1..count`): one lane's product compared, where the bin would clamp and
+    /// convert all three. The same answer: the product `x` is the lane's, and a bin below a
+    /// whole `boundary` at most the last is `x < boundary`, or a NaN `x` (bin 0).
     #[inline(always)]
-    fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        self.bins(c)[axis]
+    fn below(&self, c: Vec3A, axis: usize, boundary: usize) -> bool {
+        debug_assert!((1..self.count).contains(&boundary));
+        let x = (c[axis] - self.origin[axis]) * self.scale[axis];
+        !(x >= boundary as f32)
     }
 }
 
@@ -439,7 +444,7 @@ fn decide<P: Send + Sync>(
     }
     let (mid, lc, rc) = partition_parallel(items, |p| {
         let (_, _, c) = bounds(p).parts();
-        (map.bin(c, axis) < boundary, c)
+        (map.below(c, axis, boundary), c)
     });
     debug_assert!(n > SAMPLED_BINS || mid == left.count);
     let part = |b: Bin, start: usize, len: usize, centroids: Box3| Span {
@@ -726,6 +731,61 @@ mod tests {
         assert_eq!(a.0.boxes(), b.0.boxes());
         assert_eq!(a.1.topology(), b.1.topology());
         assert_eq!(a.1.boxes(), b.1.boxes());
+    }
+
+    /// A partition's side, one lane compared, is the bin's: for centroids inside, on and
+    /// beyond the bins' edges, and infinite and NaN ones, every axis and boundary, 8 and 16
+    /// bins, and an axis without extent (its scale 0).
+    #[test]
+    fn below_a_boundary_is_a_bin_below_it() {
+        let mut r = Pcg32::new(6, 1);
+        let centroids = Box3 {
+            lo: Vec3A::new(-1.5, 0.25, 3.0),
+            hi: Vec3A::new(2.5, 0.25, 1e6),
+        };
+        let extent = centroids.hi - centroids.lo;
+        for count in [8, 16] {
+            let map = BinMap::new(centroids, count);
+            // The bins' edges, and values about them.
+            let mut values: Vec<Vec3A> = (0..=count)
+                .flat_map(|k| {
+                    let edge = centroids.lo + extent * (k as f32 / count as f32);
+                    [-1, 0, 1].map(|d| {
+                        Vec3A::from_array(
+                            edge.to_array()
+                                .map(|x| f32::from_bits((x.to_bits() as i64 + d).max(0) as u32)),
+                        )
+                    })
+                })
+                .collect();
+            values.extend((0..1000).map(|_| {
+                let u = Vec3A::new(
+                    r.next_f64() as f32,
+                    r.next_f64() as f32,
+                    r.next_f64() as f32,
+                ) * 1.4
+                    - 0.2;
+                centroids.lo + extent * u
+            }));
+            values.extend([
+                Vec3A::splat(f32::NAN),
+                Vec3A::splat(f32::INFINITY),
+                Vec3A::splat(f32::NEG_INFINITY),
+                Vec3A::splat(-0.0),
+            ]);
+            for c in values {
+                let bins = map.bins(c);
+                for (axis, &bin) in bins.iter().enumerate() {
+                    for boundary in 1..count {
+                        assert_eq!(
+                            map.below(c, axis, boundary),
+                            bin < boundary,
+                            "{c} axis {axis} boundary {boundary} of {count}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// The mean area of the interpolated box, against sampling it over the shutter.
