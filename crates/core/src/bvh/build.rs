@@ -262,7 +262,7 @@ impl BinMap {
     fn below(&self, c: Vec3A, axis: usize, boundary: usize) -> bool {
         debug_assert!((1..self.count).contains(&boundary));
         let x = (c[axis] - self.origin[axis]) * self.scale[axis];
-        !(x >= boundary as f32)
+        x < boundary as f32 || x.is_nan()
     }
 }
 
