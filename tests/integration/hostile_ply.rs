@@ -274,3 +274,76 @@ fn the_read_buffer_is_bounded_in_bytes_and_within_the_memory_estimate() {
         "peak {peak} MiB, estimate {estimate} MiB: {t}"
     );
 }
+
+/// `c.ply` of float `x y z radius` rows `0..n` (a band across the camera's view), in
+/// `encoding`, with point `bad`'s radius `radius`.
+fn line_of_points(encoding: Encoding, n: usize, bad: Option<(usize, f64)>) -> Vec<u8> {
+    let x: Vec<f64> = (0..n)
+        .map(|i| (i as f64 * 4.0 / n as f64 - 2.0) as f32 as f64)
+        .collect();
+    let zeros = vec![0.0; n];
+    let mut radius = vec![0.3; n];
+    if let Some((i, r)) = bad {
+        radius[i] = r;
+    }
+    let columns =
+        [("x", &x), ("y", &zeros), ("z", &zeros), ("radius", &radius)].map(|(name, values)| {
+            Column {
+                name,
+                ty: Scalar::F32,
+                values,
+            }
+        });
+    let mut bytes = Vec::new();
+    write_vertices(&mut bytes, encoding, &columns).unwrap();
+    bytes
+}
+
+#[test]
+fn binary_rows_read_in_parts_give_what_text_rows_read_in_order_give() {
+    // 16-byte rows, 16,384 a part: 60,000 points are four parts, read on two threads, where
+    // an ASCII file's rows are read one after another.
+    let n = 60_000;
+    let encodings = [
+        Encoding::Ascii,
+        Encoding::BinaryLittleEndian,
+        Encoding::BinaryBigEndian,
+    ];
+    // Bad radii in the third and fourth parts: the first is named, whichever way.
+    for encoding in encodings {
+        let mut bytes = line_of_points(encoding, n, Some((40_000, -1.0)));
+        if encoding != Encoding::Ascii {
+            // Another in the last part, in place (the rows' last 4 bytes are the radius).
+            let at = bytes.len() - 16 * (n - 55_000) + 12;
+            bytes[at..at + 4].copy_from_slice(&match encoding {
+                Encoding::BinaryBigEndian => f32::NAN.to_be_bytes(),
+                _ => f32::NAN.to_le_bytes(),
+            });
+        }
+        both_refuse(
+            cache(&bytes).path(),
+            &["c.ply", "point 40000: radius is -1; a radius must be >= 0"],
+        );
+    }
+    // The same frames from the same points.
+    let frames: Vec<Vec<u8>> = encodings
+        .map(|encoding| {
+            let d = cache(&line_of_points(encoding, n, None));
+            let o = run(
+                d.path(),
+                &["render", "shot.toml", "--frames", "1", "--threads", "2"],
+            );
+            assert_eq!(o.status.code(), Some(0), "{}", common::shorten(&text(&o)));
+            std::fs::read(d.path().join("f_0001.png")).unwrap()
+        })
+        .into();
+    // Not the background alone: the points are in view.
+    let d = cache(&line_of_points(Encoding::Ascii, 1, None));
+    run(d.path(), &["render", "shot.toml", "--frames", "1"]);
+    assert_ne!(
+        std::fs::read(d.path().join("f_0001.png")).unwrap(),
+        frames[0]
+    );
+    assert_eq!(frames[0], frames[1]);
+    assert_eq!(frames[1], frames[2]);
+}

@@ -23,6 +23,7 @@ mod lerp;
 pub mod material;
 pub mod metrics;
 pub mod motion;
+pub mod pages;
 pub mod pass;
 pub mod passes;
 pub mod path_pattern;

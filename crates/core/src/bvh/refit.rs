@@ -79,7 +79,7 @@ pub(super) fn refit<T: NodeBoxes>(
     links: &[Links],
     prim: &(impl Fn(u32) -> (Aabb, Aabb) + Sync),
 ) -> (Vec<T>, (Aabb, Aabb)) {
-    let mut nodes = vec![T::EMPTY; links.len()];
+    let mut nodes = crate::pages::filled(links.len(), T::EMPTY);
     let all = if links.is_empty() {
         (Aabb::EMPTY, Aabb::EMPTY)
     } else {

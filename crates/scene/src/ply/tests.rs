@@ -357,3 +357,115 @@ fn an_error_of_the_caller_stops_the_reading() {
     assert_eq!(message(e), "point 54321 is bad");
     assert_eq!(seen, 54322);
 }
+
+/// Rows read in parts, on several threads: every row handed over once with its number and
+/// the values read in order, in both binary encodings, with an unused property between the
+/// wanted ones; the first bad row's error on any number of threads; a file cut short after
+/// it was opened found at its first missing row.
+#[test]
+fn rows_read_in_parts_are_the_rows_read_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    // 15-byte rows: 17,476 a part, so 50,000 rows are three parts.
+    let n = 50_000usize;
+    let x: Vec<f64> = (0..n).map(|i| i as f64 * 0.25 - 3000.0).collect();
+    let pad: Vec<f64> = (0..n).map(|i| (i % 251) as f64).collect();
+    let y: Vec<f64> = (0..n).map(|i| (i % 30_000) as f64 - 15_000.0).collect();
+    let z: Vec<f64> = (0..n).map(|i| f64::from(i as f32 * 1.5e-3)).collect();
+    let columns = [
+        Column {
+            name: "x",
+            ty: Scalar::F64,
+            values: &x,
+        },
+        Column {
+            name: "pad",
+            ty: Scalar::U8,
+            values: &pad,
+        },
+        Column {
+            name: "y",
+            ty: Scalar::I16,
+            values: &y,
+        },
+        Column {
+            name: "z",
+            ty: Scalar::F32,
+            values: &z,
+        },
+    ];
+    let pool = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    };
+    for enc in [Encoding::BinaryLittleEndian, Encoding::BinaryBigEndian] {
+        let mut bytes = Vec::new();
+        write_vertices(&mut bytes, enc, &columns).unwrap();
+        let p = write_file(&dir, "p.ply", &bytes);
+        let names = ["z", "x", "y"];
+        let in_order = rows(&p, &names).unwrap();
+        assert_eq!(in_order[n - 1], [z[n - 1], x[n - 1], y[n - 1]]);
+        // `read_rows_in_parts`, each row's number and values kept, with `bad` rows refused.
+        let in_parts = |threads: usize, bad: &[u64]| -> Result<Vec<(u64, Vec<f64>)>, String> {
+            let f = PlyFile::open(&p).unwrap();
+            let (k, e) = f.header().element("vertex").unwrap();
+            let wanted: Vec<usize> = names.iter().map(|m| e.property(m).unwrap()).collect();
+            let per = f.part_rows(k, &wanted).expect("binary rows of fixed size");
+            assert_eq!(per, (1 << 18) / 15);
+            let mut got = vec![Vec::new(); n.div_ceil(per as usize)];
+            assert_eq!(got.len(), 3);
+            pool(threads).install(|| f_read(&p, k, &wanted, got.iter_mut().collect(), bad))?;
+            Ok(got.into_iter().flatten().collect())
+        };
+        for threads in [1, 3] {
+            let got = in_parts(threads, &[]).unwrap();
+            assert!(got.iter().map(|r| r.0).eq(0..n as u64));
+            assert!(got.iter().map(|r| &r.1).eq(in_order.iter()));
+            // Bad rows in the second and third parts: the first is named.
+            let e = in_parts(threads, &[45_000, 20_000]).unwrap_err();
+            assert_eq!(e, "row 20000 is bad");
+        }
+        // Cut after opening, inside row 30,000.
+        let cut = |read: &mut dyn FnMut(PlyFile) -> Result<(), PlyError>| {
+            let p = write_file(&dir, "cut.ply", &bytes);
+            let f = PlyFile::open(&p).unwrap();
+            let header = bytes.len() - 15 * n;
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&p)
+                .unwrap()
+                .set_len((header + 15 * 30_000 + 7) as u64)
+                .unwrap();
+            message(read(f).unwrap_err())
+        };
+        // (Read in order, this file lies in the reader's buffer from the opening on.)
+        let want = "truncated: the file ends in vertex 30000 of 50000 (rows counted from 0)";
+        let parts = || vec![(); 3];
+        assert_eq!(
+            cut(&mut |f| f.read_rows_in_parts(0, &[0], parts(), |_, _, _| Ok(()))),
+            want
+        );
+    }
+}
+
+/// [`PlyFile::read_rows_in_parts`] of the file at `p`, each part's rows pushed onto its own
+/// list; the rows `bad` refused.
+fn f_read(
+    p: &Path,
+    element: usize,
+    wanted: &[usize],
+    parts: Vec<&mut Vec<(u64, Vec<f64>)>>,
+    bad: &[u64],
+) -> Result<(), String> {
+    PlyFile::open(p)
+        .unwrap()
+        .read_rows_in_parts(element, wanted, parts, |part, i, v| {
+            if bad.contains(&i) {
+                return Err(format!("row {i} is bad"));
+            }
+            part.push((i, v.to_vec()));
+            Ok(())
+        })
+        .map_err(message)
+}

@@ -165,8 +165,8 @@ fn read_cache(
     if velocities.iter().all(|v| *v == DVec3::ZERO) {
         velocities = Vec::new();
     }
-    let Values { read, cell, .. } = own;
-    let radii = radii(desc, &read).map_err(own_error)?;
+    let Values { mut read, cell, .. } = own;
+    let radii = radii(desc, &mut read).map_err(own_error)?;
     let materials = materials(desc, &read);
     let mut points = Columns {
         radii,
@@ -280,7 +280,7 @@ impl Columns {
                 time,
                 centers: narrow(&self.centers),
                 velocities: narrow(&self.velocities),
-                radii: self.radii.iter().map(|&r| r as f32).collect(),
+                radii: self.radii.par_iter().map(|&r| r as f32).collect(),
                 radius,
                 colors: self.colors,
             }];
@@ -338,7 +338,7 @@ fn looks<'a>(
 
 /// Each point's radius where they differ: `radius_by`'s column, else its type's, else the
 /// file's radius column, else the table's `radius` (then none is kept: every point has it).
-fn radii(desc: &PointCacheDesc, read: &Read) -> Result<Vec<f64>, String> {
+fn radii(desc: &PointCacheDesc, read: &mut Read) -> Result<Vec<f64>, String> {
     let by_type = looks(desc, read);
     if desc.radius_by.is_some() || by_type.iter().all(|t| t.is_none_or(|t| t.radius.is_none())) {
         if read.radii.is_empty() && desc.radius.is_none() && !read.centers.is_empty() {
@@ -347,7 +347,7 @@ fn radii(desc: &PointCacheDesc, read: &Read) -> Result<Vec<f64>, String> {
                     .into(),
             );
         }
-        return Ok(read.radii.clone());
+        return Ok(std::mem::take(&mut read.radii));
     }
     read.kinds
         .iter()

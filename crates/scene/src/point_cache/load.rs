@@ -2,7 +2,7 @@
 
 use super::files::{Key, Located};
 use super::survey::Figures;
-use crate::ply::READ_BUFFER_BYTES;
+use crate::ply::{PART_BYTES, READ_BUFFER_BYTES};
 use raytrace_core::points::PointMotion;
 use raytrace_core::scene::Scene;
 
@@ -46,7 +46,8 @@ impl PointLoad {
     /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots', the index's
     /// [`PointLoad::INDEX_BYTES_PER_SNAPSHOT`] for each snapshot, and with point caches what
     /// reading one of their files holds (a file is read through bounded buffers, one file at a
-    /// time: [`READ_BUFFER_BYTES`]).
+    /// time: [`READ_BUFFER_BYTES`], and [`PART_BYTES`] for each thread of the pool this is
+    /// called in, which read a file's rows in parts).
     pub fn bytes(&self, scene: &Scene) -> u64 {
         if scene.points.is_empty() {
             return 0;
@@ -62,6 +63,7 @@ impl PointLoad {
                 0
             };
         READ_BUFFER_BYTES
+            + rayon::current_num_threads() as u64 * PART_BYTES
             + self.points * per_point
             + self.next * NEXT_BYTES_PER_POINT
             + self.snapshots * Self::INDEX_BYTES_PER_SNAPSHOT

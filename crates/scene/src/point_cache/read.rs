@@ -3,12 +3,15 @@
 //! ids whole numbers, image flags whole numbers, colour values finite. A bad value is an
 //! error naming the point (its index in the snapshot, from 0).
 
+use std::slice::IterMut;
+
 use glam::DVec3;
 
 use super::columns::ColumnMap;
 use super::table::Rows;
 use crate::sim::cell::Cell;
 use crate::sim::{ReadError, Snapshot};
+use raytrace_core::pages::{self, room};
 use raytrace_core::points::PointCacheDesc;
 
 /// Largest magnitude of a coordinate, radius or velocity: the range of the 32-bit floats
@@ -111,8 +114,6 @@ pub(super) fn read_values(
             "positions are fractions of the box (xs ys zs), and the snapshot gives no box".into(),
         ));
     }
-    let believed = rows.believed(count);
-    let mut out = Read::with_room(&slots, believed);
     let points = Points {
         slots,
         names,
@@ -121,15 +122,33 @@ pub(super) fn read_values(
         velocity_scale: desc.velocity_scale,
         value_count: layout.color_by.len(),
     };
-    let mut kind_values: Vec<f64> = Vec::new();
-    let labels = rows.read(&columns, |i, v| {
-        points.push(i, v, &mut out, &mut kind_values)
-    })?;
+    let (mut out, kind_values, labels) = match rows.part_rows(&columns) {
+        // Each row's values in their places, the parts on every thread.
+        Some(part_rows) => {
+            let mut out = Read::filled(&slots, n);
+            let mut kind_values = pages::filled(if slots.kind.is_some() { n } else { 0 }, 0.0);
+            let parts = Placed::parts(&mut out, &mut kind_values, part_rows as usize, n);
+            rows.read_in_parts(&columns, parts, |part, i, v| points.push(i, v, part))?;
+            (out, kind_values, Vec::new())
+        }
+        // Each row's values pushed, in order.
+        None => {
+            let believed = rows.believed(count);
+            let mut out = Read::with_room(&slots, believed);
+            let mut kind_values: Vec<f64> = Vec::new();
+            let mut pushed = Pushed {
+                read: &mut out,
+                kind_values: &mut kind_values,
+            };
+            let labels = rows.read(&columns, |i, v| points.push(i, v, &mut pushed))?;
+            if believed < n {
+                out.shrink_to_fit();
+            }
+            (out, kind_values, labels)
+        }
+    };
     if slots.kind.is_some() {
         (out.kinds, out.kind_names) = kinds_of(&kind_values, &labels);
-    }
-    if believed < n {
-        out.shrink_to_fit();
     }
     Ok(out)
 }
@@ -217,15 +236,34 @@ impl Read {
     fn with_room(slots: &Slots, believed: usize) -> Read {
         let with = |on: Option<usize>| if on.is_some() { believed } else { 0 };
         Read {
-            centers: Vec::with_capacity(with(slots.position)),
-            images: Vec::with_capacity(with(slots.images)),
-            velocities: Vec::with_capacity(with(slots.velocity)),
-            radii: Vec::with_capacity(with(slots.radius.map(|r| r.0))),
-            colors: Vec::with_capacity(with(slots.color.map(|c| c.0))),
-            ids: Vec::with_capacity(with(slots.id)),
-            kinds: Vec::with_capacity(with(slots.kind)),
+            centers: room(with(slots.position)),
+            images: room(with(slots.images)),
+            velocities: room(with(slots.velocity)),
+            radii: room(with(slots.radius.map(|r| r.0))),
+            colors: room(with(slots.color.map(|c| c.0))),
+            ids: room(with(slots.id)),
+            kinds: room(with(slots.kind)),
             kind_names: Vec::new(),
-            values: Vec::with_capacity(with(slots.values)),
+            values: room(with(slots.values)),
+        }
+    }
+
+    /// Columns of `n` values each that `slots` reads (written in place by parts of the rows:
+    /// [`Placed`]), their memory written on every thread.
+    fn filled(slots: &Slots, n: usize) -> Read {
+        fn column<T: Default + Copy + Send + Sync>(on: Option<usize>, n: usize) -> Vec<T> {
+            pages::filled(if on.is_some() { n } else { 0 }, T::default())
+        }
+        Read {
+            centers: column(slots.position, n),
+            images: column(slots.images, n),
+            velocities: column(slots.velocity, n),
+            radii: column(slots.radius.map(|r| r.0), n),
+            colors: column(slots.color.map(|c| c.0), n),
+            ids: column(slots.id, n),
+            kinds: Vec::new(),
+            kind_names: Vec::new(),
+            values: column(slots.values, n),
         }
     }
 
@@ -262,38 +300,32 @@ impl Points<'_> {
         self.names[self.columns[k]].as_str()
     }
 
-    /// Adds point `i` (its row's values `v`) to `out`, its type's value to `kind_values`.
-    fn push(
-        &self,
-        i: u64,
-        v: &[f64],
-        out: &mut Read,
-        kind_values: &mut Vec<f64>,
-    ) -> Result<(), String> {
+    /// Gives point `i` (its row's values `v`) to `out`.
+    fn push(&self, i: u64, v: &[f64], out: &mut impl Sink) -> Result<(), String> {
         let s = self.slots;
         if let Some(k) = s.position {
-            out.centers.push(self.center(i, v, k)?);
+            out.center(self.center(i, v, k)?);
         }
         if let Some(k) = s.images {
-            out.images.push(self.image_flags(i, v, k)?);
+            out.images(self.image_flags(i, v, k)?);
         }
         if let Some(k) = s.velocity {
-            out.velocities.push(self.velocity(i, v, k)?);
+            out.velocity(self.velocity(i, v, k)?);
         }
         if let Some((k, factor)) = s.radius {
-            out.radii.push(self.radius(i, v, k, factor)?);
+            out.radius(self.radius(i, v, k, factor)?);
         }
         if let Some((k, range)) = s.color {
-            out.colors.push(self.color(i, v, k, range)?);
+            out.color(self.color(i, v, k, range)?);
         }
         if let Some(k) = s.id {
-            out.ids.push(whole_id(i, v[k])?);
+            out.id(whole_id(i, v[k])?);
         }
         if let Some(k) = s.kind {
-            kind_values.push(v[k]);
+            out.kind(v[k]);
         }
         if let Some(k) = s.values {
-            out.values.push(self.value(i, v, k)?);
+            out.value(self.value(i, v, k)?);
         }
         Ok(())
     }
@@ -387,6 +419,142 @@ impl Points<'_> {
             ));
         }
         Ok(x)
+    }
+}
+
+/// Where a row's quantities go, each quantity read (see [`Slots`]) given once a row: to the
+/// ends of columns that grow ([`Pushed`], rows read in order) or to their places in columns
+/// as long as the snapshot ([`Placed`], rows read in parts).
+trait Sink {
+    fn center(&mut self, x: DVec3);
+    fn images(&mut self, x: [i32; 3]);
+    fn velocity(&mut self, x: DVec3);
+    fn radius(&mut self, x: f64);
+    fn color(&mut self, x: [f32; 3]);
+    fn id(&mut self, x: i64);
+    /// The type's value, as written (made an index into the types after the reading).
+    fn kind(&mut self, x: f64);
+    fn value(&mut self, x: f64);
+}
+
+/// Rows read in order: each quantity pushed onto its column.
+struct Pushed<'a> {
+    read: &'a mut Read,
+    kind_values: &'a mut Vec<f64>,
+}
+
+impl Sink for Pushed<'_> {
+    fn center(&mut self, x: DVec3) {
+        self.read.centers.push(x);
+    }
+    fn images(&mut self, x: [i32; 3]) {
+        self.read.images.push(x);
+    }
+    fn velocity(&mut self, x: DVec3) {
+        self.read.velocities.push(x);
+    }
+    fn radius(&mut self, x: f64) {
+        self.read.radii.push(x);
+    }
+    fn color(&mut self, x: [f32; 3]) {
+        self.read.colors.push(x);
+    }
+    fn id(&mut self, x: i64) {
+        self.read.ids.push(x);
+    }
+    fn kind(&mut self, x: f64) {
+        self.kind_values.push(x);
+    }
+    fn value(&mut self, x: f64) {
+        self.read.values.push(x);
+    }
+}
+
+/// A part of the rows read in parts: the places of its rows in each column, in order (a
+/// column not read gives no places, and is given nothing).
+struct Placed<'a> {
+    centers: IterMut<'a, DVec3>,
+    images: IterMut<'a, [i32; 3]>,
+    velocities: IterMut<'a, DVec3>,
+    radii: IterMut<'a, f64>,
+    colors: IterMut<'a, [f32; 3]>,
+    ids: IterMut<'a, i64>,
+    kinds: IterMut<'a, f64>,
+    values: IterMut<'a, f64>,
+}
+
+impl<'a> Placed<'a> {
+    /// The parts of `count` rows, `part_rows` each (the last fewer), over the columns of
+    /// `read` and `kind_values` (each `count` long, or empty where not read).
+    fn parts(
+        read: &'a mut Read,
+        kind_values: &'a mut [f64],
+        part_rows: usize,
+        count: usize,
+    ) -> Vec<Placed<'a>> {
+        let parts = count.div_ceil(part_rows);
+        fn split<T>(column: &mut [T], rows: usize, parts: usize) -> Vec<IterMut<'_, T>> {
+            let mut chunks = column.chunks_mut(rows);
+            (0..parts)
+                .map(|_| chunks.next().unwrap_or_default().iter_mut())
+                .collect()
+        }
+        let mut columns = (
+            split(&mut read.centers, part_rows, parts).into_iter(),
+            split(&mut read.images, part_rows, parts).into_iter(),
+            split(&mut read.velocities, part_rows, parts).into_iter(),
+            split(&mut read.radii, part_rows, parts).into_iter(),
+            split(&mut read.colors, part_rows, parts).into_iter(),
+            split(&mut read.ids, part_rows, parts).into_iter(),
+            split(kind_values, part_rows, parts).into_iter(),
+            split(&mut read.values, part_rows, parts).into_iter(),
+        );
+        let mut next = || {
+            let c = &mut columns;
+            Some(Placed {
+                centers: c.0.next()?,
+                images: c.1.next()?,
+                velocities: c.2.next()?,
+                radii: c.3.next()?,
+                colors: c.4.next()?,
+                ids: c.5.next()?,
+                kinds: c.6.next()?,
+                values: c.7.next()?,
+            })
+        };
+        std::iter::from_fn(&mut next).take(parts).collect()
+    }
+}
+
+/// The next place of a part's column.
+fn place<T>(places: &mut IterMut<'_, T>, x: T) {
+    *places.next().expect("a place for each row of a part") = x;
+}
+
+impl Sink for Placed<'_> {
+    fn center(&mut self, x: DVec3) {
+        place(&mut self.centers, x);
+    }
+    fn images(&mut self, x: [i32; 3]) {
+        place(&mut self.images, x);
+    }
+    fn velocity(&mut self, x: DVec3) {
+        place(&mut self.velocities, x);
+    }
+    fn radius(&mut self, x: f64) {
+        place(&mut self.radii, x);
+    }
+    fn color(&mut self, x: [f32; 3]) {
+        place(&mut self.colors, x);
+    }
+    fn id(&mut self, x: i64) {
+        place(&mut self.ids, x);
+    }
+    fn kind(&mut self, x: f64) {
+        place(&mut self.kinds, x);
+    }
+    fn value(&mut self, x: f64) {
+        place(&mut self.values, x);
     }
 }
 

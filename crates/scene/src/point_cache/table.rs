@@ -111,6 +111,32 @@ impl Rows<'_> {
         }
     }
 
+    /// Rows a part holds where these rows are read in parts ([`Rows::read_in_parts`]): a
+    /// PLY file's binary rows of fixed size (`PlyFile::part_rows`); `None` where they are read
+    /// in order.
+    pub(super) fn part_rows(&self, wanted: &[usize]) -> Option<u64> {
+        match self {
+            Rows::Ply(Some((file, element))) => file.part_rows(*element, wanted),
+            _ => None,
+        }
+    }
+
+    /// [`Rows::read`] in parts of [`Rows::part_rows`] rows (which must be `Some`), on every
+    /// thread: part `k` calls `row(&mut parts[k], i, values)` for each of its rows `i`.
+    pub(super) fn read_in_parts<S: Send>(
+        &mut self,
+        wanted: &[usize],
+        parts: Vec<S>,
+        row: impl Fn(&mut S, u64, &[f64]) -> Result<(), String> + Sync,
+    ) -> Result<(), ReadError> {
+        let Rows::Ply(file) = self else {
+            unreachable!("only a PLY file's rows are read in parts")
+        };
+        let (file, element) = file.take().expect("rows are read once");
+        file.read_rows_in_parts(element, wanted, parts, row)?;
+        Ok(())
+    }
+
     /// Skips the rows if they were not read (a text file's reader moves past them).
     fn finish(self) -> Result<(), ReadError> {
         match self {
