@@ -11,7 +11,7 @@ use raytrace_core::scene::Scene;
 /// the sets' `f32` columns made from them) and what tracing holds (the sets' columns, `f32`
 /// position, velocity and radius and colour, with the tracer's records and hierarchy,
 /// [`raytrace_core::traced_points::BYTES_PER_POINT`]; reading is now the larger). Measured:
-/// 1.035 GB at the peak of a frame of 1.009e7 points (docs/performance.md), film and process
+/// 0.957 GB at the peak of a frame of 1.009e7 points (docs/performance.md), film and process
 /// included.
 const BYTES_PER_POINT: u64 = {
     use std::mem::size_of;
