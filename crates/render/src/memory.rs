@@ -22,7 +22,8 @@ const FLOOR_BYTES: u64 = 9 << 20;
 /// - the scene file while it is read ([`raytrace_scene::scene_file::bytes_for`]) and the
 ///   spheres, described, prepared and in their hierarchies ([`world::bytes_for`]);
 /// - the frame's points and the reading of their files ([`PointLoad::bytes`]: `load` is the
-///   most points a frame holds, its own and the next snapshots');
+///   most points a frame holds, its own and the next snapshots'; with a part of a file's
+///   rows for each thread of the pool it is called in);
 /// - the sampled frame, its film and its image ([`FrameResult::bytes_for`], with the passes
 ///   its finishing reads);
 /// - its finishing ([`finish::bytes_for`]: denoising, history);
@@ -149,8 +150,9 @@ mod tests {
         assert_eq!(pixels, 100 * 100 * (40 + 12 + 3));
     }
 
-    /// With points on the CPU, each worker of the pool the estimate is made in adds its
-    /// stack under a batch of paths; without points, or on the GPU, the threads add nothing.
+    /// With points, each worker of the pool the estimate is made in adds the part of a
+    /// file's rows it reads, and on the CPU its stack under a batch of paths; without points
+    /// the threads add nothing.
     #[test]
     fn the_workers_stacks_are_those_of_the_pool_the_frame_renders_in() {
         let in_pool = |threads: usize, text: &str| {
@@ -163,11 +165,12 @@ mod tests {
         };
         let points = "[[points]]\nfile = \"p_#.ply\"\nmaterial = { type = \"lambertian\", albedo = [0.5, 0.5, 0.5] }\n";
         let stack = raytrace_core::tracer::TURNS_STACK_BYTES;
-        assert!(stack > 0);
-        assert_eq!(in_pool(3, points) - in_pool(1, points), 2 * stack);
-        assert_eq!(in_pool(5, points) - in_pool(1, points), 4 * stack);
+        let part = PointLoad::READ_BYTES_PER_THREAD;
+        assert!(stack > 0 && part > 0);
+        assert_eq!(in_pool(3, points) - in_pool(1, points), 2 * (stack + part));
+        assert_eq!(in_pool(5, points) - in_pool(1, points), 4 * (stack + part));
         let gpu = format!("{points}[render]\ndevice = \"gpu\"\n");
-        assert_eq!(in_pool(3, &gpu), in_pool(1, &gpu));
+        assert_eq!(in_pool(3, &gpu) - in_pool(1, &gpu), 2 * part);
         assert_eq!(in_pool(3, ""), in_pool(1, ""));
     }
 

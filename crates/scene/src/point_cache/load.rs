@@ -46,8 +46,8 @@ impl PointLoad {
     /// [`NEXT_BYTES_PER_POINT`] for each of the next snapshots', the index's
     /// [`PointLoad::INDEX_BYTES_PER_SNAPSHOT`] for each snapshot, and with point caches what
     /// reading one of their files holds (a file is read through bounded buffers, one file at a
-    /// time: [`READ_BUFFER_BYTES`], and [`PART_BYTES`] for each thread of the pool this is
-    /// called in, which read a file's rows in parts).
+    /// time: [`READ_BUFFER_BYTES`], and [`PointLoad::READ_BYTES_PER_THREAD`] for each thread
+    /// of the pool this is called in, which read a file's rows in parts).
     pub fn bytes(&self, scene: &Scene) -> u64 {
         if scene.points.is_empty() {
             return 0;
@@ -63,11 +63,15 @@ impl PointLoad {
                 0
             };
         READ_BUFFER_BYTES
-            + rayon::current_num_threads() as u64 * PART_BYTES
+            + rayon::current_num_threads() as u64 * Self::READ_BYTES_PER_THREAD
             + self.points * per_point
             + self.next * NEXT_BYTES_PER_POINT
             + self.snapshots * Self::INDEX_BYTES_PER_SNAPSHOT
     }
+
+    /// What each thread reading a point cache's rows in parts holds: a part's rows (a PLY
+    /// file's binary rows of fixed size, on the CPU whatever device traces the frame).
+    pub const READ_BYTES_PER_THREAD: u64 = PART_BYTES;
 
     /// What the index holds per snapshot of a file of several: where it is and its header
     /// (`Located`), and its figures twice: listed as the file is read, then the map built

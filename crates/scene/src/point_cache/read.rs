@@ -127,7 +127,7 @@ pub(super) fn read_values(
         Some(part_rows) => {
             let mut out = Read::filled(&slots, n);
             let mut kind_values = pages::filled(if slots.kind.is_some() { n } else { 0 }, 0.0);
-            let parts = Placed::parts(&mut out, &mut kind_values, part_rows as usize, n);
+            let parts = Columns::parts(&mut out, &mut kind_values, part_rows as usize, n);
             rows.read_in_parts(&columns, parts, |part, i, v| points.push(i, v, part))?;
             (out, kind_values, Vec::new())
         }
@@ -136,11 +136,8 @@ pub(super) fn read_values(
             let believed = rows.believed(count);
             let mut out = Read::with_room(&slots, believed);
             let mut kind_values: Vec<f64> = Vec::new();
-            let mut pushed = Pushed {
-                read: &mut out,
-                kind_values: &mut kind_values,
-            };
-            let labels = rows.read(&columns, |i, v| points.push(i, v, &mut pushed))?;
+            let mut grow = Columns::grow(&mut out, &mut kind_values);
+            let labels = rows.read(&columns, |i, v| points.push(i, v, &mut grow))?;
             if believed < n {
                 out.shrink_to_fit();
             }
@@ -249,7 +246,7 @@ impl Read {
     }
 
     /// Columns of `n` values each that `slots` reads (written in place by parts of the rows:
-    /// [`Placed`]), their memory written on every thread.
+    /// [`Columns::parts`]), their memory written on every thread.
     fn filled(slots: &Slots, n: usize) -> Read {
         fn column<T: Default + Copy + Send + Sync>(on: Option<usize>, n: usize) -> Vec<T> {
             pages::filled(if on.is_some() { n } else { 0 }, T::default())
@@ -301,31 +298,31 @@ impl Points<'_> {
     }
 
     /// Gives point `i` (its row's values `v`) to `out`.
-    fn push(&self, i: u64, v: &[f64], out: &mut impl Sink) -> Result<(), String> {
+    fn push<M: Mode>(&self, i: u64, v: &[f64], out: &mut Columns<'_, M>) -> Result<(), String> {
         let s = self.slots;
         if let Some(k) = s.position {
-            out.center(self.center(i, v, k)?);
+            out.centers.put(self.center(i, v, k)?);
         }
         if let Some(k) = s.images {
-            out.images(self.image_flags(i, v, k)?);
+            out.images.put(self.image_flags(i, v, k)?);
         }
         if let Some(k) = s.velocity {
-            out.velocity(self.velocity(i, v, k)?);
+            out.velocities.put(self.velocity(i, v, k)?);
         }
         if let Some((k, factor)) = s.radius {
-            out.radius(self.radius(i, v, k, factor)?);
+            out.radii.put(self.radius(i, v, k, factor)?);
         }
         if let Some((k, range)) = s.color {
-            out.color(self.color(i, v, k, range)?);
+            out.colors.put(self.color(i, v, k, range)?);
         }
         if let Some(k) = s.id {
-            out.id(whole_id(i, v[k])?);
+            out.ids.put(whole_id(i, v[k])?);
         }
         if let Some(k) = s.kind {
-            out.kind(v[k]);
+            out.kinds.put(v[k]);
         }
         if let Some(k) = s.values {
-            out.value(self.value(i, v, k)?);
+            out.values.put(self.value(i, v, k)?);
         }
         Ok(())
     }
@@ -422,139 +419,116 @@ impl Points<'_> {
     }
 }
 
-/// Where a row's quantities go, each quantity read (see [`Slots`]) given once a row: to the
-/// ends of columns that grow ([`Pushed`], rows read in order) or to their places in columns
-/// as long as the snapshot ([`Placed`], rows read in parts).
-trait Sink {
-    fn center(&mut self, x: DVec3);
-    fn images(&mut self, x: [i32; 3]);
-    fn velocity(&mut self, x: DVec3);
-    fn radius(&mut self, x: f64);
-    fn color(&mut self, x: [f32; 3]);
-    fn id(&mut self, x: i64);
-    /// The type's value, as written (made an index into the types after the reading).
-    fn kind(&mut self, x: f64);
-    fn value(&mut self, x: f64);
+/// A column a row's value goes to.
+trait Put<T> {
+    fn put(&mut self, x: T);
 }
 
-/// Rows read in order: each quantity pushed onto its column.
-struct Pushed<'a> {
-    read: &'a mut Read,
-    kind_values: &'a mut Vec<f64>,
-}
-
-impl Sink for Pushed<'_> {
-    fn center(&mut self, x: DVec3) {
-        self.read.centers.push(x);
-    }
-    fn images(&mut self, x: [i32; 3]) {
-        self.read.images.push(x);
-    }
-    fn velocity(&mut self, x: DVec3) {
-        self.read.velocities.push(x);
-    }
-    fn radius(&mut self, x: f64) {
-        self.read.radii.push(x);
-    }
-    fn color(&mut self, x: [f32; 3]) {
-        self.read.colors.push(x);
-    }
-    fn id(&mut self, x: i64) {
-        self.read.ids.push(x);
-    }
-    fn kind(&mut self, x: f64) {
-        self.kind_values.push(x);
-    }
-    fn value(&mut self, x: f64) {
-        self.read.values.push(x);
+/// Rows read in order: a value pushed onto its column's end.
+impl<T> Put<T> for &mut Vec<T> {
+    fn put(&mut self, x: T) {
+        self.push(x);
     }
 }
 
-/// A part of the rows read in parts: the places of its rows in each column, in order (a
-/// column not read gives no places, and is given nothing).
-struct Placed<'a> {
-    centers: IterMut<'a, DVec3>,
-    images: IterMut<'a, [i32; 3]>,
-    velocities: IterMut<'a, DVec3>,
-    radii: IterMut<'a, f64>,
-    colors: IterMut<'a, [f32; 3]>,
-    ids: IterMut<'a, i64>,
-    kinds: IterMut<'a, f64>,
-    values: IterMut<'a, f64>,
+/// Rows read in parts: a value written at its row's place in its column.
+impl<T> Put<T> for IterMut<'_, T> {
+    fn put(&mut self, x: T) {
+        *self.next().expect("a place for each row of a part") = x;
+    }
 }
 
-impl<'a> Placed<'a> {
+/// How a read's rows reach their columns: [`Grow`] or [`Place`].
+trait Mode {
+    type Column<'a, T: 'a>: Put<T>;
+}
+
+/// Rows read in order, onto the ends of columns that grow.
+struct Grow;
+
+impl Mode for Grow {
+    type Column<'a, T: 'a> = &'a mut Vec<T>;
+}
+
+/// Rows read in parts, each part's rows at their places in columns as long as the snapshot.
+struct Place;
+
+impl Mode for Place {
+    type Column<'a, T: 'a> = IterMut<'a, T>;
+}
+
+/// Where the quantities of a row go (see [`Slots`]), each quantity read given once a row (a
+/// column not read, empty, is given nothing).
+struct Columns<'a, M: Mode> {
+    centers: M::Column<'a, DVec3>,
+    images: M::Column<'a, [i32; 3]>,
+    velocities: M::Column<'a, DVec3>,
+    radii: M::Column<'a, f64>,
+    colors: M::Column<'a, [f32; 3]>,
+    ids: M::Column<'a, i64>,
+    /// The types' values, as written (made indices into the types after the reading).
+    kinds: M::Column<'a, f64>,
+    values: M::Column<'a, f64>,
+}
+
+impl<'a> Columns<'a, Grow> {
+    /// The columns of `read`, and the types' values `kinds`, to push rows onto.
+    fn grow(read: &'a mut Read, kinds: &'a mut Vec<f64>) -> Self {
+        Columns {
+            centers: &mut read.centers,
+            images: &mut read.images,
+            velocities: &mut read.velocities,
+            radii: &mut read.radii,
+            colors: &mut read.colors,
+            ids: &mut read.ids,
+            kinds,
+            values: &mut read.values,
+        }
+    }
+}
+
+impl<'a> Columns<'a, Place> {
     /// The parts of `count` rows, `part_rows` each (the last fewer), over the columns of
-    /// `read` and `kind_values` (each `count` long, or empty where not read).
+    /// `read` and the types' values `kinds` (each `count` long, or empty where not read).
     fn parts(
         read: &'a mut Read,
-        kind_values: &'a mut [f64],
+        kinds: &'a mut [f64],
         part_rows: usize,
         count: usize,
-    ) -> Vec<Placed<'a>> {
+    ) -> Vec<Self> {
         let parts = count.div_ceil(part_rows);
-        fn split<T>(column: &mut [T], rows: usize, parts: usize) -> Vec<IterMut<'_, T>> {
+        fn split<T>(
+            column: &mut [T],
+            rows: usize,
+            parts: usize,
+        ) -> std::vec::IntoIter<IterMut<'_, T>> {
             let mut chunks = column.chunks_mut(rows);
-            (0..parts)
+            let places: Vec<IterMut<'_, T>> = (0..parts)
                 .map(|_| chunks.next().unwrap_or_default().iter_mut())
-                .collect()
+                .collect();
+            places.into_iter()
         }
-        let mut columns = (
-            split(&mut read.centers, part_rows, parts).into_iter(),
-            split(&mut read.images, part_rows, parts).into_iter(),
-            split(&mut read.velocities, part_rows, parts).into_iter(),
-            split(&mut read.radii, part_rows, parts).into_iter(),
-            split(&mut read.colors, part_rows, parts).into_iter(),
-            split(&mut read.ids, part_rows, parts).into_iter(),
-            split(kind_values, part_rows, parts).into_iter(),
-            split(&mut read.values, part_rows, parts).into_iter(),
-        );
+        let mut centers = split(&mut read.centers, part_rows, parts);
+        let mut images = split(&mut read.images, part_rows, parts);
+        let mut velocities = split(&mut read.velocities, part_rows, parts);
+        let mut radii = split(&mut read.radii, part_rows, parts);
+        let mut colors = split(&mut read.colors, part_rows, parts);
+        let mut ids = split(&mut read.ids, part_rows, parts);
+        let mut kinds = split(kinds, part_rows, parts);
+        let mut values = split(&mut read.values, part_rows, parts);
         let mut next = || {
-            let c = &mut columns;
-            Some(Placed {
-                centers: c.0.next()?,
-                images: c.1.next()?,
-                velocities: c.2.next()?,
-                radii: c.3.next()?,
-                colors: c.4.next()?,
-                ids: c.5.next()?,
-                kinds: c.6.next()?,
-                values: c.7.next()?,
+            Some(Columns {
+                centers: centers.next()?,
+                images: images.next()?,
+                velocities: velocities.next()?,
+                radii: radii.next()?,
+                colors: colors.next()?,
+                ids: ids.next()?,
+                kinds: kinds.next()?,
+                values: values.next()?,
             })
         };
         std::iter::from_fn(&mut next).take(parts).collect()
-    }
-}
-
-/// The next place of a part's column.
-fn place<T>(places: &mut IterMut<'_, T>, x: T) {
-    *places.next().expect("a place for each row of a part") = x;
-}
-
-impl Sink for Placed<'_> {
-    fn center(&mut self, x: DVec3) {
-        place(&mut self.centers, x);
-    }
-    fn images(&mut self, x: [i32; 3]) {
-        place(&mut self.images, x);
-    }
-    fn velocity(&mut self, x: DVec3) {
-        place(&mut self.velocities, x);
-    }
-    fn radius(&mut self, x: f64) {
-        place(&mut self.radii, x);
-    }
-    fn color(&mut self, x: [f32; 3]) {
-        place(&mut self.colors, x);
-    }
-    fn id(&mut self, x: i64) {
-        place(&mut self.ids, x);
-    }
-    fn kind(&mut self, x: f64) {
-        place(&mut self.kinds, x);
-    }
-    fn value(&mut self, x: f64) {
-        place(&mut self.values, x);
     }
 }
 
