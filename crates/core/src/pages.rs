@@ -1,11 +1,12 @@
 //! Large buffers whose memory is first written on every thread.
 //!
 //! The first write to each page of a fresh allocation is a page fault, and the kernel's
-//! handling of it (finding, clearing and mapping a 4 KiB page) costs about as much as the
-//! work a frame of points then does with the page: on the 2-core test machine, a frame of
-//! ten million points took 424,000 faults, 0.77 s of system time (`/usr/bin/time`). Written
-//! by one thread, a buffer's faults are serial; written here first, they are spread over
-//! every thread of the pool, and the later, serial writes find the pages mapped.
+//! handling of it (finding, clearing and mapping a 4 KiB page) is not free: on the 2-core
+//! test machine a frame of ten million points at 4 samples took 424,000 faults and 0.77 s of
+//! system time (`/usr/bin/time`), about 1.8 µs a fault. Written by one thread, a buffer's
+//! faults are serial; written here first, they are spread over every thread of the pool,
+//! and the later, serial writes find the pages mapped (the point cache's read:
+//! docs/performance.md).
 
 use rayon::prelude::*;
 
