@@ -143,8 +143,7 @@ impl PlyFile {
         };
         // Rows of fixed size: each value at its offset in the row.
         let fields = Fields::of(e, wanted, types, big);
-        let (lo, hi) = fields.span();
-        if stride - (hi - lo) >= SKIP_BYTES {
+        if fields.wide(stride) {
             return read_wide(reader, e, stride, &fields, row);
         }
         read_chunks(&mut reader, e, stride, &fields, row)
@@ -169,11 +168,10 @@ impl PlyFile {
         if self.header.encoding == Encoding::Ascii {
             return None;
         }
-        let stride = e.fixed_row_bytes()? as u64;
+        let stride = e.fixed_row_bytes()?;
         let types = scalar_types(e, wanted).ok()?;
-        let fields = Fields::of(e, wanted, types, false);
-        let (lo, hi) = fields.span();
-        let wide = stride - (hi - lo) as u64 >= SKIP_BYTES as u64;
+        let wide = Fields::of(e, wanted, types, false).wide(stride);
+        let stride = stride as u64;
         (stride > 0 && stride <= PART_BYTES && !wide).then(|| PART_BYTES / stride)
     }
 
@@ -344,6 +342,13 @@ impl Fields {
         let lo = self.at.iter().map(|f| f.0).min().unwrap_or(0);
         let hi = self.at.iter().map(|f| f.0 + f.1.size()).max().unwrap_or(0);
         (lo, hi)
+    }
+
+    /// Whether rows of `stride` bytes hold so many unused bytes ([`SKIP_BYTES`]) that each
+    /// row's used bytes are read alone, with a seek over the rest.
+    fn wide(&self, stride: usize) -> bool {
+        let (lo, hi) = self.span();
+        stride - (hi - lo) >= SKIP_BYTES
     }
 
     /// The values of a row from its bytes `r`, which start at byte `start` of the row.
