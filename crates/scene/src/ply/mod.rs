@@ -26,9 +26,11 @@
 //! Either would miss the 2 s asked for 1e7 points, and neither reports the row of a bad value.
 //!
 //! The files: `header` (the encodings, types, elements and properties, reading a header, and
-//! the reading's error), `read` (an open file's rows), `write` (a vertex element).
+//! the reading's error), `read` (an open file's rows), `parts` (binary rows read in parts on
+//! every thread), `write` (a vertex element).
 
 mod header;
+mod parts;
 mod read;
 mod write;
 
@@ -37,6 +39,7 @@ mod tests;
 
 pub use header::{Encoding, Scalar};
 pub(crate) use header::{Kind, PlyError};
+pub(crate) use parts::PART_BYTES;
 pub(crate) use read::PlyFile;
-pub(crate) use read::{PART_BYTES, READ_BUFFER_BYTES};
+pub(crate) use read::READ_BUFFER_BYTES;
 pub use write::{Column, write_vertices};

@@ -30,19 +30,15 @@ const SKIP_BYTES: usize = 1 << 16;
 /// time (`raytrace_render::memory`, through `PointLoad`). The parsed header comes on top: a few hundred bytes for a
 /// cache's usual dozen properties, at most about 6 MiB for the largest header, 1 MiB of
 /// one-byte properties (measured: docs/robustness.md). A file read in parts holds a part's
-/// rows on each thread as well ([`PART_BYTES`]).
+/// rows on each thread as well (`parts::PART_BYTES`).
 pub(crate) const READ_BUFFER_BYTES: u64 = (READER_BYTES + CHUNK_BYTES) as u64;
-
-/// Bytes of rows in a part of a read in parts ([`PlyFile::part_rows`]), whole rows: each
-/// thread holds one part's at a time. Rows wider than this are read in order.
-pub(crate) const PART_BYTES: u64 = 1 << 18;
 
 /// An open PLY file, positioned after its header.
 pub(crate) struct PlyFile {
-    header: Header,
+    pub(super) header: Header,
     /// The header's lines: an ASCII body's first line is the next.
     header_lines: u64,
-    reader: BufReader<File>,
+    pub(super) reader: BufReader<File>,
 }
 
 impl PlyFile {
@@ -150,106 +146,8 @@ impl PlyFile {
     }
 }
 
-/// Reading an element in parts, on every thread: where a binary element's rows have a fixed
-/// size, the rows of each part are at a known place in the file, read there
-/// (`FileExt::read_at`, which moves no shared position) and decoded apart from the others'.
-/// Each row is handed over with its number, as in order, so what the caller stores does not
-/// depend on the parts or the threads; the error returned is the first row's that has one,
-/// as in order. With the columns' memory written on every thread first
-/// (`raytrace_core::pages`), a frame of 1e7 points of 35-byte rows is read in 0.6 of the
-/// time it took in order on two threads (docs/performance.md).
-impl PlyFile {
-    /// Rows a part of element `element` holds when its properties `wanted` are read in
-    /// parts ([`PlyFile::read_rows_in_parts`]); `None` where they are read in order: text,
-    /// rows of lists, rows wider than [`PART_BYTES`], or rows whose wanted values are few
-    /// among many unused bytes (read alone with a seek each).
-    pub(crate) fn part_rows(&self, element: usize, wanted: &[usize]) -> Option<u64> {
-        let e = self.header.elements.get(element)?;
-        if self.header.encoding == Encoding::Ascii {
-            return None;
-        }
-        let stride = e.fixed_row_bytes()?;
-        let types = scalar_types(e, wanted).ok()?;
-        let wide = Fields::of(e, wanted, types, false).wide(stride);
-        let stride = stride as u64;
-        (stride > 0 && stride <= PART_BYTES && !wide).then(|| PART_BYTES / stride)
-    }
-
-    /// [`PlyFile::read_rows`] in parts of [`PlyFile::part_rows`] rows (which must be
-    /// `Some`), on every thread: part `k` holds rows `k * part_rows..` and calls
-    /// `row(&mut parts[k], i, values)` for each of its rows `i`. Returns the first row's
-    /// error, as [`PlyFile::read_rows`] does (later parts' rows may have been handed over).
-    pub(crate) fn read_rows_in_parts<S: Send>(
-        self,
-        element: usize,
-        wanted: &[usize],
-        parts: Vec<S>,
-        row: impl Fn(&mut S, u64, &[f64]) -> Result<(), String> + Sync,
-    ) -> Result<(), PlyError> {
-        use rayon::prelude::*;
-
-        let part_rows = self
-            .part_rows(element, wanted)
-            .expect("rows that can be read in parts");
-        let PlyFile {
-            header, mut reader, ..
-        } = self;
-        let e = &header.elements[element];
-        let big = header.encoding == Encoding::BinaryBigEndian;
-        skip_binary(&mut reader, &header.elements[..element], big)?;
-        let start = reader.stream_position()?;
-        let file = reader.into_inner();
-        let stride = e.fixed_row_bytes().expect("rows of fixed size");
-        let fields = Fields::of(e, wanted, scalar_types(e, wanted)?, big);
-        let parts_needed = e.count.div_ceil(part_rows) as usize;
-        assert_eq!(parts.len(), parts_needed, "a state for every part");
-        let done: Vec<Result<(), PlyError>> = parts
-            .into_par_iter()
-            .enumerate()
-            .map_init(Vec::new, |buf, (k, mut part)| {
-                let first = k as u64 * part_rows;
-                let rows = (e.count - first).min(part_rows) as usize;
-                buf.resize(rows * stride, 0u8);
-                let at = start + first * stride as u64;
-                let got = read_full_at(&file, buf, at)?;
-                if got < buf.len() {
-                    return bad(truncated(e, first + (got / stride) as u64));
-                }
-                let mut values = vec![0.0; fields.at.len()];
-                for (j, r) in buf.chunks_exact(stride).enumerate() {
-                    fields.decode(&mut values, r, 0);
-                    row(&mut part, first + j as u64, &values).map_err(PlyError::Bad)?;
-                }
-                Ok(())
-            })
-            .collect();
-        done.into_iter().collect()
-    }
-}
-
-/// Reads from `file` at byte `at` until `buf` is full or the file ends; returns the bytes
-/// read.
-fn read_full_at(file: &File, buf: &mut [u8], at: u64) -> Result<usize, std::io::Error> {
-    #[cfg(unix)]
-    use std::os::unix::fs::FileExt;
-    #[cfg(windows)]
-    let read_at = |buf: &mut [u8], at| std::os::windows::fs::FileExt::seek_read(file, buf, at);
-    #[cfg(unix)]
-    let read_at = |buf: &mut [u8], at| file.read_at(buf, at);
-    let mut n = 0;
-    while n < buf.len() {
-        match read_at(&mut buf[n..], at + n as u64) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(n)
-}
-
 /// The types of `e`'s properties `wanted`; an error for a list.
-fn scalar_types(e: &Element, wanted: &[usize]) -> Result<Vec<Scalar>, PlyError> {
+pub(super) fn scalar_types(e: &Element, wanted: &[usize]) -> Result<Vec<Scalar>, PlyError> {
     let mut types = Vec::with_capacity(wanted.len());
     for &w in wanted {
         match e.properties[w].kind {
@@ -289,7 +187,7 @@ fn read_ascii<R: BufRead>(
 
 /// Moves a binary body past the rows of `elements`: a seek where rows have a fixed size,
 /// else each row read.
-fn skip_binary(
+pub(super) fn skip_binary(
     reader: &mut BufReader<File>,
     elements: &[Element],
     big: bool,
@@ -312,15 +210,15 @@ fn skip_binary(
 }
 
 /// Where the wanted values of a binary row of fixed size are, and how to decode them.
-struct Fields {
+pub(super) struct Fields {
     /// Each value's offset in the row, and its type.
-    at: Vec<(usize, Scalar)>,
+    pub(super) at: Vec<(usize, Scalar)>,
     big: bool,
 }
 
 impl Fields {
     /// The fields of `e`'s properties `wanted` (of types `types`), big-endian or not.
-    fn of(e: &Element, wanted: &[usize], types: Vec<Scalar>, big: bool) -> Fields {
+    pub(super) fn of(e: &Element, wanted: &[usize], types: Vec<Scalar>, big: bool) -> Fields {
         let mut offsets = Vec::with_capacity(wanted.len());
         for &w in wanted {
             offsets.push(
@@ -346,14 +244,14 @@ impl Fields {
 
     /// Whether rows of `stride` bytes hold so many unused bytes ([`SKIP_BYTES`]) that each
     /// row's used bytes are read alone, with a seek over the rest.
-    fn wide(&self, stride: usize) -> bool {
+    pub(super) fn wide(&self, stride: usize) -> bool {
         let (lo, hi) = self.span();
         stride - (hi - lo) >= SKIP_BYTES
     }
 
     /// The values of a row from its bytes `r`, which start at byte `start` of the row.
     #[inline(always)]
-    fn decode(&self, values: &mut [f64], r: &[u8], start: usize) {
+    pub(super) fn decode(&self, values: &mut [f64], r: &[u8], start: usize) {
         for (v, &(off, ty)) in values.iter_mut().zip(&self.at) {
             *v = ty.decode(&r[off - start..], self.big);
         }
@@ -416,7 +314,7 @@ fn read_chunks(
 }
 
 /// `truncated: the file ends in vertex 12 of 1000`.
-fn truncated(e: &Element, row: u64) -> String {
+pub(super) fn truncated(e: &Element, row: u64) -> String {
     format!(
         "truncated: the file ends in {} {row} of {} (rows counted from 0)",
         e.name, e.count
