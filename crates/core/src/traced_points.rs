@@ -18,7 +18,8 @@ use rayon::prelude::*;
 
 use crate::aabb::Aabb;
 use crate::bvh::{
-    Boxes, BuildBox, BvhView, Leaves, PACKET, PacketLeaves, PacketRay, Topology, TraversalStack,
+    Boxes, BuildBox, BvhView, Leaves, MAX_LEAF, PACKET, PacketLeaves, PacketRay, Topology,
+    TraversalStack,
 };
 use crate::points::FramePoints;
 use crate::ray::Ray;
@@ -391,6 +392,12 @@ impl Leaves for RayTest<'_> {
     }
 
     #[inline(always)]
+    fn candidates(&mut self, first: u32, count: u32) -> u32 {
+        self.group
+            .candidates(first, count, self.ray, self.dt, self.skip)
+    }
+
+    #[inline(always)]
     fn prefetch(&self, first: u32, count: u32) {
         self.group.prefetch(first, count);
     }
@@ -422,6 +429,12 @@ impl PacketLeaves for PacketTest<'_> {
     }
 
     #[inline(always)]
+    fn candidates(&mut self, r: usize, first: u32, count: u32) -> u32 {
+        self.group
+            .candidates(first, count, &self.rays[r], self.dt[r], self.skip[r])
+    }
+
+    #[inline(always)]
     fn prefetch(&self, first: u32, count: u32) {
         self.group.prefetch(first, count);
     }
@@ -442,6 +455,78 @@ impl Group {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = (first, count);
+    }
+
+    /// Of the leaf at `first..first + count`, the points `intersect` may find `ray` (at `dt`)
+    /// hitting, a bit each (bit `k` for `first + k`), the point numbered `skip` left out: its
+    /// two early outs, which need no `t_max`, made for four points at once in four `f64`
+    /// lanes (AVX), lane `k` with the same operations in the same order as `Group::center`
+    /// and `intersect` make them for the point at `first + k`, so the same bits and the same
+    /// answers (a test checks). A point left out is one `intersect` rejects; the others are
+    /// tested by it, one by one. Where the build has no AVX, every point.
+    #[inline(always)]
+    fn candidates(&self, first: u32, count: u32, ray: &Ray, dt: f64, skip: u32) -> u32 {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+        {
+            use safe_arch::*;
+            let at = first as usize;
+            // The last leaf of the records may hold fewer than four from its first: its last
+            // record stands in for the others (their lanes are past `count`).
+            let q: [Record; MAX_LEAF] = match self.records.get(at..at + MAX_LEAF) {
+                Some(q) => std::array::from_fn(|k| q[k]),
+                None => {
+                    let last = self.records.len() - 1;
+                    std::array::from_fn(|k| self.records[(at + k).min(last)])
+                }
+            };
+            // Four records' halves, then their lanes: `p.x` of the four, `p.y`, ...
+            let half = |k: usize, upper: bool| {
+                let q = &q[k];
+                m128::from_array(if upper {
+                    [q.v.x, q.v.y, q.v.z, f32::from_bits(q.id)]
+                } else {
+                    [q.p.x, q.p.y, q.p.z, q.radius]
+                })
+            };
+            let [mut px, mut py, mut pz, mut r] = [0, 1, 2, 3].map(|k| half(k, false));
+            transpose_four_m128(&mut px, &mut py, &mut pz, &mut r);
+            let [mut vx, mut vy, mut vz, mut ids] = [0, 1, 2, 3].map(|k| half(k, true));
+            transpose_four_m128(&mut vx, &mut vy, &mut vz, &mut ids);
+            let wide = convert_to_m256d_from_m128;
+            let splat = set_splat_m256d;
+            let (lead, dt) = (splat(self.lead), splat(dt));
+            let centre = |p: m128, v: m128| {
+                let v = wide(v);
+                (wide(p) + v * lead) + v * dt
+            };
+            let (o, d) = (ray.origin, ray.dir);
+            let fx = splat(o.x) - centre(px, vx);
+            let fy = splat(o.y) - centre(py, vy);
+            let fz = splat(o.z) - centre(pz, vz);
+            let (dx, dy, dz) = (splat(d.x), splat(d.y), splat(d.z));
+            let b = (fx * dx + fy * dy) + fz * dz;
+            let ff = (fx * fx + fy * fy) + fz * fz;
+            let (lx, ly, lz) = (fx - b * dx, fy - b * dy, fz - b * dz);
+            let ll = (lx * lx + ly * ly) + lz * lz;
+            let r = wide(r);
+            let rr = r * r;
+            let rr_up = rr * splat(1.0 + 4.0 * f64::EPSILON);
+            let gt = cmp_op_mask_m256d::<{ cmp_op!(GreaterThanOrdered) }>;
+            let checked =
+                cmp_op_mask_m256d::<{ cmp_op!(GreaterEqualOrdered) }>(rr, splat(f64::MIN_POSITIVE));
+            let misses = checked & ((gt(b, splat(0.0)) & gt(ff, rr_up)) | gt(ll, rr_up));
+            let skipped = cmp_eq_mask_i32_m128i(
+                cast_to_m128i_from_m128(ids),
+                set_splat_i32_m128i(skip as i32),
+            );
+            let out = move_mask_m256d(misses) | move_mask_m128(cast_to_m128_from_m128i(skipped));
+            !(out as u32) & crate::bvh::every(count)
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+        {
+            let _ = (ray, dt, skip, first);
+            crate::bvh::every(count)
+        }
     }
 
     /// The hit at `t` on the record at `pos`, for a ray at `dt`.
@@ -683,5 +768,81 @@ mod tests {
             assert_eq!(g.boxes, h.boxes);
         }
         assert_eq!(a.groups.len(), b.groups.len());
+    }
+
+    /// The early outs of `intersect` for the sphere at `c` of radius `r`, written out again
+    /// as it writes them: whether it rejects the ray before its roots.
+    fn rejected_early(c: DVec3, r: f64, ray: &Ray) -> bool {
+        let f = ray.origin - c;
+        let b = f.dot(ray.dir);
+        let rr = r * r;
+        let rr_up = rr * (1.0 + 4.0 * f64::EPSILON);
+        let l = f - b * ray.dir;
+        rr >= f64::MIN_POSITIVE
+            && ((b > 0.0 && f.length_squared() > rr_up) || l.length_squared() > rr_up)
+    }
+
+    /// A leaf's candidates, four points in lanes, leave out exactly the points `intersect`'s
+    /// early outs reject (so only points it misses at any `t_max`) and the point skipped, and
+    /// no position past the leaf's count: for every leaf start of every group, random rays,
+    /// and rays aimed past a point's centre at its radius to within a few of its last bits either
+    /// way (where the early outs turn), at moving and still intervals.
+    #[test]
+    fn candidates_leave_out_only_what_intersect_rejects_early() {
+        let points = frame_points(300, 9);
+        let mut r = Pcg32::new(4, 2);
+        let (mut left_out, mut kept) = (0, 0);
+        for interval in [
+            Interval {
+                open: 0.1,
+                close: 0.12,
+            },
+            Interval::instant(0.3),
+        ] {
+            let traced = TracedPoints::prepare(&points, 7, interval);
+            for g in &traced.groups {
+                let n = g.records.len();
+                for first in 0..n {
+                    let count = ((first % MAX_LEAF) + 1).min(n - first) as u32;
+                    let mut ray = random_ray(&mut r, interval);
+                    let dt = ray.time - interval.open;
+                    let q = &g.records[first + (first / 7) % count as usize];
+                    if first % 3 == 0 {
+                        // From three radii away, past this point's centre at its radius to
+                        // within a few ulps (the early outs' margin is four).
+                        let (c, radius) = (g.center(q, dt), f64::from(q.radius));
+                        let side = ray.dir.cross(DVec3::Y).normalize();
+                        let ulps = ((first / 3) % 17) as f64 - 8.0;
+                        let past = side * radius * (1.0 + ulps * f64::EPSILON);
+                        ray.origin = c + past - ray.dir * 3.0 * radius;
+                    }
+                    let skip = if first % 5 == 0 { q.id } else { u32::MAX };
+                    let bits = g.candidates(first as u32, count, &ray, dt, skip);
+                    assert_eq!(bits >> count, 0, "no position past the leaf");
+                    for k in 0..count as usize {
+                        let p = &g.records[first + k];
+                        let (c, radius) = (g.center(p, dt), f64::from(p.radius));
+                        let candidate = bits >> k & 1 == 1;
+                        if !candidate {
+                            assert!(
+                                p.id == skip || intersect(c, radius, &ray, f64::INFINITY).is_none(),
+                                "a point the ray hits left out"
+                            );
+                        }
+                        // Where the build has lanes, exactly the early outs' answers.
+                        if cfg!(all(target_arch = "x86_64", target_feature = "avx")) {
+                            let want = p.id != skip && !rejected_early(c, radius, &ray);
+                            assert_eq!(candidate, want, "leaf {first} lane {k}");
+                        }
+                        if candidate { kept += 1 } else { left_out += 1 }
+                    }
+                }
+            }
+        }
+        // Most of the random rays' points are left out; the grazing ones are kept.
+        assert!(
+            left_out > 3 * kept && kept > 0,
+            "{left_out} left out, {kept} kept"
+        );
     }
 }

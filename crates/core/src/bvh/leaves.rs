@@ -1,5 +1,6 @@
 //! What a traversal tests in the leaves it reaches: a primitive test ([`Leaves`] for one
-//! ray, [`PacketLeaves`] for a packet's), and a hint that a leaf is about to be tested.
+//! ray, [`PacketLeaves`] for a packet's), which of a leaf's primitives are worth the test, and a
+//! hint that a leaf is about to be tested.
 //!
 //! A closure is a test without a hint (a blanket implementation), which suits primitives that
 //! stay in the cache (the spheres of a scene). Primitives far larger than the cache (a frame's
@@ -17,12 +18,28 @@ pub trait Leaves {
     /// [`Topology::order`]: super::Topology::order
     fn hit(&mut self, pos: u32, t_max: f64) -> Option<f64>;
 
+    /// Of the leaf at positions `first..first + count` (`count` in `1..=4`), a bit for each
+    /// primitive [`Leaves::hit`] is asked about (bit `k` for `first + k`, asked in that order): a
+    /// primitive left out is one `hit` certainly misses whatever `t_max`, so the traversal
+    /// finds the same hits. Every primitive by default.
+    #[inline(always)]
+    fn candidates(&mut self, first: u32, count: u32) -> u32 {
+        let _ = first;
+        every(count)
+    }
+
     /// Asks for the primitives at positions `first..first + count` (a leaf the ray has just
     /// entered) to be loaded into the cache, without waiting for them. Nothing by default.
     #[inline(always)]
     fn prefetch(&self, first: u32, count: u32) {
         let _ = (first, count);
     }
+}
+
+/// A bit for each of a leaf's `count` primitives.
+#[inline(always)]
+pub(crate) fn every(count: u32) -> u32 {
+    (1 << count) - 1
 }
 
 impl<F: FnMut(u32, f64) -> Option<f64>> Leaves for F {
@@ -39,6 +56,13 @@ impl<F: FnMut(u32, f64) -> Option<f64>> Leaves for F {
 pub(crate) trait PacketLeaves {
     /// [`Leaves::hit`] for ray `r` of the packet.
     fn hit(&mut self, r: usize, pos: u32, t_max: f64) -> Option<f64>;
+
+    /// [`Leaves::candidates`] for ray `r` of the packet.
+    #[inline(always)]
+    fn candidates(&mut self, r: usize, first: u32, count: u32) -> u32 {
+        let _ = (r, first);
+        every(count)
+    }
 
     /// [`Leaves::prefetch`], for a leaf some of the packet's rays entered.
     #[inline(always)]
@@ -64,6 +88,11 @@ impl<P: PacketLeaves> Leaves for OneOf<'_, P> {
     #[inline(always)]
     fn hit(&mut self, pos: u32, t_max: f64) -> Option<f64> {
         self.packet.hit(self.r, pos, t_max)
+    }
+
+    #[inline(always)]
+    fn candidates(&mut self, first: u32, count: u32) -> u32 {
+        self.packet.candidates(self.r, first, count)
     }
 
     #[inline(always)]

@@ -49,6 +49,7 @@
 //! - `export`: a node's children and their boxes read one by one ([`Child`]), for copies of a
 //!   hierarchy in other layouts.
 
+mod bins;
 mod boxes;
 mod build;
 mod compact;
@@ -73,12 +74,14 @@ mod tests;
 pub use boxes::Boxes;
 pub(crate) use build::BUILD_BYTES_PER_PRIMITIVE;
 pub(crate) use build::BuildBox;
+pub(crate) use build::MAX_LEAF;
 pub use export::{Child, ChildKind};
 pub(crate) use hierarchy::BYTES_PER_PRIMITIVE;
 pub use hierarchy::Bvh;
 pub(crate) use hierarchy::COMPACT_NODE_BYTES;
 pub use leaves::Leaves;
 pub(crate) use leaves::PacketLeaves;
+pub(crate) use leaves::every;
 pub(crate) use packet::PacketRay;
 pub(crate) use stack::PACKET;
 pub(crate) use stack::TURNS_WALKS_BYTES;

@@ -206,7 +206,10 @@ impl BvhView<'_> {
                     while b != 0 {
                         let r = b.trailing_zeros() as usize;
                         b &= b - 1;
-                        for pos in first..first + count {
+                        let mut bits = leaves.candidates(r, first, count);
+                        while bits != 0 {
+                            let pos = first + bits.trailing_zeros();
+                            bits &= bits - 1;
                             if let Some(t) = leaves.hit(r, pos, t_max[r]) {
                                 t_max[r] = t;
                                 limit[r] = widened_limit(t);

@@ -148,7 +148,10 @@ impl<R: SlabTest> Walk<R> {
         let count = next >> COUNT_SHIFT;
         if count != 0 {
             let first = next & POSITION_MASK;
-            for pos in first..first + count {
+            let mut bits = leaves.candidates(first, count);
+            while bits != 0 {
+                let pos = first + bits.trailing_zeros();
+                bits &= bits - 1;
                 if let Some(t) = leaves.hit(pos, self.t_max) {
                     self.t_max = t;
                     self.limit = widened_limit(t);
