@@ -8,12 +8,19 @@ use rayon::prelude::*;
 
 use super::build::{Box3, BuildBox};
 
-/// Centroid bins per axis for the SAH sweep: 16, and 8 for spans of at most 64 primitives
-/// (as Embree's `BinMapping` takes fewer for small spans), where filling and sweeping 16 bins
-/// cost more than the primitives: on a frame of 1e7 points the hierarchy in 0.95 of the time
-/// of 8 bins up to 16 primitives only, the render the same (docs/performance.md).
-pub(super) const fn bins_for(n: usize) -> usize {
-    if n <= 64 { 8 } else { 16 }
+/// Centroid bins per axis for the SAH sweep of a span of `n` primitives whose leaves hold
+/// about `per_leaf` (a build's node cost, at least 1: one sphere a leaf, four points): 16, and
+/// 8 for spans of at most 16 leaves' worth (as Embree's `BinMapping` takes fewer for small
+/// spans), where filling and sweeping 16 bins cost more than the primitives. For the points
+/// (spans of at most 64) the hierarchy in 0.95 of the time of 8 bins up to 16 primitives
+/// only, the render the same; the spheres keep 8 up to 16, where 8 up to 64 cost their
+/// render 3% (docs/performance.md).
+pub(super) fn bins_for(n: usize, per_leaf: f64) -> usize {
+    if n as f64 <= 16.0 * per_leaf.max(1.0) {
+        8
+    } else {
+        16
+    }
 }
 
 /// Spans of more primitives than this are binned in parallel, in chunks of this many: a

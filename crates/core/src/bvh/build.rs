@@ -240,7 +240,7 @@ fn decide<P: Send + Sync>(
             Kid::Leaf(span)
         };
     }
-    let map = BinMap::new(span.centroids, bins_for(n));
+    let map = BinMap::new(span.centroids, bins_for(n, node_cost));
     let best = match map.count {
         8 => best_split::<P, 8>(items, &map, bounds),
         _ => best_split::<P, 16>(items, &map, bounds),
