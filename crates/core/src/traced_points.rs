@@ -599,6 +599,17 @@ mod tests {
         best
     }
 
+    /// A shutter open for 0.02 s, during which the moving sets move, and an instant.
+    fn intervals() -> [Interval; 2] {
+        [
+            Interval {
+                open: 0.1,
+                close: 0.12,
+            },
+            Interval::instant(0.3),
+        ]
+    }
+
     fn random_ray(r: &mut Pcg32, interval: Interval) -> Ray {
         let mut v = || DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) - 0.5;
         let origin = v() * 30.0;
@@ -617,13 +628,7 @@ mod tests {
     fn finds_what_testing_every_point_finds() {
         let points = frame_points(3000, 5);
         let mut r = Pcg32::new(1, 1);
-        for interval in [
-            Interval {
-                open: 0.1,
-                close: 0.12,
-            },
-            Interval::instant(0.3),
-        ] {
+        for interval in intervals() {
             let traced = TracedPoints::prepare(&points, 7, interval);
             assert_eq!(traced.groups.len(), 2);
             let all_moving = 2 * 3000;
@@ -789,13 +794,7 @@ mod tests {
         let points = frame_points(300, 9);
         let mut r = Pcg32::new(4, 2);
         let (mut left_out, mut kept) = (0, 0);
-        for interval in [
-            Interval {
-                open: 0.1,
-                close: 0.12,
-            },
-            Interval::instant(0.3),
-        ] {
+        for interval in intervals() {
             let traced = TracedPoints::prepare(&points, 7, interval);
             for g in &traced.groups {
                 let n = g.records.len();
