@@ -28,6 +28,10 @@ pub struct SphereDesc {
     pub material: u32,
 }
 
+/// The factor on `r^2` past which [`intersect`]'s early outs reject a squared distance (see
+/// there); the points' lanes (`traced_points.rs`) make the same early outs with it.
+pub(crate) const EARLY_OUT_SQUARE: f64 = 1.0 + 4.0 * f64::EPSILON;
+
 /// The nearest intersection `t` in `(0, t_max)` of a ray with unit direction and the sphere
 /// at `center` of radius `radius`, if any.
 #[inline]
@@ -41,7 +45,7 @@ pub fn intersect(center: DVec3, radius: f64, ray: &Ray, t_max: f64) -> Option<f6
     // normal (no underflow) and is skipped otherwise; a NaN fails every comparison and falls
     // through.
     let rr = radius * radius;
-    let rr_up = rr * (1.0 + 4.0 * f64::EPSILON);
+    let rr_up = rr * EARLY_OUT_SQUARE;
     let checked = rr >= f64::MIN_POSITIVE;
     // The ray starts outside (|f| >= r, so c >= 0) and points away (b > 0): both roots are
     // <= 0 (q < 0, t0 = c/q <= 0).

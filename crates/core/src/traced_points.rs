@@ -18,8 +18,7 @@ use rayon::prelude::*;
 
 use crate::aabb::Aabb;
 use crate::bvh::{
-    Boxes, BuildBox, BvhView, Leaves, MAX_LEAF, PACKET, PacketLeaves, PacketRay, Topology,
-    TraversalStack,
+    Boxes, BuildBox, BvhView, Leaves, PACKET, PacketLeaves, PacketRay, Topology, TraversalStack,
 };
 use crate::points::FramePoints;
 use crate::ray::Ray;
@@ -466,8 +465,11 @@ impl Group {
     /// tested by it, one by one. Where the build has no AVX, every point.
     #[inline(always)]
     fn candidates(&self, first: u32, count: u32, ray: &Ray, dt: f64, skip: u32) -> u32 {
+        debug_assert!((1..=crate::bvh::MAX_LEAF as u32).contains(&count));
         #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
         {
+            use crate::bvh::MAX_LEAF;
+            use crate::sphere::EARLY_OUT_SQUARE;
             use safe_arch::*;
             let at = first as usize;
             // A leaf at the records' end may hold fewer than four from its first: its points
@@ -506,7 +508,7 @@ impl Group {
             let ll = (lx * lx + ly * ly) + lz * lz;
             let r = wide(r);
             let rr = r * r;
-            let rr_up = rr * splat(1.0 + 4.0 * f64::EPSILON);
+            let rr_up = rr * splat(EARLY_OUT_SQUARE);
             let gt = cmp_op_mask_m256d::<{ cmp_op!(GreaterThanOrdered) }>;
             let checked =
                 cmp_op_mask_m256d::<{ cmp_op!(GreaterEqualOrdered) }>(rr, splat(f64::MIN_POSITIVE));
@@ -541,8 +543,10 @@ impl Group {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::MAX_LEAF;
     use crate::points::PointSet;
     use crate::rng::Pcg32;
+    use crate::sphere::EARLY_OUT_SQUARE;
 
     /// Three sets: two at one time (one moving, one still with colours and one radius for
     /// all), one at another time, moving; `n` points each.
@@ -777,7 +781,7 @@ mod tests {
         let f = ray.origin - c;
         let b = f.dot(ray.dir);
         let rr = r * r;
-        let rr_up = rr * (1.0 + 4.0 * f64::EPSILON);
+        let rr_up = rr * EARLY_OUT_SQUARE;
         let l = f - b * ray.dir;
         rr >= f64::MIN_POSITIVE
             && ((b > 0.0 && f.length_squared() > rr_up) || l.length_squared() > rr_up)
@@ -837,10 +841,15 @@ mod tests {
                 }
             }
         }
-        // Most of the random rays' points are left out; the grazing ones are kept.
-        assert!(
-            left_out > 3 * kept && kept > 0,
-            "{left_out} left out, {kept} kept"
-        );
+        // Where the build has lanes (CI's), most of the random rays' points are left out and
+        // the grazing ones kept; without, every point is kept.
+        if cfg!(all(target_arch = "x86_64", target_feature = "avx")) {
+            assert!(
+                left_out > 3 * kept && kept > 0,
+                "{left_out} left out, {kept} kept"
+            );
+        } else {
+            assert_eq!(left_out, 0);
+        }
     }
 }
