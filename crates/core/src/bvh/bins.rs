@@ -6,7 +6,7 @@
 use glam::Vec3A;
 use rayon::prelude::*;
 
-use super::build::{Box3, BuildBox};
+use super::build::{Box3, BuildBox, expected_half_areas};
 
 /// Centroid bins per axis for the SAH sweep of a span of `n` primitives whose leaves hold
 /// about `per_leaf` (a build's node cost, at least 1: one sphere a leaf, four points): 16, and
@@ -87,17 +87,15 @@ impl<const N: usize> Sides<N> {
     #[inline(always)]
     fn of(bins: &[Bin; N]) -> Sides<N> {
         // `sides[side][e][k][i]`: of side `side`'s union at boundary `i`, end `e`'s box (0
-        // opening, 1 closing), coordinate `k` (0..3 lower, 3..6 upper). Lane 0 is no boundary
-        // and stays empty (its area unused).
+        // opening, 1 closing), its side `k` (`Box3::sides`). Lane 0 is no boundary and stays
+        // zero (its area unused).
         let mut sides = [[[[0f32; N]; 6]; 2]; 2];
         let mut count = [[0u32; N]; 2];
         let mut put = |side: usize, i: usize, b: &Bin| {
             count[side][i] = b.count as u32;
             for (e, bx) in [b.open, b.close].iter().enumerate() {
-                let (lo, hi) = (bx.lo.to_array(), bx.hi.to_array());
-                for a in 0..3 {
-                    sides[side][e][a][i] = lo[a];
-                    sides[side][e][3 + a][i] = hi[a];
+                for (k, x) in bx.sides().into_iter().enumerate() {
+                    sides[side][e][k][i] = x;
                 }
             }
         };
@@ -116,26 +114,6 @@ impl<const N: usize> Sides<N> {
             area: sides.map(|s| expected_half_areas(&s)),
         }
     }
-}
-
-/// The expected half areas of `N` boxes at once, lane `i` from `b[e][k][i]` (end `e`,
-/// coordinate `k` as in [`Sides::of`]), each as [`super::build::expected_half_area`] computes
-/// it, the same operations in the same order, so the same bits (a test checks): its
-/// `Vec3A::max` with zero gives zero for a NaN, as the `if` below, and its `dot` sums
-/// `(x + y) + z`.
-#[inline(always)]
-fn expected_half_areas<const N: usize>(b: &[[[f32; N]; 6]; 2]) -> [f32; N] {
-    std::array::from_fn(|i| {
-        let side = |e: usize, a: usize| {
-            let x = b[e][3 + a][i] - b[e][a][i];
-            if x > 0.0 { x } else { 0.0 }
-        };
-        let a = [side(0, 0), side(0, 1), side(0, 2)];
-        let d = [side(1, 0) - a[0], side(1, 1) - a[1], side(1, 2) - a[2]];
-        // `u.dot(v.yzx())`
-        let dot = |u: [f32; 3], v: [f32; 3]| (u[0] * v[1] + u[1] * v[2]) + u[2] * v[0];
-        dot(a, a) + 0.5 * (dot(a, d) + dot(d, a)) + dot(d, d) * (1.0 / 3.0)
-    })
 }
 
 /// Where a centroid falls: the number of bins, and per axis the bins' origin and their
@@ -294,7 +272,6 @@ pub(super) fn best_split<P: Sync, const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::build::expected_half_area;
     use super::*;
     use crate::rng::Pcg32;
 
@@ -350,50 +327,6 @@ mod tests {
                     }
                 }
             }
-        }
-    }
-
-    /// The areas a boundary a lane are `expected_half_area`'s, bit for bit: random
-    /// boxes, moving and still, empty ones (lane 0 of a sweep, inside out), flat ones and
-    /// boxes with a NaN side.
-    #[test]
-    fn areas_in_lanes_are_the_areas_one_by_one() {
-        let mut r = Pcg32::new(12, 5);
-        let mut u = || (r.next_f64() * 2.0 - 1.0) as f32;
-        for round in 0..500 {
-            let mut lanes = [[[0f32; 16]; 6]; 2];
-            let mut want = [0f32; 16];
-            for (i, want) in want.iter_mut().enumerate() {
-                let mut b = || {
-                    let lo = Vec3A::new(u(), u(), u()) * 10.0;
-                    Box3 {
-                        lo,
-                        hi: lo + Vec3A::new(u(), u(), u()).abs() * 3.0,
-                    }
-                };
-                let (mut open, mut close) = (b(), b());
-                match (round + i) % 6 {
-                    0 => (open, close) = (Box3::EMPTY, Box3::EMPTY),
-                    1 => close = open,
-                    2 => open.hi.y = open.lo.y,
-                    3 => close.lo.z = f32::NAN,
-                    4 => open.hi.x = open.lo.x - 1.0,
-                    _ => {}
-                }
-                *want = expected_half_area(open, close);
-                for (e, bx) in [open, close].iter().enumerate() {
-                    for a in 0..3 {
-                        lanes[e][a][i] = bx.lo[a];
-                        lanes[e][3 + a][i] = bx.hi[a];
-                    }
-                }
-            }
-            let got = expected_half_areas(&lanes);
-            assert_eq!(
-                got.map(f32::to_bits),
-                want.map(f32::to_bits),
-                "round {round}"
-            );
         }
     }
 }

@@ -13,7 +13,7 @@
 //! closing, which for fast, incoherent motion is far smaller than the area of the box over
 //! the whole shutter that a still build would compare.
 
-use glam::{Vec3, Vec3A, Vec3Swizzles};
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
@@ -109,24 +109,42 @@ impl Box3 {
         }
     }
 
-    /// The sides' lengths, 0 for an empty box (and for a NaN side).
+    /// Its sides: lower x, y, z, then upper x, y, z.
     #[inline(always)]
-    fn extent(self) -> Vec3A {
-        (self.hi - self.lo).max(Vec3A::ZERO)
+    pub(super) fn sides(self) -> [f32; 6] {
+        let (lo, hi) = (self.lo.to_array(), self.hi.to_array());
+        [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
     }
 }
 
 /// The mean over the shutter of the half surface area of the box interpolated linearly from
-/// `open` to `close`: with sides `a + s d` (`s` in [0, 1]), the integral of
-/// `(a_i + s d_i)(a_j + s d_j)` is `a_i a_j + (a_i d_j + a_j d_i) / 2 + d_i d_j / 3`, summed over
-/// the three pairs of axes (`i`, `j = i + 1 mod 3`). For a still box (`close = open`), half
-/// its surface area. In `f32`: it only compares splits.
+/// `open` to `close` ([`expected_half_areas`] of one box). In `f32`: it only compares splits.
 #[inline(always)]
 pub(super) fn expected_half_area(open: Box3, close: Box3) -> f32 {
-    let a = open.extent();
-    let d = close.extent() - a;
-    let (a2, d2) = (a.yzx(), d.yzx());
-    a.dot(a2) + 0.5 * (a.dot(d2) + d.dot(a2)) + d.dot(d2) * (1.0 / 3.0)
+    expected_half_areas(&[open.sides().map(|x| [x]), close.sides().map(|x| [x])])[0]
+}
+
+/// [`expected_half_area`] of `N` boxes at once, box `i` in lane `i`: `b[e][k][i]` its side `k`
+/// ([`Box3::sides`]) at end `e` (0 the shutter's opening, 1 its closing). With sides `a + s d`
+/// (`s` in [0, 1]), the integral of `(a_i + s d_i)(a_j + s d_j)` is
+/// `a_i a_j + (a_i d_j + a_j d_i) / 2 + d_i d_j / 3`, summed over the three pairs of axes (`i`,
+/// `j = i + 1 mod 3`). For a still box (`close = open`), half its surface area. A side's
+/// length is 0 for an empty box or a NaN side. The same operations in the same order as the
+/// three-lane vectors' sums the build computed before (a test checks the bits), so the same
+/// hierarchies.
+#[inline(always)]
+pub(super) fn expected_half_areas<const N: usize>(b: &[[[f32; N]; 6]; 2]) -> [f32; N] {
+    std::array::from_fn(|i| {
+        let side = |e: usize, a: usize| {
+            let x = b[e][3 + a][i] - b[e][a][i];
+            if x > 0.0 { x } else { 0.0 }
+        };
+        let a = [side(0, 0), side(0, 1), side(0, 2)];
+        let d = [side(1, 0) - a[0], side(1, 1) - a[1], side(1, 2) - a[2]];
+        // `u.dot(v.yzx())`, summed `(x + y) + z`
+        let dot = |u: [f32; 3], v: [f32; 3]| (u[0] * v[1] + u[1] * v[2]) + u[2] * v[0];
+        dot(a, a) + 0.5 * (dot(a, d) + dot(d, a)) + dot(d, d) * (1.0 / 3.0)
+    })
 }
 
 /// A contiguous run of primitives being built: where it starts in the whole array, how many,
@@ -545,5 +563,60 @@ mod tests {
             2.0 * f64::from(expected_half_area(open, open)),
             still.surface_area()
         );
+    }
+
+    /// The expected half area as the build computed it before the lanes: three-lane vectors,
+    /// their `dot` summing `(x + y) + z`.
+    fn with_vectors(open: Box3, close: Box3) -> f32 {
+        use glam::Vec3Swizzles;
+        let extent = |b: Box3| (b.hi - b.lo).max(Vec3A::ZERO);
+        let a = extent(open);
+        let d = extent(close) - a;
+        let (a2, d2) = (a.yzx(), d.yzx());
+        a.dot(a2) + 0.5 * (a.dot(d2) + d.dot(a2)) + d.dot(d2) * (1.0 / 3.0)
+    }
+
+    /// The expected areas of the boxes in lanes, and of one box, are the build before's, bit
+    /// for bit (its three-lane vectors' sums, written out again here): random boxes, moving and still, empty ones (lane 0 of a sweep, inside out), flat ones and
+    /// boxes with a NaN side.
+    #[test]
+    fn areas_in_lanes_are_the_areas_one_by_one() {
+        let mut r = Pcg32::new(12, 5);
+        let mut u = || (r.next_f64() * 2.0 - 1.0) as f32;
+        for round in 0..500 {
+            let mut lanes = [[[0f32; 16]; 6]; 2];
+            let mut want = [0f32; 16];
+            for (i, want) in want.iter_mut().enumerate() {
+                let mut b = || {
+                    let lo = Vec3A::new(u(), u(), u()) * 10.0;
+                    Box3 {
+                        lo,
+                        hi: lo + Vec3A::new(u(), u(), u()).abs() * 3.0,
+                    }
+                };
+                let (mut open, mut close) = (b(), b());
+                match (round + i) % 6 {
+                    0 => (open, close) = (Box3::EMPTY, Box3::EMPTY),
+                    1 => close = open,
+                    2 => open.hi.y = open.lo.y,
+                    3 => close.lo.z = f32::NAN,
+                    4 => open.hi.x = open.lo.x - 1.0,
+                    _ => {}
+                }
+                *want = with_vectors(open, close);
+                assert_eq!(expected_half_area(open, close).to_bits(), want.to_bits());
+                for (e, bx) in [open, close].iter().enumerate() {
+                    for (k, x) in bx.sides().into_iter().enumerate() {
+                        lanes[e][k][i] = x;
+                    }
+                }
+            }
+            let got = expected_half_areas(&lanes);
+            assert_eq!(
+                got.map(f32::to_bits),
+                want.map(f32::to_bits),
+                "round {round}"
+            );
+        }
     }
 }
