@@ -164,17 +164,17 @@ impl Grid {
                     if move_mask_m256d(down) == 0 {
                         break;
                     }
-                    l = l - (one & down);
+                    l -= one & down;
                 }
                 let up = (high - o) * per_step;
                 let mut h = as_step(up);
-                h = h + (one & (lt(h, up) & lt(h, last)));
+                h += one & (lt(h, up) & lt(h, last));
                 loop {
                     let rise = lt(h, last) & lt(o + h * step, high);
                     if move_mask_m256d(rise) == 0 {
                         break;
                     }
-                    h = h + (one & rise);
+                    h += one & rise;
                 }
                 let (l, h) = (l.to_array(), h.to_array());
                 for j in 0..4 {
