@@ -49,10 +49,11 @@ const NODE_COST: f64 = 4.0;
 /// Bytes per point of the tracer's records.
 pub(crate) const RECORD_BYTES: usize = std::mem::size_of::<Record>();
 
-/// Nodes of the points' hierarchy per point, about: 0.103 measured on the fountain's frame
-/// of 1.009e7 moving points (1,043,244 nodes; leaves of up to four points, eight children a
-/// node), taken as 0.11. A closer or looser cloud of points changes it a little.
-const NODES_PER_POINT: f64 = 0.11;
+/// Nodes of the points' hierarchy per point, about: 0.075 measured on the fountain's frame
+/// of 1.009e7 moving points (755,309 nodes; leaves of up to four points, up to eight children
+/// a node, 5.5 on average), taken as 0.08. A closer or looser cloud of points changes it a
+/// little.
+const NODES_PER_POINT: f64 = 0.08;
 
 /// Bytes per point a frame's [`TracedPoints`] hold at their peak, about: the record, and its
 /// share of the hierarchy's compact nodes (their links and boxes). The build itself
