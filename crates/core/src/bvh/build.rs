@@ -475,21 +475,33 @@ pub(super) fn build_indexed(
         .into_par_iter()
         .map(|i| {
             let (open, close) = prim(i);
-            Indexed {
-                bounds: BuildBox::new(&open, &close),
-                index: i as u32,
-            }
+            Indexed::new(&open, &close, i)
         })
         .collect();
-    let links = build_links(
-        &mut items,
-        &Build {
-            bounds: |p: &Indexed| p.bounds,
-            node_cost: NODE_COST,
-        },
-    );
+    let links = indexed_links(&mut items, NODE_COST);
     let order = items.par_iter().map(|p| p.index).collect();
     (links, order)
+}
+
+impl Indexed {
+    /// Primitive `index`, its box `open` at the shutter's opening and `close` at its closing.
+    fn new(open: &Aabb, close: &Aabb, index: usize) -> Indexed {
+        Indexed {
+            bounds: BuildBox::new(open, close),
+            index: index as u32,
+        }
+    }
+}
+
+/// The links of a hierarchy over `items` at `node_cost`, which reorders them into leaf order.
+fn indexed_links(items: &mut [Indexed], node_cost: f64) -> Vec<Links> {
+    build_links(
+        items,
+        &Build {
+            bounds: |p: &Indexed| p.bounds,
+            node_cost,
+        },
+    )
 }
 
 /// Bytes per primitive an index build holds at its peak, about: its working item and its
@@ -534,19 +546,10 @@ mod tests {
                 } else {
                     point(1000.0 + 0.01 * (i - large) as f64)
                 };
-                Indexed {
-                    bounds: BuildBox::new(&b, &b),
-                    index: i as u32,
-                }
+                Indexed::new(&b, &b, i)
             })
             .collect();
-        let links = build_links(
-            &mut items,
-            &Build {
-                bounds: |p: &Indexed| p.bounds,
-                node_cost: 4.0,
-            },
-        );
+        let links = indexed_links(&mut items, 4.0);
         let root_leaves: Vec<u32> = (0..LANES)
             .map(|k| links[0].slot(k))
             .filter(|&(_, count)| count > 0)
