@@ -799,6 +799,8 @@ mod tests {
         let points = frame_points(300, 9);
         let mut r = Pcg32::new(4, 2);
         let (mut left_out, mut kept) = (0, 0);
+        // Whether the build has the lanes (CI's does); without, every point is kept.
+        let lanes = cfg!(all(target_arch = "x86_64", target_feature = "avx"));
         for interval in intervals() {
             let traced = TracedPoints::prepare(&points, 7, interval);
             for g in &traced.groups {
@@ -832,7 +834,6 @@ mod tests {
                         }
                         // Where the build has lanes, exactly the early outs' answers, but
                         // for a leaf at the records' end, whose points are all kept.
-                        let lanes = cfg!(all(target_arch = "x86_64", target_feature = "avx"));
                         if lanes && first + MAX_LEAF <= n {
                             let want = p.id != skip && !rejected_early(c, radius, &ray);
                             assert_eq!(candidate, want, "leaf {first} lane {k}");
@@ -842,9 +843,9 @@ mod tests {
                 }
             }
         }
-        // Where the build has lanes (CI's), most of the random rays' points are left out and
-        // the grazing ones kept; without, every point is kept.
-        if cfg!(all(target_arch = "x86_64", target_feature = "avx")) {
+        // With the lanes, most of the random rays' points are left out and the grazing ones
+        // kept.
+        if lanes {
             assert!(
                 left_out > 3 * kept && kept > 0,
                 "{left_out} left out, {kept} kept"
