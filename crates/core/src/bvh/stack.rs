@@ -14,8 +14,11 @@ pub(crate) const PACKET: usize = 8;
 /// frame of ten million points at 4 samples (2 threads, medians of 3 alternated runs) the
 /// render took 2.19 s with 32, 2.26 s with 24, 2.29 s with 16 and 2.33 s with 8 (48 and 64 no
 /// faster than 32); on a frame of a million points, whose misses matter less, the same with
-/// 8, 16 or 32 (docs/performance.md). A walk's stack is 6 KiB (on the heap, made once a
-/// thread), its state on the stack about 400 bytes.
+/// 8, 16 or 32 (docs/performance.md). On an Intel Xeon, 64 (the sets below widened) rendered
+/// that frame at 16 samples in 15.8 and 17.5 s against 15.4 and 16.4 s (2 alternated pairs, the
+/// same bytes). At most 32: the turns keep their walks' sets as bits of a `u32` (a compile-time
+/// check in `walks.rs`). A walk's stack is 6 KiB (on the heap, made once a thread), its state
+/// on the stack about 400 bytes.
 ///
 /// [`BvhView::closest_hits_in_turns`]: super::BvhView::closest_hits_in_turns
 pub(crate) const TURNS: usize = 32;

@@ -287,7 +287,10 @@ impl BvhView<'_> {
             assert!(
                 N <= Bits::CAPACITY,
                 "a ray a bit of the set of those waiting"
-            )
+            );
+            // The walks under way, and those at a leaf or entering none or one child, are
+            // bits of a `u32`: a slot past its width would shift onto another's bit.
+            assert!(TURNS <= u32::BITS as usize, "a walk a bit of a u32");
         };
         let mut best = [None; N];
         // The rays waiting to walk in turns, a bit each.
